@@ -1,0 +1,59 @@
+"""The one place that sets numba options for every kernel of spfem_core.
+
+Policy (see STYLE.md):
+- ``cache=True``: compiled kernels are cached on disk.  numba's cache notices edits to a
+  kernel's own module but not to the modules it calls, so the cache directory is keyed on a
+  hash of every source file of ``spfem_core``: an edit anywhere compiles afresh.
+- ``nogil=True``: kernels release the GIL (threads of a dask worker can overlap).
+- ``error_model="numpy"``: division by zero gives inf/NaN instead of raising, so no
+  per-division checks are compiled into the hot loop; divergence checks catch NaN.
+- a fastmath *subset*: contraction, reassociation and reciprocal approximations are allowed;
+  ``nnan``/``ninf`` are not, because divergence detection must see NaN and inf.
+
+Set ``SPFEM_CACHE_DIR`` to choose the cache root (default ``~/.cache/spfem-fos/numba``).
+Import this module before any other ``spfem_core`` module compiles (the package's
+``__init__`` does).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def source_hash() -> str:
+    """Short SHA-256 over the names and bytes of every ``.py`` file of spfem_core."""
+    digest = hashlib.sha256()
+    for path in sorted(_PACKAGE_DIR.rglob("*.py")):
+        digest.update(path.relative_to(_PACKAGE_DIR).as_posix().encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def cache_dir() -> Path:
+    """Numba cache directory for this exact version of the sources."""
+    root = os.environ.get("SPFEM_CACHE_DIR") or Path.home() / ".cache" / "spfem-fos" / "numba"
+    return Path(root) / source_hash()
+
+
+# numba reads NUMBA_CACHE_DIR when it is first imported and config.CACHE_DIR when a
+# dispatcher enables caching; set both so this process and the workers it starts agree.
+_CACHE_DIR = cache_dir()
+os.environ["NUMBA_CACHE_DIR"] = str(_CACHE_DIR)
+
+import numba  # noqa: E402  (must follow the environment set-up above)
+
+numba.config.CACHE_DIR = str(_CACHE_DIR)
+
+FASTMATH_FLAGS = frozenset({"contract", "reassoc", "arcp", "nsz"})
+"""Allowed fastmath flags: never ``nnan`` or ``ninf`` (NaN checks must keep working)."""
+
+JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", fastmath=set(FASTMATH_FLAGS))
+
+
+def kernel(function):
+    """Compile ``function`` with the project policy: ``@kernel`` on a module-level function."""
+    return numba.njit(**JIT_OPTIONS)(function)

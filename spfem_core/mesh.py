@@ -1,0 +1,174 @@
+"""The triangle mesh of a particle cloud: Delaunay, alpha-shape filter, CSR adjacency.
+
+Particles are the mesh nodes.  ``triangulate`` builds the Delaunay triangulation of all
+particles (scipy / Qhull), drops triangles whose circumradius R = abc/(4A) exceeds alpha h
+(the alpha shape, which recovers concave boundaries and separates detached pieces), orients
+every triangle counter-clockwise and builds node->element and node->node adjacency as CSR
+pairs (``*_ptr``, ``*_idx``), with no fixed-width tables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import Delaunay
+
+from spfem_core.jit import kernel
+
+QHULL_OPTIONS = "Qbb Qc Qz Q12"
+"""scipy's 2D default.  No 'QJ': joggling perturbs the input and can drop particles that
+lie on straight boundary edges.  Qhull keeps such collinear hull points as vertices here
+(the lifted points lie on a parabola, strictly convex), so lattice clouds have no orphans."""
+
+DEGENERATE_AREA_FACTOR = 1e-12
+"""Triangles with area <= this factor times h^2 are degenerate and dropped."""
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """Linear triangles over the particles, with CSR adjacency.
+
+    ``elem_nodes[e]`` are the three nodes of element e, counter-clockwise.  The elements
+    attached to node k are ``node_elem_idx[node_elem_ptr[k]:node_elem_ptr[k + 1]]``
+    (ascending); its neighbours along mesh edges are
+    ``node_node_idx[node_node_ptr[k]:node_node_ptr[k + 1]]`` (ascending, k excluded).
+    All arrays are int64 and C-contiguous.
+    """
+
+    elem_nodes: np.ndarray  # (n_elem, 3) int64, counter-clockwise
+    node_elem_ptr: np.ndarray  # (n_nodes + 1,) int64
+    node_elem_idx: np.ndarray  # (3 n_elem,) int64
+    node_node_ptr: np.ndarray  # (n_nodes + 1,) int64
+    node_node_idx: np.ndarray  # (2 n_edges,) int64
+    n_nodes: int
+
+    @property
+    def n_elem(self) -> int:
+        """Number of triangles."""
+        return int(self.elem_nodes.shape[0])
+
+    @property
+    def orphan_nodes(self) -> np.ndarray:
+        """Indices (int64) of particles that belong to no triangle."""
+        return np.flatnonzero(np.diff(self.node_elem_ptr) == 0).astype(np.int64)
+
+
+def triangulate(node_xy_m, spacing_m: float, alpha: float = 1.5) -> Mesh:
+    """Alpha-shape triangulation of the particles ``node_xy_m`` (n, 2) with spacing h.
+
+    Keeps a Delaunay triangle when its area A > 1e-12 h^2 and its circumradius
+    R = abc / (4A) <= alpha h (a, b, c the side lengths); reorders the vertices of every
+    triangle with signed area < 0 so that all are counter-clockwise.
+    """
+    node_xy_m = np.ascontiguousarray(node_xy_m, dtype=np.float64)
+    if node_xy_m.ndim != 2 or node_xy_m.shape[1] != 2:
+        raise ValueError(f"node_xy_m: expected shape (n, 2), got {node_xy_m.shape}")
+    if node_xy_m.shape[0] < 3:
+        raise ValueError(f"node_xy_m: need at least 3 particles, got {node_xy_m.shape[0]}")
+    if not np.all(np.isfinite(node_xy_m)):
+        raise ValueError("node_xy_m: positions must be finite")
+    h = float(spacing_m)
+    if not (np.isfinite(h) and h > 0.0):
+        raise ValueError(f"spacing_m: must be finite and > 0, got {spacing_m}")
+    if not (np.isfinite(alpha) and alpha > 0.0):
+        raise ValueError(f"alpha: must be finite and > 0, got {alpha}")
+
+    elem_nodes = delaunay_triangles(node_xy_m)
+    area_m2, circumradius_m = _signed_area_and_circumradius(node_xy_m, elem_nodes)
+    keep = (np.abs(area_m2) > DEGENERATE_AREA_FACTOR * h * h) & (circumradius_m <= alpha * h)
+    elem_nodes = elem_nodes[keep]
+    clockwise = area_m2[keep] < 0.0
+    elem_nodes[clockwise] = elem_nodes[clockwise][:, [0, 2, 1]]
+    return mesh_from_elements(np.ascontiguousarray(elem_nodes), node_xy_m.shape[0])
+
+
+def delaunay_triangles(node_xy_m: np.ndarray) -> np.ndarray:
+    """All Delaunay triangles (n_tri, 3) int64 of the points, any orientation, unfiltered."""
+    triangulation = Delaunay(node_xy_m, qhull_options=QHULL_OPTIONS)
+    return triangulation.simplices.astype(np.int64)
+
+
+def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
+    """Build the CSR node->element and node->node adjacency of given triangles.
+
+    node->element: sort the 3 n_elem (node, element) pairs by node (stable, so elements stay
+    ascending); ptr = [0, cumsum(bincount(node))].  node->node: the directed edges (i, j)
+    and (j, i) of every triangle side, made unique by the key i n + j and sorted by it.
+    """
+    elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64).reshape(-1, 3)
+    n_elem = elem_nodes.shape[0]
+
+    node_of_pair = elem_nodes.ravel()
+    elem_of_pair = np.repeat(np.arange(n_elem, dtype=np.int64), 3)
+    order = np.argsort(node_of_pair, kind="stable")
+    node_elem_idx = np.ascontiguousarray(elem_of_pair[order])
+    node_elem_ptr = _ptr_from_counts(np.bincount(node_of_pair, minlength=n_nodes))
+
+    first = elem_nodes.ravel()
+    second = elem_nodes[:, [1, 2, 0]].ravel()
+    edge_key = np.unique(np.concatenate([first * n_nodes + second, second * n_nodes + first]))
+    node_node_idx = np.ascontiguousarray(edge_key % n_nodes)
+    node_node_ptr = _ptr_from_counts(np.bincount(edge_key // n_nodes, minlength=n_nodes))
+
+    return Mesh(elem_nodes, node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, int(n_nodes))
+
+
+def _ptr_from_counts(count: np.ndarray) -> np.ndarray:
+    """CSR pointer ptr[0] = 0, ptr[k + 1] = ptr[k] + count[k] (int64)."""
+    ptr = np.zeros(count.shape[0] + 1, dtype=np.int64)
+    np.cumsum(count, out=ptr[1:])
+    return ptr
+
+
+def _signed_area_and_circumradius(node_xy_m: np.ndarray, elem_nodes: np.ndarray):
+    """A = ((x1 - x0)(y2 - y0) - (x2 - x0)(y1 - y0)) / 2 and R = abc / (4 |A|) per triangle."""
+    p0, p1, p2 = (node_xy_m[elem_nodes[:, k]] for k in range(3))
+    e01, e02, e12 = p1 - p0, p2 - p0, p2 - p1
+    area_m2 = 0.5 * (e01[:, 0] * e02[:, 1] - e02[:, 0] * e01[:, 1])
+    abc = np.hypot(*e01.T) * np.hypot(*e02.T) * np.hypot(*e12.T)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circumradius_m = abc / (4.0 * np.abs(area_m2))
+    return area_m2, np.where(area_m2 != 0.0, circumradius_m, np.inf)
+
+
+@kernel
+def element_quality_min_angle(node_xy, elem_nodes):
+    """Smallest interior angle (rad) over all triangles; pi for an empty mesh, NaN if any
+    coordinate of a triangle is NaN.
+
+    The angle at vertex i between sides u and v is theta = atan2(|u x v|, u . v).
+    """
+    theta_min = np.pi
+    for e in range(elem_nodes.shape[0]):
+        for corner in range(3):
+            i = elem_nodes[e, corner]
+            j = elem_nodes[e, (corner + 1) % 3]
+            k = elem_nodes[e, (corner + 2) % 3]
+            ux = node_xy[j, 0] - node_xy[i, 0]
+            uy = node_xy[j, 1] - node_xy[i, 1]
+            vx = node_xy[k, 0] - node_xy[i, 0]
+            vy = node_xy[k, 1] - node_xy[i, 1]
+            theta = np.arctan2(abs(ux * vy - uy * vx), ux * vx + uy * vy)
+            if theta != theta:
+                return np.nan
+            if theta < theta_min:
+                theta_min = theta
+    return theta_min
+
+
+@kernel
+def count_inverted(node_xy, elem_nodes):
+    """Number of triangles with signed area 2A = (x1 - x0)(y2 - y0) - (x2 - x0)(y1 - y0) <= 0
+    (a NaN area counts as inverted)."""
+    n_inverted = 0
+    for e in range(elem_nodes.shape[0]):
+        n0 = elem_nodes[e, 0]
+        n1 = elem_nodes[e, 1]
+        n2 = elem_nodes[e, 2]
+        twice_area = (node_xy[n1, 0] - node_xy[n0, 0]) * (node_xy[n2, 1] - node_xy[n0, 1]) - (
+            node_xy[n2, 0] - node_xy[n0, 0]
+        ) * (node_xy[n1, 1] - node_xy[n0, 1])
+        if not twice_area > 0.0:
+            n_inverted += 1
+    return n_inverted

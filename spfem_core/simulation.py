@@ -1,0 +1,366 @@
+"""A simulation owns the particle state and drives the compiled time loop.
+
+Python decides only what happens between compiled calls: when to check or rebuild the
+mesh, when to grow the record buffers, when to report progress and when to stop.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from spfem_core.mesh import Mesh, element_quality_min_angle, triangulate
+from spfem_core.scene import Scene, SolverSettings
+from spfem_core.smoothing import ELEM_GEOM_WIDTH, smooth_velocity_gradient
+from spfem_core.stepper import (
+    ACC_ANGLE_USED,
+    ACC_LAST_MAX_SPEED,
+    ACC_LAST_RATIO,
+    ACC_NEXT_RECORD,
+    ACC_WIDTH,
+    ENERGY_COLUMNS,
+    STATUS_BUFFER_FULL,
+    STATUS_CONVERGED,
+    STATUS_DONE,
+    STATUS_INVERTED,
+    STATUS_MESH_CHECK,
+    STATUS_NOT_FINITE,
+    STATUS_RUNAWAY,
+    advance,
+    empty_records,
+    record_state,
+)
+from spfem_core.timestep import critical_time_step
+
+WALL_SECONDS_PER_CALL = 0.25
+"""Target wall time of one compiled call (sets how often progress is reported)."""
+
+ANGLE_MARGIN_RAD = math.radians(1.0)
+"""Safety margin on the cheap angle bound (it uses the strain rate of the previous step)."""
+
+
+class DivergenceError(RuntimeError):
+    """The solution blew up; ``step`` and ``time_s`` say where, ``partial`` holds the records so far."""
+
+    def __init__(self, reason: str, step: int, time_s: float, partial: "TimeSeries | None" = None):
+        super().__init__(f"run diverged at step {step} (t = {time_s:.6g} s): {reason}")
+        self.reason = reason
+        self.step = step
+        self.time_s = time_s
+        self.partial = partial
+
+
+class UnstableTimeStepError(ValueError):
+    """A requested time step above the critical step of the explicit scheme."""
+
+
+@dataclass
+class TimeSeries:
+    """What a stage recorded: one row per record time (stage time, seconds from its start)."""
+
+    time_s: np.ndarray  # (n_rec,)
+    monitor_displacement_m: np.ndarray  # (n_rec, n_monitor, 2)
+    monitor_velocity_m_s: np.ndarray  # (n_rec, n_monitor, 2)
+    monitor_stress_pa: np.ndarray  # (n_rec, n_monitor, 4) xx, yy, zz, xy
+    energy_j_per_m: np.ndarray  # (n_rec, 5) columns ENERGY_COLUMNS
+    max_displacement_m: np.ndarray  # (n_rec,)
+    dt_s: float
+    n_steps: int
+    n_remesh: int
+    n_mesh_checks: int
+    wall_time_s: float
+    converged: bool | None = None  # relaxation only
+    unbalanced_force_ratio: float = math.nan  # at the last step
+    notes: dict = field(default_factory=dict)
+
+    energy_columns = ENERGY_COLUMNS
+
+    @property
+    def kinetic_energy_j_per_m(self) -> np.ndarray:
+        return self.energy_j_per_m[:, 0]
+
+
+@dataclass
+class _Records:
+    """Growable record buffers shared with the kernel."""
+
+    n_monitor: int
+    capacity: int
+    count: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.int64))
+
+    def __post_init__(self):
+        self.arrays = list(empty_records(self.capacity, self.n_monitor))
+
+    def grow(self):
+        new = empty_records(2 * self.capacity, self.n_monitor)
+        for old_array, new_array in zip(self.arrays, new):
+            new_array[: self.capacity] = old_array
+        self.arrays = list(new)
+        self.capacity *= 2
+
+    def trimmed(self):
+        n = int(self.count[0])
+        return [a[:n].copy() for a in self.arrays]
+
+
+class Simulation:
+    """Particle state of a scene and the stages run on it.
+
+    State (SI units): ``node_xy_m`` current positions, ``node_displacement_m`` since the
+    stage started, ``node_velocity_m_s`` (leapfrog half-step velocity), ``node_stress_pa``
+    (xx, yy, zz, xy), ``node_mass_kg`` (fixed at the start: m_k = rho_k A_k on the first mesh).
+    """
+
+    def __init__(self, scene: Scene, settings: SolverSettings | None = None):
+        self.scene = scene
+        self.settings = settings or SolverSettings()
+        n = scene.n_particles
+        self.node_initial_xy_m = scene.node_xy_m.copy()
+        self.node_xy_m = scene.node_xy_m.copy()
+        self.node_displacement_m = np.zeros((n, 2))
+        self.node_velocity_m_s = np.zeros((n, 2))
+        self.node_stress_pa = np.zeros((n, 4))
+        self.node_material = scene.node_material
+        mats = scene.materials
+        self._mat_youngs = mats.youngs_modulus_pa
+        self._mat_poisson = mats.poisson_ratio
+        self._mat_shear = mats.shear_modulus_pa
+        self._mat_lambda = mats.bulk_modulus_pa - 2.0 * mats.shear_modulus_pa / 3.0
+        self._node_wave_speed = mats.p_wave_speed_m_s[self.node_material]
+        self.speed_limit_m_s = float(self._node_wave_speed.max())
+
+        self._node_L = np.zeros((n, 4))
+        self._node_area = np.zeros(n)
+        self._node_force = np.zeros((n, 2))
+        self._step_out = np.zeros(4)
+        self._acc = np.zeros(ACC_WIDTH)
+
+        self.mesh = self._build_mesh()
+        self._initial_mesh = self.mesh
+        orphans = self.mesh.orphan_nodes
+        if orphans.size:
+            raise ValueError(
+                f"{orphans.size} particles lie in no triangle of the initial mesh (first: {orphans[:5].tolist()}); "
+                "check the spacing against the geometry or raise alpha"
+            )
+        self.node_mass_kg = mats.density_kg_m3[self.node_material] * self._node_area
+        self.total_mass_kg = float(self.node_mass_kg.sum())
+
+        self.critical_dt_s = self._critical_dt()
+        if self.settings.dt_s is not None:
+            limit = SolverSettings.MAX_STABLE_CFL * self.critical_dt_s
+            if self.settings.dt_s > limit:
+                raise UnstableTimeStepError(
+                    f"dt_s = {self.settings.dt_s:.4g} s is above the critical time step {limit:.4g} s "
+                    f"(smallest element altitude / P-wave speed {self.speed_limit_m_s:.4g} m/s); "
+                    f"use dt_s <= {limit:.4g} or set cfl instead"
+                )
+            self.dt_s = float(self.settings.dt_s)
+        else:
+            if not 0.0 < self.settings.cfl <= SolverSettings.MAX_STABLE_CFL:
+                raise UnstableTimeStepError(
+                    f"cfl = {self.settings.cfl} is outside (0, {SolverSettings.MAX_STABLE_CFL}]: "
+                    "the explicit step would be unstable"
+                )
+            self.dt_s = self.settings.cfl * self.critical_dt_s
+        self.n_steps_total = 0
+        self.n_remesh_total = 0
+        self._reset_angle_budget()
+
+    # ------------------------------------------------------------------ mesh
+    def _build_mesh(self) -> Mesh:
+        mesh = triangulate(self.node_xy_m, self.scene.spacing_m, self.scene.alpha)
+        self._elem_geom = np.zeros((mesh.n_elem, ELEM_GEOM_WIDTH))
+        smooth_velocity_gradient(
+            self.node_xy_m, self.node_velocity_m_s, mesh.elem_nodes, self._elem_geom, self._node_L, self._node_area
+        )
+        return mesh
+
+    def _critical_dt(self) -> float:
+        return float(critical_time_step(self.node_xy_m, self.mesh.elem_nodes, self._node_wave_speed))
+
+    def _reset_angle_budget(self):
+        """Exact smallest angle now; the loop may run until the cheap bound could reach the threshold."""
+        min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
+        self.min_angle_rad = min_angle
+        threshold = math.radians(self.settings.min_angle_deg)
+        self._angle_threshold_rad = min(threshold, 0.5 * min_angle)
+        self._acc[ACC_ANGLE_USED] = 0.0
+        self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+
+    def _remesh(self):
+        self.mesh = self._build_mesh()
+        self.n_remesh_total += 1
+        self._reset_angle_budget()
+        critical = self._critical_dt()
+        self.critical_dt_s = critical
+        if self.dt_s > SolverSettings.MAX_STABLE_CFL * critical:
+            self.dt_s = self.settings.cfl * critical
+
+    def discard_displacement(self):
+        """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""
+        self.node_xy_m[:] = self.node_initial_xy_m
+        self.node_displacement_m[:] = 0.0
+        self.node_velocity_m_s[:] = 0.0
+        self.mesh = self._initial_mesh
+        self._elem_geom = np.zeros((self.mesh.n_elem, ELEM_GEOM_WIDTH))
+        smooth_velocity_gradient(
+            self.node_xy_m, self.node_velocity_m_s, self.mesh.elem_nodes, self._elem_geom, self._node_L, self._node_area
+        )
+        self._reset_angle_budget()
+
+    # ------------------------------------------------------------------ stages
+    def run(
+        self,
+        duration_s: float,
+        damping: float = 0.0,
+        record_interval_s: float | None = None,
+        monitor_nodes=(),
+        progress: Callable[[float], None] | None = None,
+    ) -> TimeSeries:
+        """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``."""
+        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress)
+
+    def relax(
+        self,
+        damping: float = 0.7,
+        tolerance: float = 1e-4,
+        max_duration_s: float = 10.0,
+        record_interval_s: float | None = None,
+        monitor_nodes=(),
+        progress: Callable[[float], None] | None = None,
+    ) -> TimeSeries:
+        """Dynamic relaxation: locally damped steps until |f_unbalanced| / |m g| < ``tolerance``.
+
+        The ratio is over the free directions of all particles (2-norms).  Stops at
+        ``max_duration_s`` otherwise, with ``converged = False``.
+        """
+        if not tolerance > 0.0:
+            raise ValueError(f"tolerance must be > 0, got {tolerance}")
+        return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress)
+
+    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress) -> TimeSeries:
+        if not duration_s > 0.0:
+            raise ValueError(f"duration_s must be > 0, got {duration_s}")
+        if not 0.0 <= damping < 1.0:
+            raise ValueError(f"damping must be in [0, 1), got {damping}")
+        start_wall = time.perf_counter()
+        monitor_nodes = np.ascontiguousarray(monitor_nodes, dtype=np.int64).reshape(-1)
+        interval = float(record_interval_s) if record_interval_s else max(duration_s / 1000.0, self.dt_s)
+        records = _Records(monitor_nodes.size, capacity=int(min(duration_s / interval, 1e6)) + 2)
+        self._acc[ACC_NEXT_RECORD] = interval
+        self._record(records, 0.0, monitor_nodes)
+
+        beta = float(self.settings.stabilisation_beta)
+        stage_time = 0.0
+        n_steps = 0
+        n_remesh_start = self.n_remesh_total
+        n_checks = 0
+        converged = None if tolerance == 0.0 else False
+        # 0.1 us per particle-step is a fair first guess; adapt the chunk to the measured speed
+        steps_per_call = max(10, int(WALL_SECONDS_PER_CALL / (1e-7 * max(self.scene.n_particles, 1))))
+        while stage_time < duration_s - 0.5 * self.dt_s:
+            n_want = min(steps_per_call, max(1, int(round((duration_s - stage_time) / self.dt_s))))
+            call_start = time.perf_counter()
+            status, done = advance(
+                self.node_xy_m, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa,
+                self.node_mass_kg, self.node_material, self.scene.node_fixed, self.scene.node_fixed_velocity_m_s,
+                self._node_L, self._node_area, self._node_force, self._elem_geom, self._step_out,
+                self.mesh.elem_nodes, self.mesh.node_node_ptr, self.mesh.node_node_idx,
+                self._mat_lambda, self._mat_shear, self._mat_youngs, self._mat_poisson,
+                self.scene.gravity_m_s2, self.dt_s, float(damping), beta, self.speed_limit_m_s, float(tolerance),
+                self._angle_budget_rad,
+                n_want, stage_time,
+                interval, monitor_nodes, records.count, *records.arrays,
+                self._acc,
+            )
+            elapsed = time.perf_counter() - call_start
+            stage_time += done * self.dt_s
+            n_steps += done
+            self.n_steps_total += done
+            if done >= 10 and elapsed > 0:
+                steps_per_call = max(10, int(done * WALL_SECONDS_PER_CALL / elapsed))
+            if status in (STATUS_NOT_FINITE, STATUS_RUNAWAY):
+                reason = (
+                    "velocity is not finite"
+                    if status == STATUS_NOT_FINITE
+                    else f"a particle moves at {self._acc[ACC_LAST_MAX_SPEED]:.4g} m/s, faster than the "
+                    f"P-wave speed {self.speed_limit_m_s:.4g} m/s (runaway kinetic energy)"
+                )
+                partial = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
+                raise DivergenceError(reason, self.n_steps_total, stage_time, partial)
+            if status == STATUS_BUFFER_FULL:
+                records.grow()
+            elif status == STATUS_INVERTED:
+                self._remesh()
+            elif status == STATUS_MESH_CHECK:
+                n_checks += 1
+                min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
+                if min_angle < self._angle_threshold_rad:
+                    self._remesh()
+                else:
+                    self._acc[ACC_ANGLE_USED] = 0.0
+                    self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+            elif status == STATUS_CONVERGED:
+                converged = True
+                break
+            elif status != STATUS_DONE:
+                raise RuntimeError(f"unknown status {status} from the time loop")
+            if progress is not None:
+                progress(min(stage_time / duration_s, 1.0))
+        if records.arrays[0][int(records.count[0]) - 1] < stage_time - 1e-12 * max(stage_time, 1.0):
+            if int(records.count[0]) >= records.capacity:
+                records.grow()
+            self._record(records, stage_time, monitor_nodes)
+        if progress is not None:
+            progress(1.0)
+        return self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
+
+    def _record(self, records: _Records, time_s: float, monitor_nodes: np.ndarray):
+        slot = int(records.count[0])
+        record_state(
+            slot, time_s, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa, self.node_mass_kg,
+            self._node_area, self.node_material, self._mat_youngs, self._mat_poisson, self.scene.gravity_m_s2,
+            monitor_nodes, self._acc, *records.arrays,
+        )
+        records.count[0] = slot + 1
+
+    def _series(self, records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta) -> TimeSeries:
+        time_s, u, v, stress, energy, max_u = records.trimmed()
+        n_remesh = self.n_remesh_total - n_remesh_start
+        notes = {
+            "stabilisation": f"on (beta = {beta:g})" if beta > 0 else "off (beta = 0): bond loop skipped",
+            "contact": "off (no walls): contact loop skipped",
+            "remesh": f"{n_remesh} rebuilds and {n_checks} exact quality checks in {n_steps} steps",
+        }
+        if converged is True:
+            notes["early_stop"] = f"relaxation converged after {n_steps} steps (t = {time_s[-1]:.4g} s)"
+        return TimeSeries(
+            time_s=time_s,
+            monitor_displacement_m=u,
+            monitor_velocity_m_s=v,
+            monitor_stress_pa=stress,
+            energy_j_per_m=energy,
+            max_displacement_m=max_u,
+            dt_s=self.dt_s,
+            n_steps=n_steps,
+            n_remesh=n_remesh,
+            n_mesh_checks=n_checks,
+            wall_time_s=time.perf_counter() - start_wall,
+            converged=converged,
+            unbalanced_force_ratio=float(self._acc[ACC_LAST_RATIO]),
+            notes=notes,
+        )
+
+    @property
+    def n_particles(self) -> int:
+        return self.scene.n_particles
+
+    @property
+    def node_area_m2(self) -> np.ndarray:
+        """Smoothing-cell areas A_k on the current mesh (as of the last step)."""
+        return self._node_area.copy()

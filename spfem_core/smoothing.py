@@ -1,0 +1,132 @@
+"""Node-based strain smoothing (NS-FEM) on linear triangles, in the element-wise form.
+
+Node k's smoothing cell is one third of every triangle attached to it:
+
+    A_k = sum_{e ∋ k} A_e / 3
+    L_k = (1 / A_k) sum_{e ∋ k} (A_e / 3) L_e,      L_e = sum_{I ∈ e} v_I ⊗ grad N_I^e
+
+which equals grad N_I(x_k) = (1/A_k) sum_e (A_e/3) grad N_I^e applied to the nodal velocities,
+without forming per-node gradient lists.  The internal force is the matching transpose:
+
+    f_I = sum_k A_k B_I(x_k)^T sigma_k = sum_{e ∋ I} A_e B_I^e^T sigma_bar_e,
+    sigma_bar_e = (sigma_i + sigma_j + sigma_k) / 3.
+
+Velocity gradients are stored as (xx, xy, yx, yy) with L_ab = d v_a / d x_b.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spfem_core.jit import kernel
+
+ELEM_GEOM_WIDTH = 7
+"""Columns of ``elem_geom``: dN/dx of the 3 vertices, dN/dy of the 3 vertices, area (m^2)."""
+
+
+@kernel
+def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_geom, node_L, node_area):
+    """Element geometry and the smoothed velocity gradient of every node.
+
+    Fills ``elem_geom`` (b_I = dN_I/dx, c_I = dN_I/dy, A_e) from the current coordinates,
+    ``node_area`` with A_k and ``node_L`` with L_k (zero for a particle in no triangle).
+    Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
+    the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
+    """
+    n_node = node_xy.shape[0]
+    for k in range(n_node):
+        node_area[k] = 0.0
+        for c in range(4):
+            node_L[k, c] = 0.0
+    n_inverted = 0
+    max_rate_sq = 0.0
+    for e in range(elem_nodes.shape[0]):
+        i = elem_nodes[e, 0]
+        j = elem_nodes[e, 1]
+        k = elem_nodes[e, 2]
+        xi, yi = node_xy[i, 0], node_xy[i, 1]
+        xj, yj = node_xy[j, 0], node_xy[j, 1]
+        xk, yk = node_xy[k, 0], node_xy[k, 1]
+        two_area = (xj - xi) * (yk - yi) - (xk - xi) * (yj - yi)
+        if two_area <= 0.0:
+            n_inverted += 1
+            two_area = 1e-300  # keep going: the caller rebuilds the mesh before using this step
+        inv = 1.0 / two_area
+        bi = (yj - yk) * inv
+        bj = (yk - yi) * inv
+        bk = (yi - yj) * inv
+        ci = (xk - xj) * inv
+        cj = (xi - xk) * inv
+        ck = (xj - xi) * inv
+        area = 0.5 * two_area
+        elem_geom[e, 0] = bi
+        elem_geom[e, 1] = bj
+        elem_geom[e, 2] = bk
+        elem_geom[e, 3] = ci
+        elem_geom[e, 4] = cj
+        elem_geom[e, 5] = ck
+        elem_geom[e, 6] = area
+        vxi, vyi = node_v[i, 0], node_v[i, 1]
+        vxj, vyj = node_v[j, 0], node_v[j, 1]
+        vxk, vyk = node_v[k, 0], node_v[k, 1]
+        lxx = vxi * bi + vxj * bj + vxk * bk
+        lxy = vxi * ci + vxj * cj + vxk * ck
+        lyx = vyi * bi + vyj * bj + vyk * bk
+        lyy = vyi * ci + vyj * cj + vyk * ck
+        dxy = 0.5 * (lxy + lyx)
+        rate_sq = lxx * lxx + lyy * lyy + 2.0 * dxy * dxy
+        if rate_sq > max_rate_sq:
+            max_rate_sq = rate_sq
+        w = area / 3.0
+        for n in (i, j, k):
+            node_area[n] += w
+            node_L[n, 0] += w * lxx
+            node_L[n, 1] += w * lxy
+            node_L[n, 2] += w * lyx
+            node_L[n, 3] += w * lyy
+    for n in range(n_node):
+        a = node_area[n]
+        if a > 0.0:
+            inv_a = 1.0 / a
+            for c in range(4):
+                node_L[n, c] *= inv_a
+    return n_inverted, max_rate_sq
+
+
+@kernel
+def add_internal_force(elem_nodes, elem_geom, node_stress, node_force):
+    """node_force[I] -= A_e B_I^e^T sigma_bar_e for every element (sigma_bar_e: vertex mean).
+
+    With B_I^T sigma = (b_I s_xx + c_I s_xy, b_I s_xy + c_I s_yy).
+    """
+    third = 1.0 / 3.0
+    for e in range(elem_nodes.shape[0]):
+        i = elem_nodes[e, 0]
+        j = elem_nodes[e, 1]
+        k = elem_nodes[e, 2]
+        sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
+        syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
+        sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
+        area = elem_geom[e, 6]
+        for local in range(3):
+            n = elem_nodes[e, local]
+            b = elem_geom[e, local] * area
+            c = elem_geom[e, 3 + local] * area
+            node_force[n, 0] -= b * sxx + c * sxy
+            node_force[n, 1] -= b * sxy + c * syy
+
+
+def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes: np.ndarray):
+    """Smoothed gradient of a nodal vector field (n, 2): returns (L (n, 4) as xx, xy, yx, yy; A_k).
+
+    Convenience wrapper for tests and post-processing; the time loop calls the kernel directly.
+    """
+    node_xy_m = np.ascontiguousarray(node_xy_m, dtype=np.float64)
+    node_values = np.ascontiguousarray(node_values, dtype=np.float64)
+    elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64)
+    n = node_xy_m.shape[0]
+    elem_geom = np.empty((elem_nodes.shape[0], ELEM_GEOM_WIDTH))
+    node_L = np.empty((n, 4))
+    node_area = np.empty(n)
+    smooth_velocity_gradient(node_xy_m, node_values, elem_nodes, elem_geom, node_L, node_area)
+    return node_L, node_area
