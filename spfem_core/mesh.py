@@ -42,6 +42,7 @@ class Mesh:
     node_node_ptr: np.ndarray  # (n_nodes + 1,) int64
     node_node_idx: np.ndarray  # (2 n_edges,) int64
     n_nodes: int
+    edge_nodes: np.ndarray  # (n_edges, 2) int64, each mesh edge once as (i, j) with i < j
 
     @property
     def n_elem(self) -> int:
@@ -111,7 +112,10 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     node_node_idx = np.ascontiguousarray(edge_key % n_nodes)
     node_node_ptr = _ptr_from_counts(np.bincount(edge_key // n_nodes, minlength=n_nodes))
 
-    return Mesh(elem_nodes, node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, int(n_nodes))
+    edge_first = edge_key // n_nodes
+    upper = edge_first < node_node_idx
+    edge_nodes = np.ascontiguousarray(np.stack([edge_first[upper], node_node_idx[upper]], axis=1))
+    return Mesh(elem_nodes, node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, int(n_nodes), edge_nodes)
 
 
 def _ptr_from_counts(count: np.ndarray) -> np.ndarray:

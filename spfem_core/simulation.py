@@ -270,7 +270,7 @@ class Simulation:
                 self.node_xy_m, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa,
                 self.node_mass_kg, self.node_material, self.scene.node_fixed, self.scene.node_fixed_velocity_m_s,
                 self._node_L, self._node_area, self._node_force, self._elem_geom, self._step_out,
-                self.mesh.elem_nodes, self.mesh.node_node_ptr, self.mesh.node_node_idx,
+                self.mesh.elem_nodes, self.mesh.edge_nodes,
                 self._mat_lambda, self._mat_shear, self._mat_youngs, self._mat_poisson,
                 self.scene.gravity_m_s2, self.dt_s, float(damping), beta, self.speed_limit_m_s, float(tolerance),
                 self._angle_budget_rad,

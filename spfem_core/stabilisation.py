@@ -25,48 +25,38 @@ from spfem_core.jit import kernel
 
 
 @kernel
-def add_stabilisation_force(
-    node_xy, node_v, node_L, node_area, node_material, mat_youngs, node_ptr, node_idx, beta, dt, node_force
-):
-    """Add the bond forces f_ij to node_force; return their power sum f . v (W/m, <= 0)."""
+def add_stabilisation_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, node_force):
+    """Add the bond forces f_ij over every mesh edge (i, j) to node_force; return their power
+    sum f . v (W/m, <= 0)."""
     half_beta = 0.5 * beta
     power = 0.0
-    for i in range(node_xy.shape[0]):
+    for b in range(edge_nodes.shape[0]):
+        i = edge_nodes[b, 0]
+        j = edge_nodes[b, 1]
+        dx = node_xy[j, 0] - node_xy[i, 0]
+        dy = node_xy[j, 1] - node_xy[i, 1]
+        dvx = node_v[j, 0] - node_v[i, 0]
+        dvy = node_v[j, 1] - node_v[i, 1]
+        x0x = dx - dvx * dt
+        x0y = dy - dvy * dt
+        length0_sq = x0x * x0x + x0y * x0y
+        length_sq = dx * dx + dy * dy
+        if length0_sq <= 0.0 or length_sq <= 0.0:
+            continue
+        inv_length = 1.0 / math.sqrt(length_sq)
+        ex = dx * inv_length
+        ey = dy * inv_length
+        # velocity error of the linear field of node i / node j along e, times dt
+        err_i = (node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * ex + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * ey
+        err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey
         ea_i = mat_youngs[node_material[i]] * node_area[i]
-        lxx_i = node_L[i, 0]
-        lxy_i = node_L[i, 1]
-        lyx_i = node_L[i, 2]
-        lyy_i = node_L[i, 3]
-        for p in range(node_ptr[i], node_ptr[i + 1]):
-            j = node_idx[p]
-            if j <= i:
-                continue
-            dx = node_xy[j, 0] - node_xy[i, 0]
-            dy = node_xy[j, 1] - node_xy[i, 1]
-            dvx = node_v[j, 0] - node_v[i, 0]
-            dvy = node_v[j, 1] - node_v[i, 1]
-            x0x = dx - dvx * dt
-            x0y = dy - dvy * dt
-            length0_sq = x0x * x0x + x0y * x0y
-            length = math.sqrt(dx * dx + dy * dy)
-            if length0_sq <= 0.0 or length <= 0.0:
-                continue
-            ex = dx / length
-            ey = dy / length
-            # velocity error of the linear field of node i / node j along e
-            err_i = ((lxx_i * x0x + lxy_i * x0y - dvx) * ex + (lyx_i * x0x + lyy_i * x0y - dvy) * ey) * dt
-            err_j = (
-                (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex
-                + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey
-            ) * dt
-            ea_j = mat_youngs[node_material[j]] * node_area[j]
-            f = half_beta * (ea_i * err_i + ea_j * err_j) / length0_sq
-            fx = f * ex
-            fy = f * ey
-            node_force[j, 0] += fx
-            node_force[j, 1] += fy
-            node_force[i, 0] -= fx
-            node_force[i, 1] -= fy
-            power += fx * dvx + fy * dvy
+        ea_j = mat_youngs[node_material[j]] * node_area[j]
+        f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / length0_sq
+        fx = f * ex
+        fy = f * ey
+        node_force[j, 0] += fx
+        node_force[j, 1] += fy
+        node_force[i, 0] -= fx
+        node_force[i, 1] -= fy
+        power += fx * dvx + fy * dvy
     return power
-

@@ -93,7 +93,7 @@ def advance(
     # work arrays
     node_L, node_area, node_force, elem_geom, step_out,
     # mesh
-    elem_nodes, node_ptr, node_idx,
+    elem_nodes, edge_nodes,
     # materials
     mat_lambda, mat_shear, mat_youngs, mat_poisson,
     # parameters
@@ -119,7 +119,7 @@ def advance(
         add_internal_force(elem_nodes, elem_geom, node_stress, node_force)
         if use_stabilisation:
             stab_power = add_stabilisation_force(
-                node_xy, node_v, node_L, node_area, node_material, mat_youngs, node_ptr, node_idx, beta, dt, node_force
+                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, node_force
             )
             acc[ACC_STAB_WORK] -= stab_power * dt
         leapfrog(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt, step_out)
