@@ -1,0 +1,132 @@
+"""The spfem-fos command: bad input exits 2 with one line and writes nothing; a tiny beam
+study runs end to end into a complete run.nc."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from workflows.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+BEAM = (REPO / "studies" / "cantilever_beam.toml").read_text()
+
+def write_study(folder: Path, text: str, name: str = "study.toml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def test_bad_study_exits_2_with_one_line_and_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = write_study(tmp_path, BEAM.replace("spacing_m = 0.02", "spacing_m = -0.1"))
+    for args in ([study], [study, "--out", tmp_path / "out"]):
+        result = invoke(*args)
+        assert result.exit_code == 2
+        assert result.stderr == f"error: {study}: geometry.spacing_m: must be > 0, got -0.1\n"
+        assert result.stdout == ""
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_toml_syntax_error_exits_2(tmp_path):
+    study = write_study(tmp_path, BEAM.replace("spacing_m = 0.02", "spacing_m 0.02"))
+    result = invoke(study, "--out", tmp_path / "out")
+    assert result.exit_code == 2
+    assert result.stderr.startswith(f"error: {study}: line ") and result.stderr.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_missing_file_exits_2_with_one_line(tmp_path):
+    result = invoke(tmp_path / "nowhere.toml", "--out", tmp_path / "out")
+    assert result.exit_code == 2
+    assert result.stderr == f"error: {tmp_path / 'nowhere.toml'}: no such file\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_python_dash_m_entry_point(tmp_path):
+    study = write_study(tmp_path, BEAM.replace('model = "elastic"', 'model = "plastic"'))
+    run = subprocess.run(
+        [sys.executable, "-m", "workflows.cli", str(study), "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+    )
+    assert run.returncode == 2
+    assert run.stderr == f'error: {study}: materials[0].model: must be one of "elastic", got "plastic"\n'
+    assert not (tmp_path / "out").exists()
+
+
+# ---------------------------------------------------------------------------------------
+# With the core
+# ---------------------------------------------------------------------------------------
+
+TINY_BEAM = (
+    BEAM.replace('name = "cantilever_beam"', 'name = "tiny_beam"')
+    .replace("spacing_m = 0.02", "spacing_m = 0.05")
+    .replace("duration_s = 4.0", "duration_s = 0.05")
+    .replace("record_interval_s = 0.001", "record_interval_s = 0.005")
+)
+REQUIRED_VARIABLES = [
+    "time", "monitor", "monitor_ux", "monitor_uy", "monitor_vx", "monitor_vy",
+    "monitor_sxx", "monitor_syy", "monitor_szz", "monitor_sxy", "kinetic_energy", "max_displacement",
+    "particle_x", "particle_y", "particle_ux", "particle_uy", "mesh2d", "mesh2d_face_nodes",
+]  # fmt: skip
+REQUIRED_ATTRIBUTES = [
+    "n_particles", "n_steps", "n_remesh", "wall_time_s", "dt_s", "study", "spfem_fos_version", "created_utc",
+]  # fmt: skip
+
+
+def test_tiny_beam_end_to_end(tmp_path):
+    study = write_study(tmp_path, TINY_BEAM)
+    out = tmp_path / "beam"
+    result = invoke(study, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert f"wrote {out / 'run.nc'}" in result.stdout
+    assert sorted(p.name for p in out.iterdir()) == ["run.nc"]
+    with xr.open_dataset(out / "run.nc") as ds:
+        for name in REQUIRED_VARIABLES:
+            assert name in ds.variables, name
+        for name, variable in ds.variables.items():
+            assert variable.attrs.get("units") is not None and variable.attrs.get("long_name"), name
+        for name in REQUIRED_ATTRIBUTES:
+            assert name in ds.attrs, name
+        assert ds.attrs["study"] == TINY_BEAM
+        assert list(ds.monitor.values) == ["tip"]
+        assert ds.monitor_uy.dims == ("monitor", "time") and ds.monitor_uy.attrs["units"] == "m"
+        assert ds.time.values[-1] == pytest.approx(0.05, abs=0.006)
+        assert float(ds.monitor_uy.sel(monitor="tip").isel(time=-1)) < 0.0  # the tip falls under gravity
+        assert ds.attrs["n_steps"] > 0 and ds.attrs["n_particles"] == ds.sizes["particle"]
+
+    again = invoke(study, "--out", out)
+    assert again.exit_code == 0 and "up to date" in again.stdout
+
+
+def test_boundary_box_without_particles_exits_2(tmp_path):
+    study = write_study(tmp_path, TINY_BEAM.replace("x_max_m = 0.0", "x_min_m = 5.0"))
+    result = invoke(study, "--out", tmp_path / "out", "--quiet")
+    assert result.exit_code == 2
+    assert result.stderr.startswith(f"error: {study}: boundary[0]: ") and result.stderr.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_divergence_exits_1_without_result(tmp_path, monkeypatch):
+    from spfem_core import simulation
+
+    def diverge(self, *args, **kwargs):
+        raise simulation.DivergenceError("velocity is not finite", step=7, time_s=0.0007)
+
+    monkeypatch.setattr(simulation.Simulation, "run", diverge)
+    study = write_study(tmp_path, TINY_BEAM)
+    result = invoke(study, "--out", tmp_path / "out", "--quiet")
+    assert result.exit_code == 1
+    assert "step 7" in result.stderr and "0.0007" in result.stderr and result.stderr.count("\n") == 1
+    assert not (tmp_path / "out" / "run.nc").exists()

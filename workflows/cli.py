@@ -1,0 +1,96 @@
+"""The ``spfem-fos`` command: run a study file and write its results.
+
+    spfem-fos STUDY.toml [--out DIR] [--quiet] [--force]
+    python -m workflows.cli STUDY.toml ...
+
+Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
+(missing file, invalid study: one line on stderr, nothing written).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+from workflows.study import StudyError, load_study
+
+EXIT_DIVERGED = 1
+EXIT_BAD_STUDY = 2
+
+app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
+
+
+class StageBars:
+    """A rich progress bar per stage, fed by the core's progress callback."""
+
+    def __init__(self, progress: Progress):
+        self.progress = progress
+        self.tasks: dict[str, int] = {}
+
+    def __call__(self, stage, fraction: float) -> None:
+        if stage.name not in self.tasks:
+            self.tasks[stage.name] = self.progress.add_task(f"{stage.name} ({stage.kind})", total=1.0)
+        self.progress.update(self.tasks[stage.name], completed=min(max(fraction, 0.0), 1.0))
+
+
+def _fail(message: str, code: int) -> typer.Exit:
+    typer.echo(" ".join(message.split()), err=True)
+    return typer.Exit(code)
+
+
+@app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).")
+def main(
+    study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar and no summary")] = False,
+    force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
+) -> None:
+    try:
+        study = load_study(study_file)
+    except FileNotFoundError:
+        raise _fail(f"error: {study_file}: no such file", EXIT_BAD_STUDY) from None
+    except OSError as error:
+        raise _fail(f"error: {study_file}: cannot read: {error.strerror or error}", EXIT_BAD_STUDY) from None
+    except StudyError as error:
+        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+
+    # Imported here so that checking a study and --help stay fast: the core compiles with numba.
+    from spfem_core.simulation import DivergenceError
+    from workflows.runner import run_study
+
+    out_dir = Path(out) if out is not None else Path.cwd() / study.name
+    console = Console(stderr=True, quiet=quiet)
+    columns = (
+        TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(), TimeRemainingColumn()
+    )
+    try:
+        with Progress(*columns, console=console) as progress:
+            outcome = run_study(study, out_dir, progress=StageBars(progress), force=force)
+    except StudyError as error:
+        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+    except DivergenceError as error:
+        raise _fail(f"error: {study_file}: the run diverged: {error}", EXIT_DIVERGED) from None
+
+    for name in outcome.unconverged_stages:
+        typer.echo(f"warning: stage {name!r} reached max_duration_s before converging (converged = 0)", err=True)
+    if quiet:
+        return
+    paths = ", ".join(str(path) for path in outcome.paths)
+    if outcome.up_to_date:
+        typer.echo(f"{paths}: up to date with {study_file}, not run again (--force runs it)")
+        return
+    typer.echo(
+        f"{study.name}: {outcome.n_particles} particles, {outcome.n_steps} steps of {outcome.dt_s:.3g} s, "
+        f"wall time {outcome.wall_time_s:.1f} s"
+    )
+    typer.echo(f"wrote {paths}")
+
+
+if __name__ == "__main__":
+    app(prog_name="spfem-fos")

@@ -1,0 +1,94 @@
+"""Running a study: build its scene, run its stages in order, write one result per stage.
+
+Every check that can fail on the input (the file, the particles, the time step) happens
+before the output folder is created.  A study whose result files already hold exactly this
+study text is not run again (``force=True`` runs it anyway).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from spfem_core.simulation import Simulation, UnstableTimeStepError
+from workflows.results import is_up_to_date, result_paths, run_dataset, write_dataset
+from workflows.scene_builder import build_scene, monitor_particles, solver_settings
+from workflows.study import DynamicStage, RelaxationStage, StageBase, Study, StudyError
+
+StageProgress = Callable[[StageBase, float], None]
+"""Called with the running stage and the fraction of it done (0 to 1)."""
+
+
+@dataclass
+class StudyRun:
+    """What a call of :func:`run_study` did."""
+
+    paths: list[Path]
+    up_to_date: bool = False  # True: nothing was run, the results were already there
+    n_particles: int = 0
+    n_steps: int = 0
+    wall_time_s: float = 0.0
+    dt_s: float = 0.0
+    unconverged_stages: list[str] = field(default_factory=list)
+
+
+def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None):
+    """Run one stage on ``sim`` (which continues from its current state); the stage's TimeSeries."""
+    match stage:
+        case DynamicStage():
+            return sim.run(
+                stage.duration_s,
+                damping=stage.damping,
+                record_interval_s=stage.record_interval_s,
+                monitor_nodes=monitor_nodes,
+                progress=progress,
+            )
+        case RelaxationStage():
+            return sim.relax(
+                damping=stage.damping,
+                tolerance=stage.tolerance,
+                max_duration_s=stage.max_duration_s,
+                record_interval_s=stage.record_interval_s,
+                monitor_nodes=monitor_nodes,
+                progress=progress,
+            )
+    raise TypeError(f"no runner for a stage of kind {stage.kind!r}")
+
+
+def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | None = None, force=False) -> StudyRun:
+    """Run every stage of ``study`` and write its results under ``out_dir``.
+
+    Raises StudyError (nothing written) for a study the core refuses, and lets the core's
+    DivergenceError through (the diverged stage writes no result).
+    """
+    out_dir = Path(out_dir)
+    paths = result_paths(study, out_dir)
+    if not force and all(is_up_to_date(path, study) for path in paths):
+        return StudyRun(paths=paths, up_to_date=True)
+
+    scene = build_scene(study)
+    monitor_nodes = monitor_particles(study, scene)
+    try:
+        sim = Simulation(scene, solver_settings(study))
+    except UnstableTimeStepError as error:
+        raise StudyError("solver.dt_s", str(error)) from None
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for path in paths:  # results of another study text must not outlive a failed rerun
+        path.unlink(missing_ok=True)
+    outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
+    for index, (stage, path) in enumerate(zip(study.stages, paths)):
+        report = None if progress is None else (lambda fraction, stage=stage: progress(stage, fraction))
+        series = run_stage(sim, stage, monitor_nodes, report)
+        dataset = run_dataset(
+            study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitor_nodes
+        )
+        write_dataset(dataset, path)
+        outcome.n_steps += int(series.n_steps)
+        outcome.wall_time_s += float(series.wall_time_s)
+        if series.converged is False:
+            outcome.unconverged_stages.append(stage.name)
+    return outcome

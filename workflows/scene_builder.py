@@ -1,0 +1,86 @@
+"""From a checked :class:`~workflows.study.Study` to the core's ``Scene`` and ``SolverSettings``.
+
+Problems that only show once the particles exist (a boundary box that holds no particle,
+particles outside every material region) raise :class:`~workflows.study.StudyError`,
+like the file checks, before anything is run or written.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spfem_core.cloud import particles_in_polygon, points_in_polygon
+from spfem_core.scene import MODEL_NAMES, MaterialTable, Scene, SolverSettings
+from workflows.study import DEFAULT_CFL, Study, StudyError
+
+
+def build_material_table(study: Study) -> MaterialTable:
+    """One row per ``[[materials]]`` entry, in file order."""
+    materials = study.materials
+    return MaterialTable(
+        name=tuple(m.name for m in materials),
+        model=[MODEL_NAMES[m.model] for m in materials],
+        density_kg_m3=[m.density_kg_m3 for m in materials],
+        youngs_modulus_pa=[m.youngs_modulus_pa for m in materials],
+        poisson_ratio=[m.poisson_ratio for m in materials],
+    )
+
+
+def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
+    """Material row of every particle: the last material whose region holds it."""
+    node_material = np.full(node_xy_m.shape[0], -1, dtype=np.int64)
+    for i, material in enumerate(study.materials):
+        if material.region_m is None:
+            node_material[:] = i
+        else:
+            node_material[points_in_polygon(node_xy_m, np.array(material.region_m))] = i
+    orphans = np.flatnonzero(node_material < 0)
+    if orphans.size:
+        x, y = node_xy_m[orphans[0]]
+        raise StudyError(
+            "materials",
+            f"{orphans.size} particles lie in no material region, e.g. at ({x:g}, {y:g}); "
+            "leave region_m out of the first material so that it fills the domain",
+        )
+    return node_material
+
+
+def build_scene(study: Study) -> Scene:
+    """The particle cloud of ``study`` with its materials, supports and gravity."""
+    geometry = study.geometry
+    node_xy_m = particles_in_polygon(
+        np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter, seed=geometry.seed
+    )
+    if node_xy_m.shape[0] < 3:
+        raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
+    scene = Scene(
+        node_xy_m=node_xy_m,
+        node_material=assign_materials(study, node_xy_m),
+        materials=build_material_table(study),
+        spacing_m=geometry.spacing_m,
+        gravity_m_s2=np.array(study.loads.gravity_m_s2),
+        alpha=study.solver.alpha,
+    )
+    for i, boundary in enumerate(study.boundary):
+        nodes = scene.select_box(
+            x_min=-np.inf if boundary.x_min_m is None else boundary.x_min_m,
+            x_max=np.inf if boundary.x_max_m is None else boundary.x_max_m,
+            y_min=-np.inf if boundary.y_min_m is None else boundary.y_min_m,
+            y_max=np.inf if boundary.y_max_m is None else boundary.y_max_m,
+        )
+        if nodes.size == 0:
+            raise StudyError(f"boundary[{i}]", f"the box of {boundary.name!r} holds no particle")
+        scene.fix(nodes, vx_m_s=boundary.vx_m_s, vy_m_s=boundary.vy_m_s)
+    return scene
+
+
+def solver_settings(study: Study) -> SolverSettings:
+    """Time step rule and stabilisation of ``study``."""
+    solver = study.solver
+    cfl = DEFAULT_CFL if solver.cfl is None else solver.cfl
+    return SolverSettings(cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta)
+
+
+def monitor_particles(study: Study, scene: Scene) -> np.ndarray:
+    """Index of the particle nearest to each monitor point, in ``[[monitors]]`` order (int64)."""
+    return np.array([scene.nearest_particle(m.x_m, m.y_m) for m in study.monitors], dtype=np.int64)

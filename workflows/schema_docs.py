@@ -1,0 +1,203 @@
+"""The study-file reference, generated from the declarations in :mod:`workflows.study`.
+
+    python -m workflows.study --json-schema               # JSON schema (draft 2020-12)
+    python -m workflows.study --markdown                  # Markdown reference table
+    python -m workflows.study --markdown --update-readme  # rewrite the README block
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from workflows.study import NAME_PATTERN, REQUIRED, Spec, Study, field_default, specs
+
+README_PATH = Path(__file__).resolve().parents[1] / "README.md"
+README_START = "<!-- study-reference:start -->"
+README_END = "<!-- study-reference:end -->"
+
+_JSON_TYPES = {"number": "number", "integer": "integer", "text": "string"}
+_BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
+
+
+# ---------------------------------------------------------------------------------------
+# JSON schema
+# ---------------------------------------------------------------------------------------
+
+
+def _describe(spec: Spec) -> str:
+    return f"{spec.doc} [{spec.unit}]" if spec.unit and spec.unit != "1" else spec.doc
+
+
+def _value_schema(spec: Spec) -> dict:
+    pair = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2}
+    if spec.type == "point":
+        return dict(pair)
+    if spec.type == "polygon":
+        return {"type": "array", "items": pair, "minItems": 3}
+    schema: dict = {"type": _JSON_TYPES[spec.type]}
+    for op, bound in spec.bounds:
+        schema[_BOUND_KEYWORDS[op]] = bound
+    if spec.choices:
+        schema["enum"] = list(spec.choices)
+    if spec.pattern:
+        schema["pattern"] = spec.pattern
+    return schema
+
+
+def _json_default(value):
+    return [_json_default(v) for v in value] if isinstance(value, tuple) else value
+
+
+def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
+    """JSON schema of one table; ``key``/``kind`` pin the discriminating field of a variant."""
+    properties: dict = {}
+    required: list[str] = []
+    if key is not None:
+        properties[key] = {"const": kind, "description": (cls.__doc__ or "").strip().splitlines()[0]}
+        required.append(key)
+    for field_name, spec in specs(cls).items():
+        default = field_default(cls, field_name)
+        if spec.type == "table":
+            schema = table_schema(spec.of)
+        elif spec.type == "tables":
+            if spec.variants:
+                items = {"oneOf": [table_schema(c, spec.key, k) for k, c in spec.variants.items()]}
+            else:
+                items = table_schema(spec.of)
+            schema = {"type": "array", "items": items, "minItems": spec.min_items}
+        else:
+            schema = _value_schema(spec)
+            if default is not REQUIRED and default is not None:
+                schema["default"] = _json_default(default)
+        schema["description"] = _describe(spec)
+        properties[field_name] = schema
+        if default is REQUIRED:
+            required.append(field_name)
+    schema = {"type": "object", "description": (cls.__doc__ or "").strip().splitlines()[0]}
+    schema.update(properties=properties, required=required, additionalProperties=False)
+    return schema
+
+
+def json_schema() -> dict:
+    """The JSON schema of a study file (draft 2020-12)."""
+    schema = {"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "spfem-fos study file"}
+    schema.update(table_schema(Study))
+    return schema
+
+
+# ---------------------------------------------------------------------------------------
+# Markdown
+# ---------------------------------------------------------------------------------------
+
+
+def _toml(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def _allowed(spec: Spec) -> str:
+    if spec.choices:
+        return ", ".join(f"`{c}`" for c in spec.choices)
+    if spec.pattern == NAME_PATTERN:
+        return "letters, digits, `_` `.` `-`"
+    if spec.type == "polygon":
+        return ">= 3 vertices, simple, area > 0"
+    return ", ".join(f"{op} {bound:g}" for op, bound in spec.bounds)
+
+
+def _type_name(spec: Spec) -> str:
+    return {"number": "float", "integer": "int", "text": "string", "point": "`[x, y]`", "polygon": "`[[x, y], ...]`"}[
+        spec.type
+    ]
+
+
+def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str]]:
+    """One row per field: path, type, unit, default, allowed values, description."""
+    rows = []
+    for field_name, spec in specs(cls).items():
+        path = f"{prefix}.{field_name}" if prefix else field_name
+        default = field_default(cls, field_name)
+        if spec.type == "table":
+            rows += reference_rows(spec.of, path)
+        elif spec.type == "tables":
+            entry = f"{path}[]"
+            if not spec.variants:
+                rows += reference_rows(spec.of, entry)
+                continue
+            kinds = ", ".join(f"`{k}`" for k in spec.variants)
+            rows.append([f"`{entry}.{spec.key}`", "string", "", "required", kinds, spec.key_doc])
+            rows += _variant_rows(spec, entry)
+        else:
+            shown = "required" if default is REQUIRED else ("" if default is None else f"`{_toml(default)}`")
+            unit = "" if spec.unit == "1" else spec.unit
+            doc = f"*{only}:* {spec.doc}" if only else spec.doc
+            rows.append([f"`{path}`", _type_name(spec), unit, shown, _allowed(spec), doc])
+    return rows
+
+
+def _variant_rows(spec: Spec, entry: str) -> list[list[str]]:
+    """Rows of an array of tables with kinds: shared fields once, the others per kind."""
+    per_kind = {kind: reference_rows(cls, entry, only=f"{spec.key} = {kind}") for kind, cls in spec.variants.items()}
+    plain = {kind: reference_rows(cls, entry) for kind, cls in spec.variants.items()}
+    shared = [row for row in next(iter(plain.values())) if all(row in rows for rows in plain.values())]
+    rows = list(shared)
+    for kind, kind_rows in per_kind.items():
+        rows += [row for row, plain_row in zip(kind_rows, plain[kind]) if plain_row not in shared]
+    return rows
+
+
+def markdown_table() -> str:
+    """The Markdown reference of every field of a study file."""
+    header = ["Field", "Type", "Unit", "Default", "Allowed", "Description"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell.replace("|", "\\|") for cell in row) + " |" for row in reference_rows()]
+    intro = (
+        "Empty default: optional, absent unless given. `[]` marks an array of tables "
+        "(`[[stages]]`); entries are numbered from 0 in error messages."
+    )
+    return intro + "\n\n" + "\n".join(lines) + "\n"
+
+
+def readme_block() -> str:
+    """The README block between the markers, markers included."""
+    return f"{README_START}\n{markdown_table()}{README_END}"
+
+
+def update_readme(path: Path = README_PATH) -> bool:
+    """Rewrite the reference block of the README; True if the file changed."""
+    old = path.read_text(encoding="utf-8")
+    start, end = old.find(README_START), old.find(README_END)
+    if start < 0 or end < start:
+        raise SystemExit(f"error: {path}: markers {README_START} ... {README_END} not found")
+    new = old[:start] + readme_block() + old[end + len(README_END) :]
+    if new != old:
+        path.write_text(new, encoding="utf-8")
+    return new != old
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="python -m workflows.study", description=__doc__.splitlines()[0])
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument("--json-schema", action="store_true", help="print the JSON schema of a study file")
+    what.add_argument("--markdown", action="store_true", help="print the Markdown reference table")
+    parser.add_argument("--update-readme", action="store_true", help="with --markdown: rewrite the README block")
+    args = parser.parse_args(argv)
+    if args.json_schema:
+        print(json.dumps(json_schema(), indent=2))
+    elif args.update_readme:
+        changed = update_readme()
+        print(f"{README_PATH}: {'updated' if changed else 'already up to date'}", file=sys.stderr)
+    else:
+        sys.stdout.write(markdown_table())
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,628 @@
+"""The study file: one TOML file that describes a simulation, checked before anything runs.
+
+Every field is declared once, on the frozen dataclass of its table, with its type, unit,
+default, bounds and documentation (``number``, ``integer``, ``text``, ``point``,
+``polygon``, ``table``, ``tables`` below).  From that one declaration come
+
+- the checks of :func:`load_study` / :func:`parse_study`, which raise :class:`StudyError`
+  with a one-line message ``<field path>: <problem>``;
+- the JSON schema and the Markdown reference (``python -m workflows.study --json-schema``
+  or ``--markdown``, see :mod:`workflows.schema_docs`).
+
+A study file is data only: it is read with :mod:`tomllib` and never executes code.
+
+Arrays of tables whose entries come in kinds (``[[stages]]`` with ``kind``,
+``[[materials]]`` with ``model``) map each kind to its own dataclass, so a new kind
+(a ``drucker_prager`` material, a ``strength_reduction`` stage) is one more class.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
+"""Names of studies, stages, materials, boundaries and monitors: they become folder,
+file and coordinate names, so letters, digits, ``_``, ``.`` and ``-`` only."""
+
+REQUIRED = dataclasses.MISSING
+
+
+class StudyError(ValueError):
+    """A study file that cannot be run; ``str()`` is one line ``<field>: <problem>``."""
+
+    def __init__(self, field: str, problem: str):
+        self.field = field
+        self.problem = " ".join(str(problem).split())
+        super().__init__(f"{field}: {self.problem}" if field else self.problem)
+
+
+# ---------------------------------------------------------------------------------------
+# How a field is declared
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Spec:
+    """How one field of a study file is written, checked and documented.
+
+    ``type`` is one of ``number`` (a float; an integer is accepted, a boolean is not),
+    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``table``
+    (one nested table, class ``of``) or ``tables`` (an array of tables: ``of`` is a
+    class, or a dict from the value of the ``key`` field to a class).
+    """
+
+    type: str
+    unit: str = ""
+    doc: str = ""
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    choices: tuple[str, ...] = ()
+    pattern: str | None = None
+    of: Any = None
+    key: str | None = None
+    key_doc: str = ""
+    min_items: int = 0
+
+    @property
+    def bounds(self) -> list[tuple[str, float]]:
+        """The bounds that apply, as (operator, value) pairs."""
+        pairs = [(">", self.gt), (">=", self.ge), ("<", self.lt), ("<=", self.le)]
+        return [(op, value) for op, value in pairs if value is not None]
+
+    @property
+    def variants(self) -> dict[str, type]:
+        """For ``tables`` with a ``key``: kind -> dataclass; otherwise {}."""
+        return dict(self.of) if isinstance(self.of, dict) else {}
+
+
+def _declare(spec: Spec, default=REQUIRED, default_factory=REQUIRED):
+    return dataclasses.field(default=default, default_factory=default_factory, metadata={"spec": spec})
+
+
+def number(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
+    """A finite float field (``unit`` "1" for a dimensionless number)."""
+    return _declare(Spec("number", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
+
+
+def integer(doc, *, default=REQUIRED, ge=None, le=None):
+    """An integer field."""
+    return _declare(Spec("integer", "1", doc, ge=ge, le=le), default)
+
+
+def text(doc, *, default=REQUIRED, choices=(), pattern=None):
+    """A string field, optionally limited to ``choices`` or a regular expression."""
+    return _declare(Spec("text", "", doc, choices=tuple(choices), pattern=pattern), default)
+
+
+def name_field(doc):
+    """A required name made of letters, digits, ``_``, ``.`` and ``-``."""
+    return text(doc, pattern=NAME_PATTERN)
+
+
+def point(unit, doc, *, default=REQUIRED):
+    """A pair of numbers [x, y]."""
+    return _declare(Spec("point", unit, doc), default)
+
+
+def polygon(unit, doc, *, default=REQUIRED):
+    """A simple polygon [[x, y], ...]: at least 3 vertices, non-zero area, no crossing edges."""
+    return _declare(Spec("polygon", unit, doc), default)
+
+
+def table(of: type, *, required: bool = True):
+    """A nested table ``[name]`` described by the dataclass ``of`` (its docstring documents it)."""
+    spec = Spec("table", doc=_first_line(of.__doc__), of=of)
+    return _declare(spec) if required else _declare(spec, default_factory=of)
+
+
+def tables(of, doc, *, key=None, key_doc="", min_items=0):
+    """An array of tables ``[[name]]``; entries need unique ``name`` fields.
+
+    ``of`` is a dataclass, or with ``key`` a dict from the value of that field to the
+    dataclass of that kind of entry.
+    """
+    spec = Spec("tables", doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items)
+    return _declare(spec, default=() if min_items == 0 else REQUIRED)
+
+
+def specs(cls) -> dict[str, Spec]:
+    """The declared fields of a study dataclass, in order (undeclared fields excluded)."""
+    return {f.name: f.metadata["spec"] for f in dataclasses.fields(cls) if "spec" in f.metadata}
+
+
+def field_default(cls, field_name: str):
+    """The default of a declared field: a value, or ``REQUIRED``."""
+    f = next(f for f in dataclasses.fields(cls) if f.name == field_name)
+    if f.default is not REQUIRED:
+        return f.default
+    if f.default_factory is not REQUIRED:
+        return f.default_factory()
+    return REQUIRED
+
+
+def _first_line(doc: str | None) -> str:
+    return (doc or "").strip().splitlines()[0] if doc else ""
+
+
+# ---------------------------------------------------------------------------------------
+# Checking one value against its declaration
+# ---------------------------------------------------------------------------------------
+
+
+def show(value) -> str:
+    """A value as it would look in TOML, shortened for error messages."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, (list, tuple)):
+        shown = "[" + ", ".join(show(v) for v in value) + "]"
+        return shown if len(shown) <= 60 else shown[:56] + " ...]"
+    if value is None:
+        return "nothing"
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _as_number(value, what="must be a number") -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        kind = " (a boolean)" if isinstance(value, bool) else ""
+        raise ValueError(f"{what}, got {show(value)}{kind}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"must be finite, got {show(value)}")
+    return x
+
+
+def _as_pair(value, what: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ValueError(f"{what} must be a pair of numbers [x, y], got {show(value)}")
+    return (_as_number(value[0], f"{what} must be numbers"), _as_number(value[1], f"{what} must be numbers"))
+
+
+def polygon_area(vertices) -> float:
+    """Signed area (shoelace formula), positive for counter-clockwise vertices."""
+    n = len(vertices)
+    return 0.5 * sum(
+        vertices[i][0] * vertices[(i + 1) % n][1] - vertices[(i + 1) % n][0] * vertices[i][1] for i in range(n)
+    )
+
+
+def _segments_cross(p1, p2, q1, q2) -> bool:
+    """True when the closed segments p1-p2 and q1-q2 intersect."""
+
+    def orient(a, b, c):
+        value = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        return (value > 0) - (value < 0)
+
+    def on_segment(a, b, c):  # c collinear with a-b: is it between them?
+        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+
+    o1, o2, o3, o4 = orient(p1, p2, q1), orient(p1, p2, q2), orient(q1, q2, p1), orient(q1, q2, p2)
+    if o1 != o2 and o3 != o4:
+        return True
+    return (
+        (o1 == 0 and on_segment(p1, p2, q1))
+        or (o2 == 0 and on_segment(p1, p2, q2))
+        or (o3 == 0 and on_segment(q1, q2, p1))
+        or (o4 == 0 and on_segment(q1, q2, p2))
+    )
+
+
+def _as_polygon(value) -> tuple[tuple[float, float], ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"must be a list of [x, y] vertices, got {show(value)}")
+    vertices = tuple(_as_pair(v, f"vertex {i}") for i, v in enumerate(value))
+    n = len(vertices)
+    if n < 3:
+        raise ValueError(f"needs at least 3 vertices, got {n}")
+    if vertices[0] == vertices[-1]:
+        raise ValueError("the last vertex repeats the first; the polygon closes itself, leave it out")
+    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
+    extent = max(max(xs) - min(xs), max(ys) - min(ys))
+    for i in range(n):
+        for j in range(i + 1, n):
+            if j == i + 1 or (i == 0 and j == n - 1):
+                if vertices[i] == vertices[j]:
+                    raise ValueError(f"vertices {i} and {j} coincide")
+                continue
+            if _segments_cross(vertices[i], vertices[(i + 1) % n], vertices[j], vertices[(j + 1) % n]):
+                raise ValueError(f"edges {i} and {j} cross; the polygon must be simple")
+    if abs(polygon_area(vertices)) <= 1e-12 * extent**2 or extent == 0.0:
+        raise ValueError(f"has zero area: {show(value)}")
+    return vertices
+
+
+def check_value(spec: Spec, value):
+    """``value`` converted to its stored form (float, int, str, tuples); ValueError if invalid."""
+    if spec.type == "number":
+        x = _as_number(value)
+        for op, bound in spec.bounds:
+            ok = {">": x > bound, ">=": x >= bound, "<": x < bound, "<=": x <= bound}[op]
+            if not ok:
+                raise ValueError(f"must be {op} {bound:g}, got {show(value)}")
+        return x
+    if spec.type == "integer":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"must be an integer, got {show(value)}")
+        for op, bound in spec.bounds:
+            if not {">=": value >= bound, "<=": value <= bound}[op]:
+                raise ValueError(f"must be {op} {bound:g}, got {value}")
+        return value
+    if spec.type == "text":
+        if not isinstance(value, str):
+            raise ValueError(f"must be a string, got {show(value)}")
+        if spec.choices and value not in spec.choices:
+            raise ValueError(f"must be one of {', '.join(map(show, spec.choices))}, got {show(value)}")
+        if spec.pattern and not re.match(spec.pattern, value):
+            raise ValueError(
+                f"must be letters, digits, '_', '.' or '-' (not starting with '_', '.' or '-'), got {show(value)}"
+            )
+        return value
+    if spec.type == "point":
+        if not isinstance(value, (list, tuple)) or len(value) != 2:
+            raise ValueError(f"must be a pair of numbers [x, y], got {show(value)}")
+        return (_as_number(value[0]), _as_number(value[1]))
+    if spec.type == "polygon":
+        return _as_polygon(value)
+    raise AssertionError(f"check_value does not handle {spec.type!r}")
+
+
+# ---------------------------------------------------------------------------------------
+# The tables of a study file
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, kw_only=True)
+class Record:
+    """Base of every table: declared fields are checked and converted on construction.
+
+    Subclasses add cross-field rules in :meth:`check`, raising ``StudyError(field, problem)``
+    with ``field`` relative to the table.
+    """
+
+    def __post_init__(self):
+        for field_name, spec in specs(type(self)).items():
+            value = getattr(self, field_name)
+            if value is None and field_default(type(self), field_name) is None:
+                continue
+            try:
+                if spec.type == "table":
+                    if not isinstance(value, spec.of):
+                        raise ValueError(f"must be a {spec.of.__name__}, got {show(value)}")
+                elif spec.type == "tables":
+                    value = self._check_entries(field_name, spec, tuple(value))
+                else:
+                    value = check_value(spec, value)
+            except ValueError as error:
+                if isinstance(error, StudyError):
+                    raise
+                raise StudyError(field_name, str(error)) from None
+            object.__setattr__(self, field_name, value)
+        self.check()
+
+    @staticmethod
+    def _check_entries(field_name: str, spec: Spec, entries: tuple) -> tuple:
+        allowed = tuple(spec.variants.values()) or (spec.of,)
+        for i, entry in enumerate(entries):
+            if not isinstance(entry, allowed):
+                raise StudyError(f"{field_name}[{i}]", f"must be a table, got {show(entry)}")
+        if len(entries) < spec.min_items:
+            raise StudyError(field_name, f"needs at least {spec.min_items} [[{field_name}]] entry, got {len(entries)}")
+        seen: dict[str, int] = {}
+        for i, entry in enumerate(entries):
+            if entry.name in seen:
+                also = f"{field_name}[{seen[entry.name]}]"
+                raise StudyError(f"{field_name}[{i}].name", f"duplicate name {show(entry.name)} (also {also})")
+            seen[entry.name] = i
+        return entries
+
+    def check(self) -> None:
+        """Cross-field rules of this table (none by default)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyInfo(Record):
+    """What the study is: its name (the default output folder) and a description."""
+
+    name: str = name_field("name of the study; the default output folder is `./<name>`")
+    description: str = text("free text: what the study reproduces and why", default="")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Geometry(Record):
+    """The domain and its particle cloud: a polygon filled with particles at spacing h."""
+
+    polygon_m: tuple = polygon("m", "outline of the domain, [[x, y], ...], either orientation, not closed")
+    spacing_m: float = number("m", "particle spacing h of the lattice clipped to the polygon", gt=0.0)
+    jitter: float = number(
+        "1", "random offset of interior particles, as a fraction of h", default=0.0, ge=0.0, lt=0.5
+    )
+    seed: int = integer("seed of the random jitter", default=0, ge=0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MaterialBase(Record):
+    """Fields shared by every material model."""
+
+    model: ClassVar[str]
+    name: str = name_field("name of the material")
+    density_kg_m3: float = number("kg/m^3", "mass density rho", gt=0.0)
+    youngs_modulus_pa: float = number("Pa", "Young's modulus E", gt=0.0)
+    poisson_ratio: float = number("1", "Poisson's ratio nu", ge=0.0, lt=0.5)
+    region_m: tuple | None = polygon(
+        "m", "polygon of the particles that get this material; default: the whole domain; "
+        "later materials override earlier ones", default=None
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class ElasticMaterial(MaterialBase):
+    """Linear elastic, plane strain."""
+
+    model: ClassVar[str] = "elastic"
+
+
+MATERIAL_MODELS: dict[str, type[MaterialBase]] = {"elastic": ElasticMaterial}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Loads(Record):
+    """Body forces applied from the start of the first stage."""
+
+    gravity_m_s2: tuple = point("m/s^2", "gravitational acceleration [gx, gy]", default=(0.0, -9.81))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Boundary(Record):
+    """Prescribed velocity on the particles initially inside a box (closed, tolerance h/1000).
+
+    A missing bound leaves the box open on that side; a missing velocity leaves that
+    direction free (vx = 0 alone is a roller).
+    """
+
+    name: str = name_field("name of the boundary condition")
+    x_min_m: float | None = number("m", "left side of the box; default: unbounded", default=None)
+    x_max_m: float | None = number("m", "right side of the box; default: unbounded", default=None)
+    y_min_m: float | None = number("m", "bottom of the box; default: unbounded", default=None)
+    y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
+    vx_m_s: float | None = number("m/s", "prescribed x velocity; default: free", default=None)
+    vy_m_s: float | None = number("m/s", "prescribed y velocity; default: free", default=None)
+
+    def check(self):
+        if self.vx_m_s is None and self.vy_m_s is None:
+            raise StudyError("vx_m_s", "give vx_m_s, vy_m_s or both (a boundary must prescribe something)")
+        for axis in "xy":
+            low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
+            if low is not None and high is not None and low > high:
+                raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
+
+
+DEFAULT_CFL = 0.5
+
+
+@dataclass(frozen=True, kw_only=True)
+class Solver(Record):
+    """Numerical settings: time step, stabilisation and the alpha-shape of the mesh."""
+
+    cfl: float | None = number(
+        "1", f"time step as a fraction of the critical step; default {DEFAULT_CFL} when dt_s is not given",
+        default=None, gt=0.0, le=1.0,
+    )
+    dt_s: float | None = number(
+        "s", "fixed time step instead of cfl; refused if above the critical step", default=None, gt=0.0
+    )
+    stabilisation_beta: float = number(
+        "1", "rank-deficiency stabilisation factor beta; 0 switches it off", default=0.1, ge=0.0
+    )
+    alpha: float = number(
+        "1", "alpha-shape factor: triangles with circumradius > alpha h are dropped", default=1.5, ge=1.0, le=3.0
+    )
+
+    def check(self):
+        if self.cfl is not None and self.dt_s is not None:
+            raise StudyError("dt_s", "give cfl or dt_s, not both")
+
+
+@dataclass(frozen=True, kw_only=True)
+class StageBase(Record):
+    """Fields shared by every kind of stage."""
+
+    kind: ClassVar[str]
+    duration_field: ClassVar[str]  # the field that bounds how long the stage runs
+    name: str = name_field("name of the stage; names the result file when a study has several stages")
+    record_interval_s: float = number("s", "time between two records of the monitors", gt=0.0)
+
+    def check(self):
+        limit = getattr(self, self.duration_field)
+        if self.record_interval_s > limit:
+            problem = f"must be <= {self.duration_field} = {limit:g}, got {self.record_interval_s:g}"
+            raise StudyError("record_interval_s", problem)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DynamicStage(StageBase):
+    """Explicit dynamics for a fixed duration."""
+
+    kind: ClassVar[str] = "dynamic"
+    duration_field: ClassVar[str] = "duration_s"
+    duration_s: float = number("s", "simulated time of the stage", gt=0.0)
+    damping: float = number(
+        "1", "local (Cundall) damping factor; 0 is undamped dynamics", default=0.0, ge=0.0, lt=1.0
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class RelaxationStage(StageBase):
+    """Dynamic relaxation: damped steps until the unbalanced-force ratio falls below a tolerance."""
+
+    kind: ClassVar[str] = "relaxation"
+    duration_field: ClassVar[str] = "max_duration_s"
+    max_duration_s: float = number("s", "stop here even if not converged (the result records it)", gt=0.0)
+    tolerance: float = number(
+        "1", "converged when the unbalanced-force ratio is below this", default=1e-5, gt=0.0, lt=1.0
+    )
+    damping: float = number("1", "local (Cundall) damping factor", default=0.7, gt=0.0, lt=1.0)
+
+
+STAGE_KINDS: dict[str, type[StageBase]] = {"dynamic": DynamicStage, "relaxation": RelaxationStage}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Monitor(Record):
+    """A point whose nearest particle is recorded (displacement, velocity, stress)."""
+
+    name: str = name_field("name of the monitor; the value of the monitor coordinate of the results")
+    x_m: float = number("m", "x of the point, inside or on the polygon")
+    y_m: float = number("m", "y of the point, inside or on the polygon")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Study(Record):
+    """A whole study file."""
+
+    study: StudyInfo = table(StudyInfo)
+    geometry: Geometry = table(Geometry)
+    materials: tuple = tables(
+        MATERIAL_MODELS, "materials; a particle takes the last material whose region holds it",
+        key="model", key_doc="constitutive model", min_items=1,
+    )
+    loads: Loads = table(Loads, required=False)
+    boundary: tuple = tables(Boundary, "prescribed velocities (supports), applied in order")
+    solver: Solver = table(Solver, required=False)
+    stages: tuple = tables(
+        STAGE_KINDS, "what to run, in order; each stage continues from the state the previous one left",
+        key="kind", key_doc="what the stage does", min_items=1,
+    )
+    monitors: tuple = tables(Monitor, "points recorded during every stage")
+    source_text: str = dataclasses.field(default="", repr=False, compare=False)
+    """The TOML text the study was read from (stored with every result)."""
+
+    @property
+    def name(self) -> str:
+        return self.study.name
+
+    def check(self):
+        for i, monitor in enumerate(self.monitors):
+            if not point_in_polygon((monitor.x_m, monitor.y_m), self.geometry.polygon_m):
+                raise StudyError(
+                    f"monitors[{i}]", f"point ({monitor.x_m:g}, {monitor.y_m:g}) lies outside geometry.polygon_m"
+                )
+
+
+def point_in_polygon(xy, vertices) -> bool:
+    """True when ``xy`` is inside the polygon or on its boundary (relative tolerance 1e-9)."""
+    x, y = xy
+    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
+    tol = 1e-9 * max(max(xs) - min(xs), max(ys) - min(ys))
+    n = len(vertices)
+    inside = False
+    for i in range(n):
+        (x1, y1), (x2, y2) = vertices[i], vertices[(i + 1) % n]
+        dx, dy = x2 - x1, y2 - y1
+        t = min(1.0, max(0.0, ((x - x1) * dx + (y - y1) * dy) / (dx * dx + dy * dy)))
+        if math.hypot(x - (x1 + t * dx), y - (y1 + t * dy)) <= tol:
+            return True
+        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * dx / dy:
+            inside = not inside
+    return inside
+
+
+# ---------------------------------------------------------------------------------------
+# Reading a study file
+# ---------------------------------------------------------------------------------------
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path and not key.startswith("[") else f"{path}{key}"
+
+
+def _unknown(path: str, key: str, known) -> StudyError:
+    hint = difflib.get_close_matches(key, list(known), n=1)
+    problem = f"unknown field (did you mean {hint[0]!r}?)" if hint else f"unknown field (known: {', '.join(known)})"
+    return StudyError(_join(path, key), problem)
+
+
+def _build(cls, raw, path: str):
+    """An instance of the table dataclass ``cls`` from the TOML table ``raw`` at ``path``."""
+    if not isinstance(raw, dict):
+        raise StudyError(path, f"must be a table, got {show(raw)}")
+    declared = specs(cls)
+    for key in raw:
+        if key not in declared:
+            raise _unknown(path, key, declared)
+    values = {}
+    for key, spec in declared.items():
+        if key not in raw:
+            if field_default(cls, key) is REQUIRED:
+                kind = {"table": f" (a [{key}] table)", "tables": f" (at least one [[{key}]] table)"}.get(spec.type, "")
+                raise StudyError(_join(path, key), f"required field missing{kind}")
+            continue
+        value = raw[key]
+        if spec.type == "table":
+            value = _build(spec.of, value, _join(path, key))
+        elif spec.type == "tables":
+            value = _build_entries(spec, value, _join(path, key))
+        values[key] = value
+    try:
+        return cls(**values)
+    except StudyError as error:
+        raise StudyError(_join(path, error.field), error.problem) from None
+
+
+def _build_entries(spec: Spec, raw, path: str) -> tuple:
+    if not isinstance(raw, list) or not all(isinstance(entry, dict) for entry in raw):
+        raise StudyError(path, f"must be an array of tables ([[{path}]]), got {show(raw)}")
+    entries = []
+    for i, entry in enumerate(raw):
+        where = f"{path}[{i}]"
+        cls = spec.of
+        if spec.key is not None:
+            if spec.key not in entry:
+                raise StudyError(f"{where}.{spec.key}", "required field missing")
+            kind = entry[spec.key]
+            if kind not in spec.variants:
+                choices = ", ".join(map(show, spec.variants))
+                raise StudyError(f"{where}.{spec.key}", f"must be one of {choices}, got {show(kind)}")
+            cls = spec.variants[kind]
+            entry = {k: v for k, v in entry.items() if k != spec.key}
+        entries.append(_build(cls, entry, where))
+    return tuple(entries)
+
+
+_TOML_POSITION = re.compile(r"^(?P<problem>.*?)\s*\(at line (?P<line>\d+), column (?P<column>\d+)\)$")
+
+
+def parse_study(toml_text: str) -> Study:
+    """The :class:`Study` written in ``toml_text``; :class:`StudyError` if it is not valid."""
+    try:
+        raw = tomllib.loads(toml_text)
+    except tomllib.TOMLDecodeError as error:
+        match = _TOML_POSITION.match(str(error))
+        if match:
+            raise StudyError(f"line {match['line']}, column {match['column']}", match["problem"]) from None
+        raise StudyError("toml", str(error)) from None
+    study = _build(Study, raw, "")
+    return dataclasses.replace(study, source_text=toml_text)
+
+
+def load_study(path: str | Path) -> Study:
+    """The study in the TOML file ``path`` (OSError if unreadable, StudyError if invalid)."""
+    return parse_study(Path(path).read_text(encoding="utf-8"))
+
+
+if __name__ == "__main__":
+    from workflows.schema_docs import main
+
+    main()
