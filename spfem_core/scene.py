@@ -123,8 +123,8 @@ class SolverSettings:
     """Numerical parameters of a run (the physics lives in :class:`Scene`).
 
     Time step: ``dt_s`` if given, else ``cfl * h_alt_min / c_p_max`` with h_alt_min the
-    smallest triangle altitude and c_p_max the fastest P-wave speed.  A ``dt_s`` above the
-    critical value (cfl > ``MAX_STABLE_CFL``) is refused.
+    smallest triangle altitude and c_p_max the fastest P-wave speed.  A cfl (or a ``dt_s``
+    equivalent to one) above ``simulation.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
 
     ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and
     its work is skipped).  The correction force is proportional to the incremental
@@ -137,5 +137,3 @@ class SolverSettings:
     stabilisation_beta: float = 0.0
     max_quality_drop_deg: float = 0.0  # reserved for adaptive remeshing (issue [2/4])
     min_angle_deg: float = 5.0  # rebuild the mesh when the smallest angle falls below this
-
-    MAX_STABLE_CFL = 1.0

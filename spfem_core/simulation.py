@@ -42,6 +42,25 @@ WALL_SECONDS_PER_CALL = 0.25
 ANGLE_MARGIN_RAD = math.radians(1.0)
 """Safety margin on the cheap angle bound (it uses the strain rate of the previous step)."""
 
+ENERGY_CREATED_LIMIT = 0.25
+"""Divergence when kinetic + strain + gravity potential + dissipated energy has grown since
+the stage start by more than this fraction of the largest energy scale (kinetic + strain +
+|potential|) seen so far: a stable run only loses energy (about 1-2% leapfrog wobble)."""
+
+DT_COLLAPSE_FACTOR = 1e-3
+"""Divergence when remeshing would cut the time step below this fraction of the stage's
+first time step: the mesh has degenerated (particles piling onto each other)."""
+
+
+def max_stable_cfl(beta: float) -> float:
+    """Largest accepted cfl for stabilisation ``beta``: 1 / (1 + beta).
+
+    The stabilisation is a bond viscosity proportional to beta dt, so it lowers the stable
+    step.  Measured on the beam lattice (benchmarks/stress): limits 1.57 for beta <= 0.1,
+    1.38 at 0.3, 0.97 at 1.0; the rule keeps a margin of at least 1.5 on all of them.
+    """
+    return 1.0 / (1.0 + max(beta, 0.0))
+
 
 class DivergenceError(RuntimeError):
     """The solution blew up; ``step`` and ``time_s`` say where, ``partial`` holds the records so far."""
@@ -56,6 +75,10 @@ class DivergenceError(RuntimeError):
 
 class UnstableTimeStepError(ValueError):
     """A requested time step above the critical step of the explicit scheme."""
+
+
+class _MeshCollapse(Exception):
+    """Raised by a remesh that would stall the run; turned into DivergenceError by the stage."""
 
 
 @dataclass
@@ -151,20 +174,22 @@ class Simulation:
         self.total_mass_kg = float(self.node_mass_kg.sum())
 
         self.critical_dt_s = self._critical_dt()
+        self.max_cfl = max_stable_cfl(self.settings.stabilisation_beta)
         if self.settings.dt_s is not None:
-            limit = SolverSettings.MAX_STABLE_CFL * self.critical_dt_s
-            if self.settings.dt_s > limit:
+            limit = self.max_cfl * self.critical_dt_s
+            if not 0.0 < self.settings.dt_s <= limit:
                 raise UnstableTimeStepError(
-                    f"dt_s = {self.settings.dt_s:.4g} s is above the critical time step {limit:.4g} s "
-                    f"(smallest element altitude / P-wave speed {self.speed_limit_m_s:.4g} m/s); "
+                    f"dt_s = {self.settings.dt_s:.4g} s is above the stable time step {limit:.4g} s "
+                    f"(smallest element altitude / P-wave speed {self.speed_limit_m_s:.4g} m/s, "
+                    f"times {self.max_cfl:.3g} for beta = {self.settings.stabilisation_beta:g}); "
                     f"use dt_s <= {limit:.4g} or set cfl instead"
                 )
             self.dt_s = float(self.settings.dt_s)
         else:
-            if not 0.0 < self.settings.cfl <= SolverSettings.MAX_STABLE_CFL:
+            if not 0.0 < self.settings.cfl <= self.max_cfl:
                 raise UnstableTimeStepError(
-                    f"cfl = {self.settings.cfl} is outside (0, {SolverSettings.MAX_STABLE_CFL}]: "
-                    "the explicit step would be unstable"
+                    f"cfl = {self.settings.cfl:g} is outside (0, {self.max_cfl:.3g}], the stable range for "
+                    f"beta = {self.settings.stabilisation_beta:g} (limit 1 / (1 + beta))"
                 )
             self.dt_s = self.settings.cfl * self.critical_dt_s
         self.n_steps_total = 0
@@ -198,8 +223,14 @@ class Simulation:
         self._reset_angle_budget()
         critical = self._critical_dt()
         self.critical_dt_s = critical
-        if self.dt_s > SolverSettings.MAX_STABLE_CFL * critical:
-            self.dt_s = self.settings.cfl * critical
+        if self.dt_s > self.max_cfl * critical:
+            new_dt = min(self.settings.cfl, self.max_cfl) * critical
+            if new_dt < DT_COLLAPSE_FACTOR * self._stage_first_dt_s:
+                raise _MeshCollapse(
+                    f"the mesh degenerated: its critical time step fell to {critical:.3g} s "
+                    f"(the stage started with dt = {self._stage_first_dt_s:.3g} s)"
+                )
+            self.dt_s = new_dt
 
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""
@@ -256,6 +287,11 @@ class Simulation:
         self._record(records, 0.0, monitor_nodes)
 
         beta = float(self.settings.stabilisation_beta)
+        self._stage_first_dt_s = self.dt_s
+        check_energy = not np.any(self.scene.node_fixed_velocity_m_s[self.scene.node_fixed] != 0.0)
+        energy_checked = 0
+        energy_scale = 0.0
+        energy_start = float(records.arrays[4][0].sum())
         stage_time = 0.0
         n_steps = 0
         n_remesh_start = self.n_remesh_total
@@ -284,6 +320,7 @@ class Simulation:
             self.n_steps_total += done
             if done >= 10 and elapsed > 0:
                 steps_per_call = max(10, int(done * WALL_SECONDS_PER_CALL / elapsed))
+            reason = None
             if status in (STATUS_NOT_FINITE, STATUS_RUNAWAY):
                 reason = (
                     "velocity is not finite"
@@ -291,20 +328,38 @@ class Simulation:
                     else f"a particle moves at {self._acc[ACC_LAST_MAX_SPEED]:.4g} m/s, faster than the "
                     f"P-wave speed {self.speed_limit_m_s:.4g} m/s (runaway kinetic energy)"
                 )
+            elif check_energy:
+                energy = records.arrays[4]
+                for row in range(energy_checked, int(records.count[0])):
+                    kinetic, strain, potential = energy[row, 0], energy[row, 1], energy[row, 2]
+                    energy_scale = max(energy_scale, kinetic + strain + abs(potential))
+                    created = float(energy[row].sum()) - energy_start
+                    if not created <= ENERGY_CREATED_LIMIT * energy_scale:  # NaN too
+                        reason = (
+                            f"the run created energy: {created:.4g} J/m at t = {records.arrays[0][row]:.6g} s, "
+                            f"more than {ENERGY_CREATED_LIMIT:g} of the energy scale {energy_scale:.4g} J/m"
+                        )
+                        break
+                energy_checked = int(records.count[0])
+            if reason is not None:
                 partial = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
                 raise DivergenceError(reason, self.n_steps_total, stage_time, partial)
+            try:
+                if status == STATUS_INVERTED:
+                    self._remesh()
+                elif status == STATUS_MESH_CHECK:
+                    n_checks += 1
+                    min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
+                    if min_angle < self._angle_threshold_rad:
+                        self._remesh()
+                    else:
+                        self._acc[ACC_ANGLE_USED] = 0.0
+                        self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+            except _MeshCollapse as collapse:
+                partial = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
+                raise DivergenceError(str(collapse), self.n_steps_total, stage_time, partial) from None
             if status == STATUS_BUFFER_FULL:
                 records.grow()
-            elif status == STATUS_INVERTED:
-                self._remesh()
-            elif status == STATUS_MESH_CHECK:
-                n_checks += 1
-                min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
-                if min_angle < self._angle_threshold_rad:
-                    self._remesh()
-                else:
-                    self._acc[ACC_ANGLE_USED] = 0.0
-                    self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
             elif status == STATUS_CONVERGED:
                 converged = True
                 break
