@@ -7,11 +7,14 @@ velocity gradient L over a step dt:
     Jaumann:  sigma += w sigma - sigma w
               s_xx += 2 omega s_xy,  s_yy -= 2 omega s_xy,  s_xy += omega (s_yy - s_xx)
     elastic:  sigma += lambda tr(d) I + 2 G d      (d_zz = 0, so s_zz += lambda tr(d))
+    plastic:  elastic trial, then the return map of the material's model (``plasticity``)
 """
 
 from __future__ import annotations
 
 from spfem_core.jit import kernel
+from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update
+from spfem_core.scene import MODEL_DRUCKER_PRAGER, MODEL_ELASTIC
 
 
 @kernel
@@ -37,10 +40,19 @@ def elastic_increment(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus):
 
 
 @kernel
-def update_stress(node_L, node_area, node_stress, node_material, mat_lambda, mat_shear, dt):
-    """Rotate and update every particle's stress from its smoothed velocity gradient."""
+def update_stress(
+    node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt
+):
+    """Rotate and update every particle's stress from its smoothed velocity gradient.
+
+    Elastic rows take the Hooke increment; Drucker-Prager and Mohr-Coulomb rows the elastic
+    trial and return map of ``plasticity``.  Adds the equivalent plastic strain increment to
+    ``node_plastic_strain`` and returns the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m).
+    """
+    plastic_work = 0.0
     for k in range(node_stress.shape[0]):
-        if node_area[k] <= 0.0:
+        area = node_area[k]
+        if area <= 0.0:
             continue  # a particle in no triangle carries its stress unchanged
         lxx = node_L[k, 0]
         lxy = node_L[k, 1]
@@ -48,7 +60,26 @@ def update_stress(node_L, node_area, node_stress, node_material, mat_lambda, mat
         lyy = node_L[k, 3]
         rotate_jaumann(node_stress, k, lxy, lyx, dt)
         m = node_material[k]
-        elastic_increment(node_stress, k, lxx * dt, lyy * dt, 0.5 * (lxy + lyx) * dt, mat_lambda[m], mat_shear[m])
+        dxx = lxx * dt
+        dyy = lyy * dt
+        dxy = 0.5 * (lxy + lyx) * dt
+        model = mat_model[m]
+        if model == MODEL_ELASTIC:
+            elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m])
+            continue
+        if model == MODEL_DRUCKER_PRAGER:
+            d_eq, work = drucker_prager_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
+            )
+        else:
+            d_eq, work = mohr_coulomb_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
+            )
+        node_plastic_strain[k] += d_eq
+        plastic_work += area * work
+    return plastic_work
 
 
 @kernel

@@ -5,6 +5,7 @@ For every particle and direction, with f = m g + f_int + f_stab (the unbalanced 
     f_damp = -xi |f| sign(v^{n-1/2})        (sign(0) = 0)
     v^{n+1/2} = v^{n-1/2} + dt (f + f_damp) / m
     v^{n+1/2} = v_prescribed                 where the direction is fixed
+    v^{n+1/2} corrected by the rigid walls (``contact``), only when there are walls
     x^{n+1} = x^n + dt v^{n+1/2},  u^{n+1} = u^n + dt v^{n+1/2}
 
 Particle masses m are fixed at the start and never recomputed.
@@ -12,6 +13,7 @@ Particle masses m are fixed at the start and never recomputed.
 
 from __future__ import annotations
 
+from spfem_core.contact import wall_contact_velocity
 from spfem_core.jit import kernel
 
 
@@ -26,20 +28,26 @@ def sign0(value):
 
 
 @kernel
-def leapfrog(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt, out):
+def leapfrog(
+    node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
+    wall_xy, wall_friction, reach, node_contact, out,
+):
     """Advance velocities and positions one step (module doc).
 
     ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with
     [max speed^2 (m^2/s^2), |f_unbalanced|^2 on free directions, |m g|^2 on free directions,
-    damping power (W/m, <= 0)].
+    damping power (W/m, <= 0), kinetic energy removed by the walls (J/m, >= 0),
+    particles touching a wall].
     """
     max_speed_sq = 0.0
     unbalanced_sq = 0.0
     applied_sq = 0.0
     damping_power = 0.0
+    contact_loss = 0.0
+    n_contact = 0
+    use_walls = wall_xy.shape[0] > 0
     for k in range(node_xy.shape[0]):
         m = node_mass[k]
-        speed_sq = 0.0
         for d in range(2):
             weight = m * gravity[d]
             f = node_force[k, d] + weight
@@ -55,12 +63,32 @@ def leapfrog(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fi
                 applied_sq += weight * weight
                 v_new = v_old + dt * (f + f_damp) / m
             node_v[k, d] = v_new
-            node_xy[k, d] += dt * v_new
-            node_u[k, d] += dt * v_new
-            speed_sq += v_new * v_new
+        vx = node_v[k, 0]
+        vy = node_v[k, 1]
+        if use_walls:
+            node_contact[k] = 0
+            if not (node_fixed[k, 0] or node_fixed[k, 1]):
+                wx, wy, dvn = wall_contact_velocity(
+                    node_xy[k, 0], node_xy[k, 1], vx, vy, dt, wall_xy, wall_friction, reach
+                )
+                if dvn != 0.0 or wx != vx or wy != vy:
+                    contact_loss += 0.5 * m * (vx * vx + vy * vy - wx * wx - wy * wy)
+                    node_contact[k] = 1
+                    n_contact += 1
+                    vx = wx
+                    vy = wy
+                    node_v[k, 0] = vx
+                    node_v[k, 1] = vy
+        node_xy[k, 0] += dt * vx
+        node_xy[k, 1] += dt * vy
+        node_u[k, 0] += dt * vx
+        node_u[k, 1] += dt * vy
+        speed_sq = vx * vx + vy * vy
         if not (speed_sq <= max_speed_sq):  # also catches NaN
             max_speed_sq = speed_sq
     out[0] = max_speed_sq
     out[1] = unbalanced_sq
     out[2] = applied_sq
     out[3] = damping_power
+    out[4] = contact_loss
+    out[5] = n_contact

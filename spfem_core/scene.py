@@ -6,39 +6,70 @@ plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 MODEL_ELASTIC = 0
-"""Material model code: linear elastic (the only model of this version)."""
+MODEL_DRUCKER_PRAGER = 1
+MODEL_MOHR_COULOMB = 2
+"""Material model codes carried by ``MaterialTable.model``."""
 
-MODEL_NAMES = {"elastic": MODEL_ELASTIC}
+MODEL_NAMES = {"elastic": MODEL_ELASTIC, "drucker_prager": MODEL_DRUCKER_PRAGER, "mohr_coulomb": MODEL_MOHR_COULOMB}
+
+N_MODEL_PARAMS = 4
+"""Columns of the compiled model constants (``MaterialTable.model_params``):
+Drucker-Prager (alpha, k in Pa, alpha_psi, 0); Mohr-Coulomb (c in Pa, sin phi, cos phi, sin psi)."""
 
 
 @dataclass(frozen=True)
 class MaterialTable:
-    """Per-material constants; a particle refers to a row by its ``node_material`` index."""
+    """Per-material constants; a particle refers to a row by its ``node_material`` index.
+
+    Strength (c, phi, psi) is ignored by elastic rows.  ``dp_fit`` names the Drucker-Prager
+    match to Mohr-Coulomb (``plasticity.DP_FITS``; empty: the default fit for the dilation).
+    """
 
     name: tuple[str, ...]
     model: np.ndarray  # (n_mat,) int64, one of the MODEL_* codes
     density_kg_m3: np.ndarray  # (n_mat,)
     youngs_modulus_pa: np.ndarray  # (n_mat,)
     poisson_ratio: np.ndarray  # (n_mat,)
+    cohesion_pa: np.ndarray | None = None  # (n_mat,) c
+    friction_deg: np.ndarray | None = None  # (n_mat,) phi
+    dilation_deg: np.ndarray | None = None  # (n_mat,) psi
+    dp_fit: tuple[str, ...] | None = None
 
     def __post_init__(self):
         n = len(self.name)
-        for attr in ("model", "density_kg_m3", "youngs_modulus_pa", "poisson_ratio"):
+        for attr in ("model", "density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "cohesion_pa",
+                     "friction_deg", "dilation_deg"):
             dtype = np.int64 if attr == "model" else np.float64
-            value = np.ascontiguousarray(getattr(self, attr), dtype=dtype).reshape(-1)
+            raw = getattr(self, attr)
+            value = np.zeros(n, dtype=dtype) if raw is None else np.ascontiguousarray(raw, dtype=dtype).reshape(-1)
             if value.shape != (n,):
                 raise ValueError(f"MaterialTable.{attr}: expected {n} values, got {value.shape[0]}")
             object.__setattr__(self, attr, value)
+        fits = ("",) * n if self.dp_fit is None else tuple(self.dp_fit)
+        if len(fits) != n:
+            raise ValueError(f"MaterialTable.dp_fit: expected {n} values, got {len(fits)}")
+        object.__setattr__(self, "dp_fit", fits)
 
     @classmethod
     def elastic(cls, name: str, density_kg_m3: float, youngs_modulus_pa: float, poisson_ratio: float):
         """A table with a single linear elastic material."""
         return cls((name,), [MODEL_ELASTIC], [density_kg_m3], [youngs_modulus_pa], [poisson_ratio])
+
+    @classmethod
+    def single(cls, name, model, density_kg_m3, youngs_modulus_pa, poisson_ratio, cohesion_pa=0.0,
+               friction_deg=0.0, dilation_deg=0.0, dp_fit=""):
+        """A table with one material of ``model`` ("elastic", "drucker_prager", "mohr_coulomb")."""
+        return cls((name,), [MODEL_NAMES[model]], [density_kg_m3], [youngs_modulus_pa], [poisson_ratio],
+                   [cohesion_pa], [friction_deg], [dilation_deg], (dp_fit,))
+
+    @property
+    def n_materials(self) -> int:
+        return len(self.name)
 
     @property
     def shear_modulus_pa(self) -> np.ndarray:
@@ -51,9 +82,40 @@ class MaterialTable:
         return self.youngs_modulus_pa / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
 
     @property
+    def lame_lambda_pa(self) -> np.ndarray:
+        """lambda = K - 2G/3."""
+        return self.bulk_modulus_pa - 2.0 * self.shear_modulus_pa / 3.0
+
+    @property
     def p_wave_speed_m_s(self) -> np.ndarray:
         """c_p = sqrt((K + 4G/3) / rho), the fastest wave of the material."""
         return np.sqrt((self.bulk_modulus_pa + 4.0 * self.shear_modulus_pa / 3.0) / self.density_kg_m3)
+
+    def model_params(self) -> np.ndarray:
+        """(n_mat, N_MODEL_PARAMS) constants the compiled update reads (see N_MODEL_PARAMS)."""
+        from spfem_core.plasticity import default_dp_fit, dp_constants
+
+        params = np.zeros((self.n_materials, N_MODEL_PARAMS))
+        for m in range(self.n_materials):
+            c, phi, psi = self.cohesion_pa[m], self.friction_deg[m], self.dilation_deg[m]
+            if self.model[m] == MODEL_DRUCKER_PRAGER:
+                fit = self.dp_fit[m] or default_dp_fit(psi, phi)
+                params[m, :3] = dp_constants(c, phi, psi, fit)
+            elif self.model[m] == MODEL_MOHR_COULOMB:
+                params[m] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
+        return params
+
+    def with_strength_reduction(self, srf: float) -> "MaterialTable":
+        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, psi_F = min(psi, phi_F)."""
+        if not srf > 0:
+            raise ValueError(f"srf: must be > 0, got {srf}")
+        phi_f = np.degrees(np.arctan(np.tan(np.radians(self.friction_deg)) / srf))
+        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f,
+                       dilation_deg=np.minimum(self.dilation_deg, phi_f))
+
+    def as_elastic(self) -> "MaterialTable":
+        """The same table with every material linear elastic (e.g. for a gravity stage)."""
+        return replace(self, model=np.full(self.n_materials, MODEL_ELASTIC, dtype=np.int64))
 
 
 @dataclass
@@ -73,6 +135,8 @@ class Scene:
     node_fixed: np.ndarray | None = None  # (n, 2) bool
     node_fixed_velocity_m_s: np.ndarray | None = None  # (n, 2)
     alpha: float = 1.5  # alpha-shape factor: drop triangles with circumradius > alpha * h
+    wall_xy_m: np.ndarray | None = None  # (n_wall, 4) rigid segments (x1, y1, x2, y2); material on the left
+    wall_friction: np.ndarray | None = None  # (n_wall,) Coulomb coefficient mu
 
     def __post_init__(self):
         self.node_xy_m = np.ascontiguousarray(self.node_xy_m, dtype=np.float64)
@@ -91,6 +155,12 @@ class Scene:
             self.node_fixed_velocity_m_s = np.zeros((n, 2))
         self.node_fixed_velocity_m_s = np.ascontiguousarray(self.node_fixed_velocity_m_s, dtype=np.float64)
         self.gravity_m_s2 = np.ascontiguousarray(self.gravity_m_s2, dtype=np.float64).reshape(2)
+        walls = np.zeros((0, 4)) if self.wall_xy_m is None else self.wall_xy_m
+        self.wall_xy_m = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 4)
+        friction = np.zeros(self.wall_xy_m.shape[0]) if self.wall_friction is None else self.wall_friction
+        self.wall_friction = np.ascontiguousarray(friction, dtype=np.float64).reshape(-1)
+        if self.wall_friction.shape[0] != self.wall_xy_m.shape[0]:
+            raise ValueError("Scene.wall_friction: one coefficient per wall expected")
         if not self.spacing_m > 0:
             raise ValueError(f"Scene.spacing_m: must be > 0, got {self.spacing_m}")
 
@@ -104,6 +174,11 @@ class Scene:
         x, y = self.node_xy_m[:, 0], self.node_xy_m[:, 1]
         inside = (x >= x_min - tol) & (x <= x_max + tol) & (y >= y_min - tol) & (y <= y_max + tol)
         return np.flatnonzero(inside)
+
+    def add_wall(self, x1_m, y1_m, x2_m, y2_m, friction=0.0) -> None:
+        """A rigid segment from (x1, y1) to (x2, y2); material lies on its left (a floor runs +x)."""
+        self.wall_xy_m = np.ascontiguousarray(np.vstack([self.wall_xy_m, [[x1_m, y1_m, x2_m, y2_m]]]))
+        self.wall_friction = np.ascontiguousarray(np.append(self.wall_friction, friction))
 
     def fix(self, nodes: np.ndarray, vx_m_s: float | None = None, vy_m_s: float | None = None) -> None:
         """Prescribe the velocity of ``nodes`` in x and/or y (None leaves that direction free)."""
@@ -135,5 +210,5 @@ class SolverSettings:
     cfl: float = 0.5
     dt_s: float | None = None
     stabilisation_beta: float = 0.0
-    max_quality_drop_deg: float = 0.0  # reserved for adaptive remeshing (issue [2/4])
-    min_angle_deg: float = 5.0  # rebuild the mesh when the smallest angle falls below this
+    min_angle_deg: float = 20.0  # rebuild the mesh when the smallest angle falls below this (adaptive, see Simulation)
+    crowded_fraction: float = 0.2  # after a rebuild, smooth particles closer than this * h to a neighbour

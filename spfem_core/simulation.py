@@ -14,10 +14,11 @@ from typing import Callable
 import numpy as np
 
 from spfem_core.mesh import Mesh, element_quality_min_angle, triangulate
-from spfem_core.scene import Scene, SolverSettings
+from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.smoothing import ELEM_GEOM_WIDTH, smooth_velocity_gradient
 from spfem_core.stepper import (
     ACC_ANGLE_USED,
+    ACC_CONTACTS,
     ACC_LAST_MAX_SPEED,
     ACC_LAST_RATIO,
     ACC_NEXT_RECORD,
@@ -30,6 +31,7 @@ from spfem_core.stepper import (
     STATUS_MESH_CHECK,
     STATUS_NOT_FINITE,
     STATUS_RUNAWAY,
+    STEP_OUT_WIDTH,
     advance,
     empty_records,
     record_state,
@@ -46,6 +48,11 @@ ENERGY_CREATED_LIMIT = 0.25
 """Divergence when kinetic + strain + gravity potential + dissipated energy has grown since
 the stage start by more than this fraction of the largest energy scale (kinetic + strain +
 |potential|) seen so far: a stable run only loses energy (about 1-2% leapfrog wobble)."""
+
+ANGLE_THRESHOLD_DROP_RAD = math.radians(5.0)
+ANGLE_THRESHOLD_FLOOR_RAD = math.radians(5.0)
+"""Adaptive remesh threshold: after a rebuild whose smallest angle is theta, the next rebuild
+comes when the smallest angle falls below clamp(theta - 5 deg, 5 deg, settings.min_angle_deg)."""
 
 DT_COLLAPSE_FACTOR = 1e-3
 """Divergence when remeshing would cut the time step below this fraction of the stage's
@@ -147,20 +154,20 @@ class Simulation:
         self.node_displacement_m = np.zeros((n, 2))
         self.node_velocity_m_s = np.zeros((n, 2))
         self.node_stress_pa = np.zeros((n, 4))
+        self.node_plastic_strain = np.zeros(n)  # equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)
         self.node_material = scene.node_material
-        mats = scene.materials
-        self._mat_youngs = mats.youngs_modulus_pa
-        self._mat_poisson = mats.poisson_ratio
-        self._mat_shear = mats.shear_modulus_pa
-        self._mat_lambda = mats.bulk_modulus_pa - 2.0 * mats.shear_modulus_pa / 3.0
-        self._node_wave_speed = mats.p_wave_speed_m_s[self.node_material]
-        self.speed_limit_m_s = float(self._node_wave_speed.max())
+        self.node_fixed = scene.node_fixed.copy()
+        self.node_fixed_velocity_m_s = scene.node_fixed_velocity_m_s.copy()
+        self._set_material_arrays(scene.materials)
 
         self._node_L = np.zeros((n, 4))
         self._node_area = np.zeros(n)
         self._node_force = np.zeros((n, 2))
-        self._step_out = np.zeros(4)
+        self._node_contact = np.zeros(n, dtype=np.int64)
+        self._step_out = np.zeros(STEP_OUT_WIDTH)
         self._acc = np.zeros(ACC_WIDTH)
+        self.n_orphans = 0
+        mats = scene.materials
 
         self.mesh = self._build_mesh()
         self._initial_mesh = self.mesh
@@ -173,6 +180,15 @@ class Simulation:
         self.node_mass_kg = mats.density_kg_m3[self.node_material] * self._node_area
         self.total_mass_kg = float(self.node_mass_kg.sum())
 
+        self._choose_time_step()
+        self.n_steps_total = 0
+        self.n_remesh_total = 0
+        self.n_smoothed_total = 0
+        self._angle_threshold_rad = math.radians(self.settings.min_angle_deg)
+        self._reset_angle_budget(after_rebuild=True)
+
+    def _choose_time_step(self):
+        """dt from the cfl or the given dt_s, checked against the stable limit (see module doc)."""
         self.critical_dt_s = self._critical_dt()
         self.max_cfl = max_stable_cfl(self.settings.stabilisation_beta)
         if self.settings.dt_s is not None:
@@ -192,9 +208,6 @@ class Simulation:
                     f"beta = {self.settings.stabilisation_beta:g} (limit 1 / (1 + beta))"
                 )
             self.dt_s = self.settings.cfl * self.critical_dt_s
-        self.n_steps_total = 0
-        self.n_remesh_total = 0
-        self._reset_angle_budget()
 
     # ------------------------------------------------------------------ mesh
     def _build_mesh(self) -> Mesh:
@@ -208,19 +221,94 @@ class Simulation:
     def _critical_dt(self) -> float:
         return float(critical_time_step(self.node_xy_m, self.mesh.elem_nodes, self._node_wave_speed))
 
-    def _reset_angle_budget(self):
-        """Exact smallest angle now; the loop may run until the cheap bound could reach the threshold."""
+    def _set_material_arrays(self, materials: MaterialTable):
+        self.materials = materials
+        self._mat_model = materials.model
+        self._mat_youngs = materials.youngs_modulus_pa
+        self._mat_poisson = materials.poisson_ratio
+        self._mat_shear = materials.shear_modulus_pa
+        self._mat_lambda = materials.lame_lambda_pa
+        self._mat_params = materials.model_params()
+        self._node_wave_speed = materials.p_wave_speed_m_s[self.node_material]
+        self.speed_limit_m_s = float(self._node_wave_speed.max())
+
+    def set_materials(self, materials: MaterialTable):
+        """Use another material table from now on (same rows; e.g. elastic gravity stage, reduced
+        strength).  The time step is chosen again for the new wave speeds."""
+        if materials.n_materials != self.materials.n_materials:
+            raise ValueError(f"materials: expected {self.materials.n_materials} rows, got {materials.n_materials}")
+        self._set_material_arrays(materials)
+        self._choose_time_step()
+
+    def set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
+        """Prescribed velocities from now on (e.g. release a retaining side for a collapse)."""
+        self.node_fixed = np.ascontiguousarray(node_fixed, dtype=bool).reshape(self.n_particles, 2)
+        self.node_fixed_velocity_m_s = np.ascontiguousarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(
+            self.n_particles, 2
+        )
+
+    def _reset_angle_budget(self, after_rebuild: bool = False):
+        """Exact smallest angle now; the loop may run until the cheap bound could reach the threshold.
+
+        After a rebuild the threshold adapts: clamp(theta_rebuilt - 5 deg, 5 deg, min_angle_deg).
+        """
         min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
         self.min_angle_rad = min_angle
-        threshold = math.radians(self.settings.min_angle_deg)
-        self._angle_threshold_rad = min(threshold, 0.5 * min_angle)
+        if after_rebuild:
+            ceiling = math.radians(self.settings.min_angle_deg)
+            self._angle_threshold_rad = min(max(min_angle - ANGLE_THRESHOLD_DROP_RAD, ANGLE_THRESHOLD_FLOOR_RAD), ceiling)
         self._acc[ACC_ANGLE_USED] = 0.0
         self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+
+    def _smooth_crowded_particles(self) -> int:
+        """One Laplacian pass over interior, free particles whose nearest mesh neighbour is closer
+        than crowded_fraction * h: x_k <- mean of its neighbours.  The displacement moves with
+        the position (u += delta x), so u stays x - x0.  Returns the number of particles moved."""
+        mesh = self.mesh
+        xy = self.node_xy_m
+        h = self.scene.spacing_m
+        edges = mesh.edge_nodes
+        if edges.shape[0] == 0:
+            return 0
+        length = np.hypot(*(xy[edges[:, 1]] - xy[edges[:, 0]]).T)
+        nearest = np.full(self.n_particles, np.inf)
+        np.minimum.at(nearest, edges[:, 0], length)
+        np.minimum.at(nearest, edges[:, 1], length)
+        crowded = nearest < self.settings.crowded_fraction * h
+        if not crowded.any():
+            return 0
+        # boundary nodes: on an edge that belongs to a single triangle
+        tri = mesh.elem_nodes
+        side = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+        key = side[:, 0] * self.n_particles + side[:, 1]
+        unique, count = np.unique(key, return_counts=True)
+        boundary_key = unique[count == 1]
+        on_boundary = np.zeros(self.n_particles, dtype=bool)
+        on_boundary[boundary_key // self.n_particles] = True
+        on_boundary[boundary_key % self.n_particles] = True
+        movable = crowded & ~on_boundary & ~self.node_fixed.any(axis=1)
+        nodes = np.flatnonzero(movable)
+        if nodes.size == 0:
+            return 0
+        ptr, idx = mesh.node_node_ptr, mesh.node_node_idx
+        degree = np.diff(ptr)
+        sums = np.zeros((self.n_particles, 2))
+        np.add.at(sums, np.repeat(np.arange(self.n_particles), degree), xy[idx])
+        target = sums[nodes] / degree[nodes, None]
+        delta = target - xy[nodes]
+        self.node_xy_m[nodes] = target
+        self.node_displacement_m[nodes] += delta
+        return int(nodes.size)
 
     def _remesh(self):
         self.mesh = self._build_mesh()
         self.n_remesh_total += 1
-        self._reset_angle_budget()
+        moved = self._smooth_crowded_particles()
+        if moved:
+            self.n_smoothed_total += moved
+            self.mesh = self._build_mesh()
+        self.n_orphans = int(self.mesh.orphan_nodes.size)
+        self._reset_angle_budget(after_rebuild=True)
         critical = self._critical_dt()
         self.critical_dt_s = critical
         if self.dt_s > self.max_cfl * critical:
@@ -232,17 +320,32 @@ class Simulation:
                 )
             self.dt_s = new_dt
 
+    def _orphans_can_rejoin(self) -> bool:
+        """True when a particle outside the mesh has come within alpha h of a meshed particle."""
+        orphans = self.mesh.orphan_nodes
+        if orphans.size == 0:
+            return False
+        from scipy.spatial import cKDTree
+
+        meshed = np.ones(self.n_particles, dtype=bool)
+        meshed[orphans] = False
+        tree = cKDTree(self.node_xy_m[meshed])
+        distance, _ = tree.query(self.node_xy_m[orphans], k=1)
+        return bool(np.any(distance < self.scene.alpha * self.scene.spacing_m))
+
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""
         self.node_xy_m[:] = self.node_initial_xy_m
         self.node_displacement_m[:] = 0.0
         self.node_velocity_m_s[:] = 0.0
         self.mesh = self._initial_mesh
+        self.n_orphans = 0
         self._elem_geom = np.zeros((self.mesh.n_elem, ELEM_GEOM_WIDTH))
         smooth_velocity_gradient(
             self.node_xy_m, self.node_velocity_m_s, self.mesh.elem_nodes, self._elem_geom, self._node_L, self._node_area
         )
-        self._reset_angle_budget()
+        self._choose_time_step()
+        self._reset_angle_budget(after_rebuild=True)
 
     # ------------------------------------------------------------------ stages
     def run(
@@ -288,7 +391,8 @@ class Simulation:
 
         beta = float(self.settings.stabilisation_beta)
         self._stage_first_dt_s = self.dt_s
-        check_energy = not np.any(self.scene.node_fixed_velocity_m_s[self.scene.node_fixed] != 0.0)
+        check_energy = not np.any(self.node_fixed_velocity_m_s[self.node_fixed] != 0.0)
+        self._stage_smoothed_start = self.n_smoothed_total
         energy_checked = 0
         energy_scale = 0.0
         energy_start = float(records.arrays[4][0].sum())
@@ -304,10 +408,13 @@ class Simulation:
             call_start = time.perf_counter()
             status, done = advance(
                 self.node_xy_m, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa,
-                self.node_mass_kg, self.node_material, self.scene.node_fixed, self.scene.node_fixed_velocity_m_s,
-                self._node_L, self._node_area, self._node_force, self._elem_geom, self._step_out,
+                self.node_plastic_strain, self.node_mass_kg, self.node_material, self.node_fixed,
+                self.node_fixed_velocity_m_s,
+                self._node_L, self._node_area, self._node_force, self._elem_geom, self._step_out, self._node_contact,
                 self.mesh.elem_nodes, self.mesh.edge_nodes,
-                self._mat_lambda, self._mat_shear, self._mat_youngs, self._mat_poisson,
+                self._mat_model, self._mat_lambda, self._mat_shear, self._mat_youngs, self._mat_poisson,
+                self._mat_params,
+                self.scene.wall_xy_m, self.scene.wall_friction, self.scene.spacing_m,
                 self.scene.gravity_m_s2, self.dt_s, float(damping), beta, self.speed_limit_m_s, float(tolerance),
                 self._angle_budget_rad,
                 n_want, stage_time,
@@ -355,6 +462,8 @@ class Simulation:
                     else:
                         self._acc[ACC_ANGLE_USED] = 0.0
                         self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+                elif self.n_orphans and self._orphans_can_rejoin():
+                    self._remesh()
             except _MeshCollapse as collapse:
                 partial = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
                 raise DivergenceError(str(collapse), self.n_steps_total, stage_time, partial) from None
@@ -363,7 +472,7 @@ class Simulation:
             elif status == STATUS_CONVERGED:
                 converged = True
                 break
-            elif status != STATUS_DONE:
+            elif status not in (STATUS_DONE, STATUS_MESH_CHECK, STATUS_INVERTED):
                 raise RuntimeError(f"unknown status {status} from the time loop")
             if progress is not None:
                 progress(min(stage_time / duration_s, 1.0))
@@ -387,10 +496,21 @@ class Simulation:
     def _series(self, records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta) -> TimeSeries:
         time_s, u, v, stress, energy, max_u = records.trimmed()
         n_remesh = self.n_remesh_total - n_remesh_start
+        n_walls = self.scene.wall_xy_m.shape[0]
+        plastic = bool(np.any(self._mat_model != 0))
         notes = {
             "stabilisation": f"on (beta = {beta:g})" if beta > 0 else "off (beta = 0): bond loop skipped",
-            "contact": "off (no walls): contact loop skipped",
-            "remesh": f"{n_remesh} rebuilds and {n_checks} exact quality checks in {n_steps} steps",
+            "contact": (
+                f"on ({n_walls} walls, {int(self._acc[ACC_CONTACTS])} particles touching at the end)"
+                if n_walls
+                else "off (no walls): contact loop skipped"
+            ),
+            "remesh": (
+                f"{n_remesh} rebuilds and {n_checks} exact quality checks in {n_steps} steps; "
+                f"{self.n_smoothed_total - self._stage_smoothed_start} crowded particles smoothed"
+            ),
+            "plasticity": "on" if plastic else "off (all materials elastic)",
+            "particles_outside_mesh": f"{self.n_orphans} at the end",
         }
         if converged is True:
             notes["early_stop"] = f"relaxation converged after {n_steps} steps (t = {time_s[-1]:.4g} s)"
@@ -414,6 +534,11 @@ class Simulation:
     @property
     def n_particles(self) -> int:
         return self.scene.n_particles
+
+    @property
+    def node_contact(self) -> np.ndarray:
+        """1 where a wall acted on the particle in the last step."""
+        return self._node_contact.copy()
 
     @property
     def node_area_m2(self) -> np.ndarray:

@@ -5,7 +5,8 @@ One step (method notes, section 1), all on the current mesh:
   2. Jaumann rotation + constitutive update of every particle (constitutive.update_stress)
   3. internal force f_I = sum_e A_e B_I^e^T sigma_bar_e       (smoothing.add_internal_force)
   4. rank-deficiency bond forces, only when beta > 0          (stabilisation.add_stabilisation_force)
-  5. leapfrog with local damping and prescribed velocities    (integration.leapfrog)
+  5. leapfrog with local damping, prescribed velocities and   (integration.leapfrog)
+     rigid walls (only when the scene has walls)              (contact.wall_contact_velocity)
 
 The loop returns to Python only when it has done the steps asked, when the record buffers
 are full, when the mesh may have degraded (inverted element, or the cheap bound on the
@@ -32,7 +33,15 @@ STATUS_RUNAWAY = 4  # a particle faster than the P-wave speed
 STATUS_CONVERGED = 5  # unbalanced-force ratio below the tolerance (relaxation)
 STATUS_BUFFER_FULL = 6
 
-ENERGY_COLUMNS = ("kinetic", "strain", "gravity_potential", "damping_dissipated", "stabilisation_dissipated")
+ENERGY_COLUMNS = (
+    "kinetic",
+    "strain",
+    "gravity_potential",
+    "damping_dissipated",
+    "stabilisation_dissipated",
+    "plastic_dissipated",
+    "contact_dissipated",
+)
 """Columns of the recorded energy array (J per metre of out-of-plane thickness)."""
 
 # accumulator slots carried across calls
@@ -42,7 +51,13 @@ ACC_ANGLE_USED = 2  # bound on how much any element angle has changed since the 
 ACC_LAST_RATIO = 3  # unbalanced-force ratio at the last step
 ACC_LAST_MAX_SPEED = 4  # max particle speed at the last step (m/s)
 ACC_NEXT_RECORD = 5  # stage time of the next record (s)
-ACC_WIDTH = 6
+ACC_PLASTIC_WORK = 6  # energy dissipated by plastic flow (J/m, >= 0)
+ACC_CONTACT_WORK = 7  # kinetic energy removed by the walls (J/m, >= 0)
+ACC_CONTACTS = 8  # particles touching a wall at the last step
+ACC_WIDTH = 9
+
+STEP_OUT_WIDTH = 6
+"""Length of the per-step scratch array filled by ``integration.leapfrog``."""
 
 
 @kernel
@@ -83,19 +98,23 @@ def record_state(
     rec_energy[slot, 2] = potential
     rec_energy[slot, 3] = acc[ACC_DAMPING_WORK]
     rec_energy[slot, 4] = acc[ACC_STAB_WORK]
+    rec_energy[slot, 5] = acc[ACC_PLASTIC_WORK]
+    rec_energy[slot, 6] = acc[ACC_CONTACT_WORK]
     rec_max_u[slot] = math.sqrt(max_u_sq)
 
 
 @kernel
 def advance(
     # particle state (updated in place)
-    node_xy, node_u, node_v, node_stress, node_mass, node_material, node_fixed, node_fixed_v,
+    node_xy, node_u, node_v, node_stress, node_plastic_strain, node_mass, node_material, node_fixed, node_fixed_v,
     # work arrays
-    node_L, node_area, node_force, elem_geom, step_out,
+    node_L, node_area, node_force, elem_geom, step_out, node_contact,
     # mesh
     elem_nodes, edge_nodes,
     # materials
-    mat_lambda, mat_shear, mat_youngs, mat_poisson,
+    mat_model, mat_lambda, mat_shear, mat_youngs, mat_poisson, mat_params,
+    # rigid walls
+    wall_xy, wall_friction, wall_reach,
     # parameters
     gravity, dt, damping, beta, speed_limit, tolerance, angle_budget,
     # stepping: number of steps to do, stage time at the start of this call (s)
@@ -114,7 +133,10 @@ def advance(
         n_inverted, max_rate_sq = smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_geom, node_L, node_area)
         if n_inverted > 0:
             return STATUS_INVERTED, s
-        update_stress(node_L, node_area, node_stress, node_material, mat_lambda, mat_shear, dt)
+        acc[ACC_PLASTIC_WORK] += update_stress(
+            node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
+            mat_params, dt,
+        )
         node_force[:, :] = 0.0
         add_internal_force(elem_nodes, elem_geom, node_stress, node_force)
         if use_stabilisation:
@@ -122,8 +144,13 @@ def advance(
                 node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, node_force
             )
             acc[ACC_STAB_WORK] -= stab_power * dt
-        leapfrog(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt, step_out)
+        leapfrog(
+            node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
+            wall_xy, wall_friction, wall_reach, node_contact, step_out,
+        )
         acc[ACC_DAMPING_WORK] -= step_out[3] * dt
+        acc[ACC_CONTACT_WORK] += step_out[4]
+        acc[ACC_CONTACTS] = step_out[5]
         max_speed_sq = step_out[0]
         acc[ACC_LAST_MAX_SPEED] = math.sqrt(max_speed_sq) if max_speed_sq >= 0.0 else max_speed_sq
         if not (max_speed_sq <= speed_limit_sq):

@@ -61,7 +61,7 @@ def test_python_dash_m_entry_point(tmp_path):
         cwd=REPO,
     )
     assert run.returncode == 2
-    assert run.stderr == f'error: {study}: materials[0].model: must be one of "elastic", got "plastic"\n'
+    assert run.stderr == f'error: {study}: materials[0].model: must be one of "elastic", "drucker_prager", "mohr_coulomb", got "plastic"\n'
     assert not (tmp_path / "out").exists()
 
 

@@ -68,6 +68,10 @@ def fake_run(study_text: str, n_rec: int = 6, **series_options):
         node_displacement_m=np.full((n, 2), 0.01),
         node_velocity_m_s=np.zeros((n, 2)),
         node_stress_pa=np.tile([-1.0, -2.0, -3.0, 0.5], (n, 1)),
+        node_initial_xy_m=node_xy_m,
+        node_plastic_strain=np.zeros(n),
+        node_area_m2=np.full(n, 0.5 * 0.5),
+        node_mass_kg=np.full(n, 1850.0 * 0.25),
         mesh=SimpleNamespace(elem_nodes=np.array([[0, 1, 5], [0, 5, 4]], dtype=np.int32)),
     )
     monitors = np.array([scene.nearest_particle(m.x_m, m.y_m) for m in study.monitors], dtype=np.int64)

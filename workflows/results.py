@@ -60,6 +60,8 @@ _ENERGY_LONG_NAMES = {
     "gravity_potential": "gravitational potential energy per metre of thickness, relative to the stage start",
     "damping_dissipated": "energy removed by local damping since the stage start, per metre of thickness",
     "stabilisation_dissipated": "energy removed by the stabilisation since the stage start, per metre of thickness",
+    "plastic_dissipated": "energy dissipated by plastic flow since the stage start, per metre of thickness",
+    "contact_dissipated": "kinetic energy removed by the rigid walls since the stage start, per metre of thickness",
 }
 
 
@@ -75,6 +77,8 @@ def _attribute_value(value):
     """A value netCDF can store as an attribute (None is left out by the caller)."""
     if isinstance(value, bool):
         return int(value)
+    if isinstance(value, tuple) and all(isinstance(v, str) for v in value):
+        return ", ".join(value)
     if isinstance(value, tuple):
         return np.array(value, dtype=np.float64).ravel()
     return value
@@ -138,6 +142,23 @@ def run_dataset(*, study: Study, stage_index: int, series, sim, scene, monitor_p
     for variable, (attribute, component, units, long_name) in _PARTICLE_COMPONENTS.items():
         values = np.asarray(getattr(sim, attribute), dtype=np.float64)[:, component]
         ds[variable] = ("particle", values, {"units": units, "long_name": long_name})
+    ds["particle_x0"] = ("particle", np.asarray(sim.node_initial_xy_m[:, 0]), {"units": "m", "long_name": "initial x of the particle"})
+    ds["particle_y0"] = ("particle", np.asarray(sim.node_initial_xy_m[:, 1]), {"units": "m", "long_name": "initial y of the particle"})
+    ds["particle_plastic_strain"] = (
+        "particle",
+        np.asarray(sim.node_plastic_strain, dtype=np.float64),
+        {"units": "1", "long_name": "equivalent plastic strain, sum of sqrt(2/3 de_p:de_p) since the start"},
+    )
+    ds["particle_area"] = (
+        "particle",
+        np.asarray(sim.node_area_m2, dtype=np.float64),
+        {"units": "m2", "long_name": "smoothing-cell area of the particle on the final mesh"},
+    )
+    ds["particle_mass"] = (
+        "particle",
+        np.asarray(sim.node_mass_kg, dtype=np.float64),
+        {"units": "kg m-1", "long_name": "particle mass per metre of thickness (fixed at the start)"},
+    )
     material_names = scene.materials.name
     ds["particle_material"] = (
         "particle",
@@ -193,8 +214,11 @@ def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
         "stage_kind": stage.kind,
     }
     for field_name in specs(type(stage)):
+        value = getattr(stage, field_name)
+        if field_name == "boundary" and value is None:
+            value = tuple(b.name for b in study.boundary)  # default: every boundary
         if field_name != "name":
-            attrs[f"stage_{field_name}"] = _attribute_value(getattr(stage, field_name))
+            attrs[f"stage_{field_name}"] = _attribute_value(value)
     attrs.update(
         n_particles=int(sim.n_particles),
         n_steps=int(series.n_steps),

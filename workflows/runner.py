@@ -14,8 +14,9 @@ from typing import Callable
 import numpy as np
 
 from spfem_core.simulation import Simulation, UnstableTimeStepError
+from workflows.metrics_output import add_metrics
 from workflows.results import is_up_to_date, result_paths, run_dataset, write_dataset
-from workflows.scene_builder import build_scene, monitor_particles, solver_settings
+from workflows.scene_builder import build_scene, monitor_particles, solver_settings, supports
 from workflows.study import DynamicStage, RelaxationStage, StageBase, Study, StudyError
 
 StageProgress = Callable[[StageBase, float], None]
@@ -33,6 +34,15 @@ class StudyRun:
     wall_time_s: float = 0.0
     dt_s: float = 0.0
     unconverged_stages: list[str] = field(default_factory=list)
+
+
+def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -> None:
+    """Set the stage's materials (elastic or as declared), its active supports and its start."""
+    materials = sim.scene.materials.as_elastic() if stage.elastic else sim.scene.materials
+    sim.set_materials(materials)
+    sim.set_supports(*supports(study, sim.scene, stage.boundary))
+    if index > 0 and stage.start == "original_positions":
+        sim.discard_displacement()
 
 
 def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None):
@@ -82,10 +92,16 @@ def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | No
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):
         report = None if progress is None else (lambda fraction, stage=stage: progress(stage, fraction))
+        try:
+            prepare_stage(sim, study, stage, index)
+        except UnstableTimeStepError as error:
+            raise StudyError(f"stages[{index}]", str(error)) from None
         series = run_stage(sim, stage, monitor_nodes, report)
         dataset = run_dataset(
             study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitor_nodes
         )
+        if index == len(study.stages) - 1:
+            dataset = add_metrics(dataset, study.metrics, sim)
         write_dataset(dataset, path)
         outcome.n_steps += int(series.n_steps)
         outcome.wall_time_s += float(series.wall_time_s)

@@ -23,7 +23,16 @@ def build_material_table(study: Study) -> MaterialTable:
         density_kg_m3=[m.density_kg_m3 for m in materials],
         youngs_modulus_pa=[m.youngs_modulus_pa for m in materials],
         poisson_ratio=[m.poisson_ratio for m in materials],
+        cohesion_pa=[getattr(m, "cohesion_pa", 0.0) for m in materials],
+        friction_deg=[getattr(m, "friction_deg", 0.0) for m in materials],
+        dilation_deg=[getattr(m, "dilation_deg", 0.0) for m in materials],
+        dp_fit=tuple(_core_dp_fit(getattr(m, "dp_fit", "")) for m in materials),
     )
+
+
+def _core_dp_fit(fit: str) -> str:
+    """The study's ``mohr_coulomb_match`` is the core's default fit (empty name)."""
+    return "" if fit in ("", "mohr_coulomb_match") else fit
 
 
 def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
@@ -61,24 +70,48 @@ def build_scene(study: Study) -> Scene:
         gravity_m_s2=np.array(study.loads.gravity_m_s2),
         alpha=study.solver.alpha,
     )
+    for wall in study.walls:
+        scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)
     for i, boundary in enumerate(study.boundary):
-        nodes = scene.select_box(
-            x_min=-np.inf if boundary.x_min_m is None else boundary.x_min_m,
-            x_max=np.inf if boundary.x_max_m is None else boundary.x_max_m,
-            y_min=-np.inf if boundary.y_min_m is None else boundary.y_min_m,
-            y_max=np.inf if boundary.y_max_m is None else boundary.y_max_m,
-        )
-        if nodes.size == 0:
+        if _boundary_nodes(scene, boundary).size == 0:
             raise StudyError(f"boundary[{i}]", f"the box of {boundary.name!r} holds no particle")
-        scene.fix(nodes, vx_m_s=boundary.vx_m_s, vy_m_s=boundary.vy_m_s)
+    scene.node_fixed, scene.node_fixed_velocity_m_s = supports(study, scene)
     return scene
+
+
+def _boundary_nodes(scene: Scene, boundary) -> np.ndarray:
+    return scene.select_box(
+        x_min=-np.inf if boundary.x_min_m is None else boundary.x_min_m,
+        x_max=np.inf if boundary.x_max_m is None else boundary.x_max_m,
+        y_min=-np.inf if boundary.y_min_m is None else boundary.y_min_m,
+        y_max=np.inf if boundary.y_max_m is None else boundary.y_max_m,
+    )
+
+
+def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None):
+    """(node_fixed (n, 2) bool, node_fixed_velocity_m_s (n, 2)) of the ``[[boundary]]`` entries
+    named in ``active`` (default: all), applied in file order."""
+    fixed = np.zeros((scene.n_particles, 2), dtype=bool)
+    velocity = np.zeros((scene.n_particles, 2))
+    for boundary in study.boundary:
+        if active is not None and boundary.name not in active:
+            continue
+        nodes = _boundary_nodes(scene, boundary)
+        for d, value in enumerate((boundary.vx_m_s, boundary.vy_m_s)):
+            if value is not None:
+                fixed[nodes, d] = True
+                velocity[nodes, d] = value
+    return fixed, velocity
 
 
 def solver_settings(study: Study) -> SolverSettings:
     """Time step rule and stabilisation of ``study``."""
     solver = study.solver
     cfl = DEFAULT_CFL if solver.cfl is None else solver.cfl
-    return SolverSettings(cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta)
+    return SolverSettings(
+        cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta,
+        min_angle_deg=solver.remesh_min_angle_deg,
+    )
 
 
 def monitor_particles(study: Study, scene: Scene) -> np.ndarray:

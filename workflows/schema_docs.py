@@ -18,7 +18,7 @@ README_PATH = Path(__file__).resolve().parents[1] / "README.md"
 README_START = "<!-- study-reference:start -->"
 README_END = "<!-- study-reference:end -->"
 
-_JSON_TYPES = {"number": "number", "integer": "integer", "text": "string"}
+_JSON_TYPES = {"number": "number", "integer": "integer", "text": "string", "boolean": "boolean"}
 _BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
 
 
@@ -37,6 +37,8 @@ def _value_schema(spec: Spec) -> dict:
         return dict(pair)
     if spec.type == "polygon":
         return {"type": "array", "items": pair, "minItems": 3}
+    if spec.type == "names":
+        return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
     schema: dict = {"type": _JSON_TYPES[spec.type]}
     for op, bound in spec.bounds:
         schema[_BOUND_KEYWORDS[op]] = bound
@@ -114,9 +116,15 @@ def _allowed(spec: Spec) -> str:
 
 
 def _type_name(spec: Spec) -> str:
-    return {"number": "float", "integer": "int", "text": "string", "point": "`[x, y]`", "polygon": "`[[x, y], ...]`"}[
-        spec.type
-    ]
+    return {
+        "number": "float",
+        "integer": "int",
+        "text": "string",
+        "boolean": "bool",
+        "names": "`[name, ...]`",
+        "point": "`[x, y]`",
+        "polygon": "`[[x, y], ...]`",
+    }[spec.type]
 
 
 def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str]]:

@@ -104,6 +104,16 @@ def text(doc, *, default=REQUIRED, choices=(), pattern=None):
     return _declare(Spec("text", "", doc, choices=tuple(choices), pattern=pattern), default)
 
 
+def boolean(doc, *, default=REQUIRED):
+    """A true/false field."""
+    return _declare(Spec("boolean", "", doc), default)
+
+
+def names(doc, *, default=REQUIRED):
+    """A list of names (of other entries of the study), e.g. ["base", "left"]."""
+    return _declare(Spec("names", "", doc), default)
+
+
 def name_field(doc):
     """A required name made of letters, digits, ``_``, ``.`` and ``-``."""
     return text(doc, pattern=NAME_PATTERN)
@@ -270,6 +280,16 @@ def check_value(spec: Spec, value):
                 f"must be letters, digits, '_', '.' or '-' (not starting with '_', '.' or '-'), got {show(value)}"
             )
         return value
+    if spec.type == "boolean":
+        if not isinstance(value, bool):
+            raise ValueError(f"must be true or false, got {show(value)}")
+        return value
+    if spec.type == "names":
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise ValueError(f"must be a list of names, got {show(value)}")
+        if len(set(value)) != len(value):
+            raise ValueError(f"lists a name twice: {show(value)}")
+        return tuple(value)
     if spec.type == "point":
         if not isinstance(value, (list, tuple)) or len(value) != 2:
             raise ValueError(f"must be a pair of numbers [x, y], got {show(value)}")
@@ -374,7 +394,48 @@ class ElasticMaterial(MaterialBase):
     model: ClassVar[str] = "elastic"
 
 
-MATERIAL_MODELS: dict[str, type[MaterialBase]] = {"elastic": ElasticMaterial}
+@dataclass(frozen=True, kw_only=True)
+class StrengthMixin(Record):
+    """Shear strength (c, phi, psi) of a perfectly plastic material."""
+
+    cohesion_pa: float = number("Pa", "cohesion c", ge=0.0)
+    friction_deg: float = number("deg", "friction angle phi", ge=0.0, lt=90.0)
+    dilation_deg: float = number("deg", "dilation angle psi (<= phi); 0: no plastic volume change", default=0.0, ge=0.0)
+
+    def check(self):
+        if self.dilation_deg > self.friction_deg:
+            raise StudyError("dilation_deg", f"must be <= friction_deg = {self.friction_deg:g}, got {self.dilation_deg:g}")
+        if self.cohesion_pa == 0.0 and self.friction_deg == 0.0:
+            raise StudyError("cohesion_pa", "a material with c = 0 and phi = 0 has no strength")
+
+
+DP_FIT_CHOICES = ("mohr_coulomb_match", "inner", "outer", "plane_strain_associated", "plane_strain_nonassociated")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DruckerPragerMaterial(StrengthMixin, MaterialBase):
+    """Drucker-Prager, perfectly plastic, plane strain; the fit sets its match to Mohr-Coulomb."""
+
+    model: ClassVar[str] = "drucker_prager"
+    dp_fit: str = text(
+        "cone fitted to Mohr-Coulomb: `mohr_coulomb_match` picks the plane-strain fit that reproduces "
+        "Mohr-Coulomb at collapse for the given dilation; `inner` is ESPFEM2D's",
+        default="mohr_coulomb_match", choices=DP_FIT_CHOICES,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class MohrCoulombMaterial(StrengthMixin, MaterialBase):
+    """Mohr-Coulomb, perfectly plastic, plane strain (return map in principal stresses)."""
+
+    model: ClassVar[str] = "mohr_coulomb"
+
+
+MATERIAL_MODELS: dict[str, type[MaterialBase]] = {
+    "elastic": ElasticMaterial,
+    "drucker_prager": DruckerPragerMaterial,
+    "mohr_coulomb": MohrCoulombMaterial,
+}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -409,6 +470,21 @@ class Boundary(Record):
                 raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
 
 
+@dataclass(frozen=True, kw_only=True)
+class Wall(Record):
+    """A rigid wall: a straight segment with Coulomb friction; material lies on its left
+    when going from start to end (a floor runs in +x)."""
+
+    name: str = name_field("name of the wall")
+    start_m: tuple = point("m", "first end of the segment [x, y]")
+    end_m: tuple = point("m", "second end of the segment [x, y]")
+    friction: float = number("1", "Coulomb friction coefficient mu (0: frictionless)", default=0.0, ge=0.0)
+
+    def check(self):
+        if self.start_m == self.end_m:
+            raise StudyError("end_m", "must differ from start_m (a wall needs a length)")
+
+
 DEFAULT_CFL = 0.5
 
 
@@ -429,6 +505,10 @@ class Solver(Record):
     alpha: float = number(
         "1", "alpha-shape factor: triangles with circumradius > alpha h are dropped", default=1.5, ge=1.0, le=3.0
     )
+    remesh_min_angle_deg: float = number(
+        "deg", "rebuild the mesh when its smallest angle falls below this (adapted after each rebuild, "
+        "never below 5)", default=20.0, gt=0.0, lt=60.0,
+    )
 
     def check(self):
         if self.cfl is not None and self.dt_s is not None:
@@ -443,6 +523,13 @@ class StageBase(Record):
     duration_field: ClassVar[str]  # the field that bounds how long the stage runs
     name: str = name_field("name of the stage; names the result file when a study has several stages")
     record_interval_s: float = number("s", "time between two records of the monitors", gt=0.0)
+    elastic: bool = boolean("treat every material as linear elastic in this stage (a gravity stage)", default=False)
+    boundary: tuple | None = names("names of the [[boundary]] entries active in this stage; default: all", default=None)
+    start: str = text(
+        "`original_positions`: start at rest at the initial positions with the stresses the previous "
+        "stage left (displacements discarded); `continue`: carry on from the previous stage's state",
+        default="original_positions", choices=("original_positions", "continue"),
+    )
 
     def check(self):
         limit = getattr(self, self.duration_field)
@@ -489,6 +576,23 @@ class Monitor(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class Metrics(Record):
+    """Scalars computed from the final state of the last stage and stored in its result file."""
+
+    kind: str = text(
+        "`granular_collapse`: wall height, runouts, surface RMS error against the Bui et al. (2008) "
+        "experiment, failure-line angle; `cohesive_collapse`: back scarp, crest height, toe, plastic zone",
+        choices=("granular_collapse", "cohesive_collapse"),
+    )
+    moved_threshold_m: float = number(
+        "m", "a particle whose displacement exceeds this has moved (failure line, back scarp)", gt=0.0
+    )
+    plastic_strain_threshold: float = number(
+        "1", "equivalent plastic strain above which a particle counts in the plastic zone", default=0.01, gt=0.0
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
 class Study(Record):
     """A whole study file."""
 
@@ -500,12 +604,14 @@ class Study(Record):
     )
     loads: Loads = table(Loads, required=False)
     boundary: tuple = tables(Boundary, "prescribed velocities (supports), applied in order")
+    walls: tuple = tables(Wall, "rigid walls (segments with friction); none: no contact work at all")
     solver: Solver = table(Solver, required=False)
     stages: tuple = tables(
         STAGE_KINDS, "what to run, in order; each stage continues from the state the previous one left",
         key="kind", key_doc="what the stage does", min_items=1,
     )
     monitors: tuple = tables(Monitor, "points recorded during every stage")
+    metrics: Metrics | None = _declare(Spec("table", doc=_first_line(Metrics.__doc__), of=Metrics), default=None)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -514,6 +620,11 @@ class Study(Record):
         return self.study.name
 
     def check(self):
+        known = {b.name for b in self.boundary}
+        for i, stage in enumerate(self.stages):
+            for name in stage.boundary or ():
+                if name not in known:
+                    raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
         for i, monitor in enumerate(self.monitors):
             if not point_in_polygon((monitor.x_m, monitor.y_m), self.geometry.polygon_m):
                 raise StudyError(
