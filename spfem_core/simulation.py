@@ -17,7 +17,9 @@ from spfem_core.mesh import Mesh, element_quality_min_angle, triangulate
 from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.smoothing import ELEM_GEOM_WIDTH, smooth_velocity_gradient
 from spfem_core.stepper import (
+    ACC_ANGLE_BUDGET,
     ACC_ANGLE_USED,
+    ACC_MESH_CHECKS,
     ACC_CONTACTS,
     ACC_LAST_MAX_SPEED,
     ACC_LAST_RATIO,
@@ -258,7 +260,7 @@ class Simulation:
             ceiling = math.radians(self.settings.min_angle_deg)
             self._angle_threshold_rad = min(max(min_angle - ANGLE_THRESHOLD_DROP_RAD, ANGLE_THRESHOLD_FLOOR_RAD), ceiling)
         self._acc[ACC_ANGLE_USED] = 0.0
-        self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+        self._acc[ACC_ANGLE_BUDGET] = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
 
     def _smooth_crowded_particles(self) -> int:
         """One Laplacian pass over interior, free particles whose nearest mesh neighbour is closer
@@ -311,14 +313,17 @@ class Simulation:
         self._reset_angle_budget(after_rebuild=True)
         critical = self._critical_dt()
         self.critical_dt_s = critical
-        if self.dt_s > self.max_cfl * critical:
+        # dt follows the new mesh both ways: a fixed dt_s is kept while stable, a cfl is re-applied
+        if self.settings.dt_s is not None and self.settings.dt_s <= self.max_cfl * critical:
+            new_dt = float(self.settings.dt_s)
+        else:
             new_dt = min(self.settings.cfl, self.max_cfl) * critical
-            if new_dt < DT_COLLAPSE_FACTOR * self._stage_first_dt_s:
-                raise _MeshCollapse(
-                    f"the mesh degenerated: its critical time step fell to {critical:.3g} s "
-                    f"(the stage started with dt = {self._stage_first_dt_s:.3g} s)"
-                )
-            self.dt_s = new_dt
+        if new_dt < DT_COLLAPSE_FACTOR * self._stage_first_dt_s:
+            raise _MeshCollapse(
+                f"the mesh degenerated: its critical time step fell to {critical:.3g} s "
+                f"(the stage started with dt = {self._stage_first_dt_s:.3g} s)"
+            )
+        self.dt_s = new_dt
 
     def _orphans_can_rejoin(self) -> bool:
         """True when a particle outside the mesh has come within alpha h of a meshed particle."""
@@ -399,6 +404,7 @@ class Simulation:
         stage_time = 0.0
         n_steps = 0
         n_remesh_start = self.n_remesh_total
+        checks_start = self._acc[ACC_MESH_CHECKS]
         n_checks = 0
         converged = None if tolerance == 0.0 else False
         # 0.1 us per particle-step is a fair first guess; adapt the chunk to the measured speed
@@ -416,13 +422,14 @@ class Simulation:
                 self._mat_params,
                 self.scene.wall_xy_m, self.scene.wall_friction, self.scene.spacing_m,
                 self.scene.gravity_m_s2, self.dt_s, float(damping), beta, self.speed_limit_m_s, float(tolerance),
-                self._angle_budget_rad,
+                self._angle_threshold_rad, ANGLE_MARGIN_RAD,
                 n_want, stage_time,
                 interval, monitor_nodes, records.count, *records.arrays,
                 self._acc,
             )
             elapsed = time.perf_counter() - call_start
             stage_time += done * self.dt_s
+            n_checks = int(self._acc[ACC_MESH_CHECKS] - checks_start)
             n_steps += done
             self.n_steps_total += done
             if done >= 10 and elapsed > 0:
@@ -455,13 +462,7 @@ class Simulation:
                 if status == STATUS_INVERTED:
                     self._remesh()
                 elif status == STATUS_MESH_CHECK:
-                    n_checks += 1
-                    min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
-                    if min_angle < self._angle_threshold_rad:
-                        self._remesh()
-                    else:
-                        self._acc[ACC_ANGLE_USED] = 0.0
-                        self._angle_budget_rad = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
+                    self._remesh()
                 elif self.n_orphans and self._orphans_can_rejoin():
                     self._remesh()
             except _MeshCollapse as collapse:

@@ -9,8 +9,9 @@ One step (method notes, section 1), all on the current mesh:
      rigid walls (only when the scene has walls)              (contact.wall_contact_velocity)
 
 The loop returns to Python only when it has done the steps asked, when the record buffers
-are full, when the mesh may have degraded (inverted element, or the cheap bound on the
-smallest angle has used up its budget), when a relaxation has converged, or on divergence.
+are full, when the mesh needs rebuilding (an inverted element, or a smallest angle below the
+threshold: measured exactly only when a cheap strain-rate bound on the angle change has used
+up its budget), when a relaxation has converged, or on divergence.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import numpy as np
 from spfem_core.constitutive import elastic_energy_density, update_stress
 from spfem_core.integration import leapfrog
 from spfem_core.jit import kernel
+from spfem_core.mesh import element_quality_min_angle
 from spfem_core.smoothing import add_internal_force, smooth_velocity_gradient
 from spfem_core.stabilisation import add_stabilisation_force
 
@@ -54,7 +56,9 @@ ACC_NEXT_RECORD = 5  # stage time of the next record (s)
 ACC_PLASTIC_WORK = 6  # energy dissipated by plastic flow (J/m, >= 0)
 ACC_CONTACT_WORK = 7  # kinetic energy removed by the walls (J/m, >= 0)
 ACC_CONTACTS = 8  # particles touching a wall at the last step
-ACC_WIDTH = 9
+ACC_MESH_CHECKS = 9  # exact quality checks done inside the loop
+ACC_ANGLE_BUDGET = 10  # how much the smallest angle may change before the next exact check (rad)
+ACC_WIDTH = 11
 
 STEP_OUT_WIDTH = 6
 """Length of the per-step scratch array filled by ``integration.leapfrog``."""
@@ -116,7 +120,7 @@ def advance(
     # rigid walls
     wall_xy, wall_friction, wall_reach,
     # parameters
-    gravity, dt, damping, beta, speed_limit, tolerance, angle_budget,
+    gravity, dt, damping, beta, speed_limit, tolerance, angle_threshold, angle_margin,
     # stepping: number of steps to do, stage time at the start of this call (s)
     n_steps, time_start,
     # records: one row every record_interval seconds of stage time
@@ -172,8 +176,14 @@ def advance(
             if rec_count[0] >= n_rec_capacity:
                 return STATUS_BUFFER_FULL, s + 1
         acc[ACC_ANGLE_USED] += 2.0 * math.sqrt(max_rate_sq) * dt
-        if acc[ACC_ANGLE_USED] >= angle_budget:
-            return STATUS_MESH_CHECK, s + 1
+        if acc[ACC_ANGLE_USED] >= acc[ACC_ANGLE_BUDGET]:
+            # the cheap bound says the mesh may have degraded: measure it exactly, here
+            acc[ACC_MESH_CHECKS] += 1.0
+            min_angle = element_quality_min_angle(node_xy, elem_nodes)
+            if not (min_angle >= angle_threshold):
+                return STATUS_MESH_CHECK, s + 1
+            acc[ACC_ANGLE_USED] = 0.0
+            acc[ACC_ANGLE_BUDGET] = max(min_angle - angle_threshold - angle_margin, 0.0)
         if tolerance > 0.0 and ratio < tolerance:
             return STATUS_CONVERGED, s + 1
     return STATUS_DONE, n_steps
