@@ -20,10 +20,14 @@ from spfem_core.stepper import (
     ACC_ANGLE_BUDGET,
     ACC_ANGLE_USED,
     ACC_MESH_CHECKS,
+    ACC_CONTACT_WORK,
     ACC_CONTACTS,
+    ACC_DAMPING_WORK,
     ACC_LAST_MAX_SPEED,
     ACC_LAST_RATIO,
     ACC_NEXT_RECORD,
+    ACC_PLASTIC_WORK,
+    ACC_STAB_WORK,
     ACC_WIDTH,
     ENERGY_COLUMNS,
     STATUS_BUFFER_FULL,
@@ -52,9 +56,11 @@ the stage start by more than this fraction of the largest energy scale (kinetic 
 |potential|) seen so far: a stable run only loses energy (about 1-2% leapfrog wobble)."""
 
 ANGLE_THRESHOLD_DROP_RAD = math.radians(5.0)
-ANGLE_THRESHOLD_FLOOR_RAD = math.radians(5.0)
 """Adaptive remesh threshold: after a rebuild whose smallest angle is theta, the next rebuild
-comes when the smallest angle falls below clamp(theta - 5 deg, 5 deg, settings.min_angle_deg)."""
+comes when the smallest angle falls below min(settings.min_angle_deg, max(theta - 5 deg,
+theta / 2)).  ESPFEM2D clamps at 5 deg instead of theta / 2; a fresh Delaunay mesh of a
+disordered cloud is often only 8-10 deg at its worst element, which left a 3-5 deg budget
+and a rebuild every few dozen steps."""
 
 DT_COLLAPSE_FACTOR = 1e-3
 """Divergence when remeshing would cut the time step below this fraction of the stage's
@@ -253,13 +259,13 @@ class Simulation:
     def _reset_angle_budget(self, after_rebuild: bool = False):
         """Exact smallest angle now; the loop may run until the cheap bound could reach the threshold.
 
-        After a rebuild the threshold adapts: clamp(theta_rebuilt - 5 deg, 5 deg, min_angle_deg).
+        After a rebuild the threshold adapts (see ANGLE_THRESHOLD_DROP_RAD).
         """
         min_angle = float(element_quality_min_angle(self.node_xy_m, self.mesh.elem_nodes))
         self.min_angle_rad = min_angle
         if after_rebuild:
             ceiling = math.radians(self.settings.min_angle_deg)
-            self._angle_threshold_rad = min(max(min_angle - ANGLE_THRESHOLD_DROP_RAD, ANGLE_THRESHOLD_FLOOR_RAD), ceiling)
+            self._angle_threshold_rad = min(max(min_angle - ANGLE_THRESHOLD_DROP_RAD, 0.5 * min_angle), ceiling)
         self._acc[ACC_ANGLE_USED] = 0.0
         self._acc[ACC_ANGLE_BUDGET] = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
 
@@ -393,6 +399,8 @@ class Simulation:
         interval = float(record_interval_s) if record_interval_s else max(duration_s / 1000.0, self.dt_s)
         records = _Records(monitor_nodes.size, capacity=int(min(duration_s / interval, 1e6)) + 2)
         self._acc[ACC_NEXT_RECORD] = interval
+        for slot in (ACC_DAMPING_WORK, ACC_STAB_WORK, ACC_PLASTIC_WORK, ACC_CONTACT_WORK):
+            self._acc[slot] = 0.0  # dissipation is recorded since the stage start
         self._record(records, 0.0, monitor_nodes)
 
         beta = float(self.settings.stabilisation_beta)
