@@ -153,6 +153,19 @@ def _plastic_measures(dsxx, dsyy, dszz, dsxy, nxx, nyy, nzz, nxy, bulk_modulus, 
 
 
 @kernel
+def elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus):
+    """Trial stress sigma + lambda tr(d) I + 2 G d of row ``k_row`` (plane strain, d_zz = 0),
+    returned as (xx, yy, zz, xy) without writing it."""
+    volumetric = lame_lambda * (dxx + dyy)
+    return (
+        stress[k_row, 0] + (volumetric + 2.0 * shear_modulus * dxx),
+        stress[k_row, 1] + (volumetric + 2.0 * shear_modulus * dyy),
+        stress[k_row, 2] + volumetric,
+        stress[k_row, 3] + 2.0 * shear_modulus * dxy,
+    )
+
+
+@kernel
 def drucker_prager_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, alpha, k_yield, alpha_psi):
     """Elastic trial and closed-form return of row k_row to f = alpha I1 + sqrt(J2) - k (in place).
 
@@ -166,11 +179,7 @@ def drucker_prager_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modul
     """
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
-    volumetric = lame_lambda * (dxx + dyy)
-    txx = stress[k_row, 0] + (volumetric + 2.0 * g * dxx)
-    tyy = stress[k_row, 1] + (volumetric + 2.0 * g * dyy)
-    tzz = stress[k_row, 2] + volumetric
-    txy = stress[k_row, 3] + 2.0 * g * dxy
+    txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
     p = (txx + tyy + tzz) / 3.0
     sxx = txx - p
     syy = tyy - p
@@ -225,11 +234,7 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
     """
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
-    volumetric = lame_lambda * (dxx + dyy)
-    txx = stress[k_row, 0] + (volumetric + 2.0 * g * dxx)
-    tyy = stress[k_row, 1] + (volumetric + 2.0 * g * dyy)
-    tzz = stress[k_row, 2] + volumetric
-    txy = stress[k_row, 3] + 2.0 * g * dxy
+    txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
     centre = 0.5 * (txx + tyy)
     half_diff = 0.5 * (txx - tyy)
     radius = math.sqrt(half_diff * half_diff + txy * txy)

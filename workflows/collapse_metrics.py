@@ -227,6 +227,18 @@ class FailureLine(NamedTuple):
     """(m, 2) boundary points between moved and unmoved material, initial configuration, by row."""
 
 
+def _moved_particles(node_initial_xy_m, node_displacement_m, threshold_m, spacing_m):
+    """Checked (initial positions, mask |u| > threshold, spacing h: given or estimated)."""
+    node_initial_xy_m = _xy(node_initial_xy_m, "node_initial_xy_m")
+    node_displacement_m = _xy(node_displacement_m, "node_displacement_m")
+    if node_displacement_m.shape != node_initial_xy_m.shape:
+        raise ValueError("node_displacement_m: must have the shape of node_initial_xy_m")
+    threshold_m = _positive(threshold_m, "threshold_m")
+    spacing_m = estimate_spacing_m(node_initial_xy_m) if spacing_m is None else _positive(spacing_m, "spacing_m")
+    moved = np.hypot(node_displacement_m[:, 0], node_displacement_m[:, 1]) > threshold_m
+    return node_initial_xy_m, moved, spacing_m
+
+
 def failure_line(
     node_initial_xy_m, node_displacement_m, threshold_m: float, spacing_m: float | None = None
 ) -> FailureLine:
@@ -242,14 +254,8 @@ def failure_line(
     atan2(1, -b) in deg from horizontal (positive for a line rising towards the wall),
     base_x_m = a.  Both NaN with fewer than two boundary rows.
     """
-    node_initial_xy_m = _xy(node_initial_xy_m, "node_initial_xy_m")
-    node_displacement_m = _xy(node_displacement_m, "node_displacement_m")
-    if node_displacement_m.shape != node_initial_xy_m.shape:
-        raise ValueError("node_displacement_m: must have the shape of node_initial_xy_m")
-    threshold_m = _positive(threshold_m, "threshold_m")
-    spacing_m = estimate_spacing_m(node_initial_xy_m) if spacing_m is None else _positive(spacing_m, "spacing_m")
+    node_initial_xy_m, moved, spacing_m = _moved_particles(node_initial_xy_m, node_displacement_m, threshold_m, spacing_m)
 
-    moved = np.hypot(node_displacement_m[:, 0], node_displacement_m[:, 1]) > threshold_m
     row = _bin_index(node_initial_xy_m[:, 1], spacing_m)
     points = []
     for k in np.unique(row[moved]):
@@ -282,14 +288,8 @@ def back_scarp_x(
     ``threshold_m`` (|u| > threshold).  h = ``spacing_m``, by default the median
     nearest-neighbour distance of the initial cloud.  NaN if no top particle moved.
     """
-    node_initial_xy_m = _xy(node_initial_xy_m, "node_initial_xy_m")
-    node_displacement_m = _xy(node_displacement_m, "node_displacement_m")
-    if node_displacement_m.shape != node_initial_xy_m.shape:
-        raise ValueError("node_displacement_m: must have the shape of node_initial_xy_m")
-    threshold_m = _positive(threshold_m, "threshold_m")
-    spacing_m = estimate_spacing_m(node_initial_xy_m) if spacing_m is None else _positive(spacing_m, "spacing_m")
+    node_initial_xy_m, moved, spacing_m = _moved_particles(node_initial_xy_m, node_displacement_m, threshold_m, spacing_m)
     near_top = node_initial_xy_m[:, 1] >= float(top_y_m) - 1.5 * spacing_m
-    moved = np.hypot(node_displacement_m[:, 0], node_displacement_m[:, 1]) > threshold_m
     selected = near_top & moved
     return float(node_initial_xy_m[selected, 0].min()) if selected.any() else math.nan
 
