@@ -154,7 +154,9 @@ class Simulation:
     (xx, yy, zz, xy), ``node_mass_kg`` (fixed at the start: m_k = rho_k A_k on the first mesh).
     """
 
-    def __init__(self, scene: Scene, settings: SolverSettings | None = None):
+    def __init__(self, scene: Scene, settings: SolverSettings | None = None, allow_detached: bool = False):
+        """``allow_detached``: accept particles in no triangle of the first mesh (they fly under
+        gravity with the nominal mass rho h^2 until they land); otherwise such a cloud is an error."""
         self.scene = scene
         self.settings = settings or SolverSettings()
         n = scene.n_particles
@@ -181,12 +183,15 @@ class Simulation:
         self.mesh = self._build_mesh()
         self._initial_mesh = self.mesh
         orphans = self.mesh.orphan_nodes
-        if orphans.size:
+        if orphans.size and not allow_detached:
             raise ValueError(
                 f"{orphans.size} particles lie in no triangle of the initial mesh (first: {orphans[:5].tolist()}); "
                 "check the spacing against the geometry or raise alpha"
             )
-        self.node_mass_kg = mats.density_kg_m3[self.node_material] * self._node_area
+        cell_area = self._node_area.copy()
+        cell_area[orphans] = scene.spacing_m**2
+        self.node_mass_kg = mats.density_kg_m3[self.node_material] * cell_area
+        self.n_orphans = int(orphans.size)
         self.total_mass_kg = float(self.node_mass_kg.sum())
 
         self._choose_time_step()
@@ -429,6 +434,11 @@ class Simulation:
         steps_per_call = max(10, int(WALL_SECONDS_PER_CALL / (1e-7 * max(self.scene.n_particles, 1))))
         while stage_time < duration_s - 0.5 * self.dt_s:
             n_want = min(steps_per_call, max(1, int(round((duration_s - stage_time) / self.dt_s))))
+            if self.n_orphans:
+                # a detached particle must be seen before it crosses the mesh: check for landing
+                # at least every half spacing of travel of the fastest particle
+                speed = max(float(np.abs(self.node_velocity_m_s).max()), 1e-12)
+                n_want = max(1, min(n_want, int(0.5 * self.scene.spacing_m / (speed * self.dt_s))))
             call_start = time.perf_counter()
             status, done = advance(
                 self.node_xy_m, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa,
