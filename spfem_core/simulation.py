@@ -346,17 +346,25 @@ class Simulation:
         self.dt_s = new_dt
 
     def _orphans_can_rejoin(self) -> bool:
-        """True when a particle outside the mesh has come within alpha h of a meshed particle."""
+        """True when a particle outside the mesh has come within h of a meshed particle (closer
+        than that the alpha shape takes it in; further, a rebuild would leave it out again)."""
         orphans = self.mesh.orphan_nodes
         if orphans.size == 0:
             return False
+        tried = getattr(self, "_rejoin_tried_xy", None)
+        if tried is not None and tried.shape == (orphans.size, 2):
+            # the last rebuild left them out: try again only once one has moved h/2
+            moved = np.hypot(*(self.node_xy_m[orphans] - tried).T).max()
+            if moved < 0.5 * self.scene.spacing_m:
+                return False
+        self._rejoin_tried_xy = self.node_xy_m[orphans].copy()
         from scipy.spatial import cKDTree
 
         meshed = np.ones(self.n_particles, dtype=bool)
         meshed[orphans] = False
         tree = cKDTree(self.node_xy_m[meshed])
         distance, _ = tree.query(self.node_xy_m[orphans], k=1)
-        return bool(np.any(distance < self.scene.alpha * self.scene.spacing_m))
+        return bool(np.any(distance < self.scene.spacing_m))
 
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""

@@ -15,6 +15,11 @@ with each node's own Young's modulus E and smoothing-cell area A.  Because delta
 increment over one step, f is a bond viscosity eta = beta E dt / 2 acting on the part of the
 relative velocity a linear field cannot explain: it only removes energy (its work is
 returned so energy budgets can account for it), and at fixed beta it scales with dt.
+
+The viscosity per bond grows as 1 / |x0|^2: for a bond much shorter than the spacing h
+(two particles pressed together after a remesh) it exceeds what an explicit step can
+integrate (c dt / m ~ beta/2 cfl^2 h^2/|x0|^2) and the run blows up.  |x0|^2 is therefore
+bounded below by ``min_bond_sq`` = (h/2)^2, which changes nothing on ordinary bonds.
 """
 
 from __future__ import annotations
@@ -25,7 +30,9 @@ from spfem_core.jit import kernel
 
 
 @kernel
-def add_stabilisation_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, node_force):
+def add_stabilisation_force(
+    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, min_bond_sq, node_force
+):
     """Add the bond forces f_ij over every mesh edge (i, j) to node_force; return their power
     sum f . v (W/m, <= 0)."""
     half_beta = 0.5 * beta
@@ -51,7 +58,7 @@ def add_stabilisation_force(node_xy, node_v, node_L, node_area, node_material, m
         err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey
         ea_i = mat_youngs[node_material[i]] * node_area[i]
         ea_j = mat_youngs[node_material[j]] * node_area[j]
-        f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / length0_sq
+        f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / max(length0_sq, min_bond_sq)
         fx = f * ex
         fy = f * ey
         node_force[j, 0] += fx

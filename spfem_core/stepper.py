@@ -117,7 +117,7 @@ def advance(
     elem_nodes, edge_nodes,
     # materials
     mat_model, mat_lambda, mat_shear, mat_youngs, mat_poisson, mat_params,
-    # rigid walls
+    # rigid walls; wall_reach is the particle spacing h (also bounds short stabilisation bonds)
     wall_xy, wall_friction, wall_reach,
     # parameters
     gravity, dt, damping, beta, speed_limit, tolerance, angle_threshold, angle_margin,
@@ -145,7 +145,8 @@ def advance(
         add_internal_force(elem_nodes, elem_geom, node_stress, node_force)
         if use_stabilisation:
             stab_power = add_stabilisation_force(
-                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, node_force
+                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt,
+                0.25 * wall_reach * wall_reach, node_force,
             )
             acc[ACC_STAB_WORK] -= stab_power * dt
         leapfrog(
