@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from spfem_core.mesh import Mesh, element_quality_min_angle, triangulate
 from spfem_core.scene import MaterialTable, Scene, SolverSettings
@@ -178,6 +179,7 @@ class Simulation:
         self._step_out = np.zeros(STEP_OUT_WIDTH)
         self._acc = np.zeros(ACC_WIDTH)
         self.n_orphans = 0
+        self._rejoin_tried_xy = None  # detached positions at the last rejoin rebuild that took none in
         mats = scene.materials
 
         self.mesh = self._build_mesh()
@@ -351,14 +353,13 @@ class Simulation:
         orphans = self.mesh.orphan_nodes
         if orphans.size == 0:
             return False
-        tried = getattr(self, "_rejoin_tried_xy", None)
+        tried = self._rejoin_tried_xy
         if tried is not None and tried.shape == (orphans.size, 2):
             # the last rebuild left them out: try again only once one has moved h/2
             moved = np.hypot(*(self.node_xy_m[orphans] - tried).T).max()
             if moved < 0.5 * self.scene.spacing_m:
                 return False
         self._rejoin_tried_xy = self.node_xy_m[orphans].copy()
-        from scipy.spatial import cKDTree
 
         meshed = np.ones(self.n_particles, dtype=bool)
         meshed[orphans] = False
