@@ -48,6 +48,9 @@ from spfem_core.timestep import critical_time_step
 WALL_SECONDS_PER_CALL = 0.25
 """Target wall time of one compiled call (sets how often progress is reported)."""
 
+STOP_CHECK_FRACTION = 0.02
+"""With a stop rule, a compiled call covers at most this fraction of the stage's duration."""
+
 ANGLE_MARGIN_RAD = math.radians(1.0)
 """Safety margin on the cheap angle bound (it uses the strain rate of the previous step)."""
 
@@ -77,6 +80,11 @@ def max_stable_cfl(beta: float) -> float:
     the rule keeps a margin of at least 1.5 on all of them.
     """
     return 1.0 / (1.0 + max(beta, 0.0))
+
+
+StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
+"""Asked between compiled calls with the records so far (time_s, max_displacement_m,
+kinetic_energy_j_per_m; read-only views): a reason (one line) to end the stage now, or None."""
 
 
 class DivergenceError(RuntimeError):
@@ -381,6 +389,20 @@ class Simulation:
         self._choose_time_step()
         self._reset_angle_budget(after_rebuild=True)
 
+    def set_initial_stress(self, node_stress_pa: np.ndarray, node_plastic_strain: np.ndarray | None = None):
+        """Start from a stress state computed elsewhere (a cached gravity stage), at the initial
+        positions and at rest: ``node_stress_pa`` (n, 4) xx, yy, zz, xy; plastic strain (n,)."""
+        stress = np.asarray(node_stress_pa, dtype=np.float64)
+        if stress.shape != (self.n_particles, 4) or not np.all(np.isfinite(stress)):
+            raise ValueError(f"node_stress_pa: expected finite ({self.n_particles}, 4), got shape {stress.shape}")
+        self.discard_displacement()
+        self.node_stress_pa[:] = stress
+        if node_plastic_strain is not None:
+            plastic = np.asarray(node_plastic_strain, dtype=np.float64).reshape(-1)
+            if plastic.shape != (self.n_particles,):
+                raise ValueError(f"node_plastic_strain: expected ({self.n_particles},), got shape {plastic.shape}")
+            self.node_plastic_strain[:] = plastic
+
     # ------------------------------------------------------------------ stages
     def run(
         self,
@@ -389,9 +411,14 @@ class Simulation:
         record_interval_s: float | None = None,
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
+        stop: StopRule | None = None,
     ) -> TimeSeries:
-        """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``."""
-        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress)
+        """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``.
+
+        ``stop`` is asked between compiled calls whether the outcome is decided (see
+        :data:`StopRule`); the stage then ends early and its notes say why.
+        """
+        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop)
 
     def relax(
         self,
@@ -411,7 +438,7 @@ class Simulation:
             raise ValueError(f"tolerance must be > 0, got {tolerance}")
         return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress)
 
-    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress) -> TimeSeries:
+    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None):
         if not duration_s > 0.0:
             raise ValueError(f"duration_s must be > 0, got {duration_s}")
         if not 0.0 <= damping < 1.0:
@@ -439,10 +466,13 @@ class Simulation:
         checks_start = self._acc[ACC_MESH_CHECKS]
         n_checks = 0
         converged = None if tolerance == 0.0 else False
+        stop_reason = ""
         # 0.1 us per particle-step is a fair first guess; adapt the chunk to the measured speed
         steps_per_call = max(10, int(WALL_SECONDS_PER_CALL / (1e-7 * max(self.scene.n_particles, 1))))
         while stage_time < duration_s - 0.5 * self.dt_s:
             n_want = min(steps_per_call, max(1, int(round((duration_s - stage_time) / self.dt_s))))
+            if stop is not None:  # ask the stop rule at least every STOP_CHECK_FRACTION of the stage
+                n_want = min(n_want, max(1, int(STOP_CHECK_FRACTION * duration_s / self.dt_s)))
             if self.n_orphans:
                 # a detached particle must be seen before it crosses the mesh: check for landing
                 # at least every half spacing of travel of the fastest particle
@@ -512,6 +542,13 @@ class Simulation:
                 break
             elif status not in (STATUS_DONE, STATUS_MESH_CHECK, STATUS_INVERTED):
                 raise RuntimeError(f"unknown status {status} from the time loop")
+            if stop is not None:
+                n_rec = int(records.count[0])
+                arrays = records.arrays
+                early = stop(arrays[0][:n_rec], arrays[5][:n_rec], arrays[4][:n_rec, 0])
+                if early:
+                    stop_reason = str(early)
+                    break
             if progress is not None:
                 progress(min(stage_time / duration_s, 1.0))
         if records.arrays[0][int(records.count[0]) - 1] < stage_time - 1e-12 * max(stage_time, 1.0):
@@ -520,7 +557,10 @@ class Simulation:
             self._record(records, stage_time, monitor_nodes)
         if progress is not None:
             progress(1.0)
-        return self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
+        series = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
+        if stop_reason:
+            series.notes["early_stop"] = f"stopped at t = {series.time_s[-1]:.4g} s of {duration_s:g} s: {stop_reason}"
+        return series
 
     def _record(self, records: _Records, time_s: float, monitor_nodes: np.ndarray):
         slot = int(records.count[0])

@@ -1,10 +1,14 @@
 """The ``spfem-fos`` command: run a study file and write its results.
 
-    spfem-fos STUDY.toml [--out DIR] [--quiet] [--force]
+    spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS]
     python -m workflows.cli STUDY.toml ...
 
+A study whose last stage is ``strength_reduction`` computes a factor of safety
+(:mod:`workflows.fos_study`: SRF runs on dask, report and ``summary.nc``); any other study
+runs its stages in order (:mod:`workflows.runner`).
+
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
-(missing file, invalid study: one line on stderr, nothing written).
+(missing file, invalid study or option: one line on stderr, nothing written).
 """
 
 from __future__ import annotations
@@ -50,6 +54,14 @@ def main(
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar and no summary")] = False,
     force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
+    workers: Annotated[
+        int, typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread each)")
+    ] = 2,
+    scheduler: Annotated[
+        Optional[str],
+        typer.Option("--scheduler", help="address of a running dask scheduler (tcp://host:8786) to run the SRF runs on",
+                     show_default=False),
+    ] = None,
 ) -> None:
     try:
         study = load_study(study_file)
@@ -60,6 +72,8 @@ def main(
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
 
+    if workers < 1:
+        raise _fail(f"error: --workers: must be >= 1, got {workers}", EXIT_BAD_STUDY)
     # Imported here so that checking a study and --help stay fast: the core compiles with numba.
     from spfem_core.simulation import DivergenceError
     from workflows.runner import run_study
@@ -69,6 +83,10 @@ def main(
     columns = (
         TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(), TimeRemainingColumn()
     )
+    if study.strength_reduction is not None:
+        _run_fos(study, study_file, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
+                 scheduler=scheduler)
+        return
     try:
         with Progress(*columns, console=console) as progress:
             outcome = run_study(study, out_dir, progress=StageBars(progress), force=force)
@@ -90,6 +108,46 @@ def main(
         f"wall time {outcome.wall_time_s:.1f} s"
     )
     typer.echo(f"wrote {paths}")
+
+
+def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler) -> None:
+    from spfem_core.simulation import DivergenceError
+    from workflows.fos_study import FosProgress, run_fos_study
+    from workflows.fos_summary import report_lines
+
+    try:
+        with Progress(*columns, console=console) as progress:
+            bars: dict[str, int] = {}
+
+            def stage(name, fraction):
+                if name not in bars:
+                    bars[name] = progress.add_task(f"{name} (gravity)", total=1.0)
+                progress.update(bars[name], completed=min(max(fraction, 0.0), 1.0))
+
+            def runs(done, planned):
+                if "runs" not in bars:
+                    bars["runs"] = progress.add_task("SRF runs", total=max(planned, 1))
+                progress.update(bars["runs"], completed=done, total=max(planned, 1))
+
+            def message(text):
+                if text.startswith("warning") or not quiet:
+                    progress.console.print(text, highlight=False, markup=False)
+
+            outcome = run_fos_study(
+                study, out_dir, workers=workers, scheduler=scheduler, force=force,
+                progress=FosProgress(stage=stage, runs=runs, message=message),
+            )
+    except StudyError as error:
+        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+    except DivergenceError as error:
+        raise _fail(f"error: {study_file}: the gravity stage diverged: {error}", EXIT_DIVERGED) from None
+    if quiet:
+        return
+    typer.echo(f"{study.name}: {outcome.n_particles} particles, {len(outcome.runs)} SRF runs, "
+               f"wall time {outcome.timings_s['total']:.1f} s")
+    for line in report_lines(outcome):
+        typer.echo(line)
+    typer.echo(f"wrote {outcome.summary_path}" + "".join(f", {path.name}" for path in outcome.figures))
 
 
 if __name__ == "__main__":

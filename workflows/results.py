@@ -217,7 +217,7 @@ def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
         value = getattr(stage, field_name)
         if field_name == "boundary" and value is None:
             value = tuple(b.name for b in study.boundary)  # default: every boundary
-        if field_name != "name":
+        if field_name != "name" and value is not None:
             attrs[f"stage_{field_name}"] = _attribute_value(value)
     attrs.update(
         n_particles=int(sim.n_particles),

@@ -563,7 +563,63 @@ class RelaxationStage(StageBase):
     damping: float = number("1", "local (Cundall) damping factor", default=0.7, gt=0.0, lt=1.0)
 
 
-STAGE_KINDS: dict[str, type[StageBase]] = {"dynamic": DynamicStage, "relaxation": RelaxationStage}
+@dataclass(frozen=True, kw_only=True)
+class StrengthReductionStage(StageBase):
+    """Strength reduction: one undamped run per SRF F from the previous stage's stresses, with
+    c / F and tan(phi) / F; the FOS is the knee of the SRF-displacement curve (last stage only)."""
+
+    kind: ClassVar[str] = "strength_reduction"
+    duration_field: ClassVar[str] = "duration_s"
+    duration_s: float = number("s", "simulated time of each SRF run (several response times of the slope)", gt=0.0)
+    srf_min: float = number("1", "first SRF of the sweep; below 1 tests whether the slope stands as built", gt=0.0)
+    srf_max: float = number("1", "last SRF of the sweep", gt=0.0)
+    srf_step: float = number("1", "SRF step of the first sweep (refined around the knee afterwards)", gt=0.0)
+    fos_tolerance: float = number(
+        "1", "refine until the FOS bracket is at most this wide", default=0.01, gt=0.0
+    )
+    max_runs: int = integer("never make more SRF runs than this", default=40, ge=3, le=1000)
+    failure_displacement_m: float | None = number(
+        "m", "a run whose largest displacement exceeds this has failed (and stops there when early_stop "
+        "is on); default: 10% of the height of geometry.polygon_m", default=None, gt=0.0,
+    )
+    displacement_floor_m: float | None = number(
+        "m", "displacements below this count as this in the log-scale curve (no mechanism); "
+        "default: failure_displacement_m / 1000", default=None, gt=0.0,
+    )
+    rest_window_s: float = number(
+        "s", "at rest: the largest displacement grew by less than rest_growth of itself over the last "
+        "window, and by less than over the window before", default=1.0, gt=0.0,
+    )
+    rest_growth: float = number("1", "see rest_window_s", default=0.01, gt=0.0, lt=1.0)
+    early_stop: bool = boolean("end a run once it is at rest or past failure_displacement_m", default=True)
+
+    def check(self):
+        super().check()
+        if self.srf_max < self.srf_min:
+            raise StudyError("srf_max", f"must be >= srf_min = {self.srf_min:g}, got {self.srf_max:g}")
+        if self.srf_step > self.srf_max - self.srf_min and self.srf_max > self.srf_min:
+            raise StudyError("srf_step", f"must be <= srf_max - srf_min = {self.srf_max - self.srf_min:g}")
+        if (self.srf_max - self.srf_min) / self.srf_step > 200:
+            raise StudyError("srf_step", "gives more than 200 sweep values; use a coarser step (the knee is refined)")
+        if self.elastic:
+            raise StudyError("elastic", "must be false: a strength-reduction stage needs a plastic material")
+        if self.start != "original_positions":
+            raise StudyError("start", "must be 'original_positions': every SRF run starts from the gravity state")
+        if 2 * self.rest_window_s > self.duration_s and self.early_stop:
+            raise StudyError("rest_window_s", f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s:g}")
+        if (
+            self.failure_displacement_m is not None
+            and self.displacement_floor_m is not None
+            and self.displacement_floor_m >= self.failure_displacement_m
+        ):
+            raise StudyError("displacement_floor_m", "must be < failure_displacement_m")
+
+
+STAGE_KINDS: dict[str, type[StageBase]] = {
+    "dynamic": DynamicStage,
+    "relaxation": RelaxationStage,
+    "strength_reduction": StrengthReductionStage,
+}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -593,6 +649,16 @@ class Metrics(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class Output(Record):
+    """What is written beside the result files."""
+
+    figures: bool = boolean(
+        "draw PNG figures (a strength-reduction study: the SRF-displacement curve and the fields at the "
+        "last stable and first failed SRF)", default=True,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
 class Study(Record):
     """A whole study file."""
 
@@ -612,6 +678,7 @@ class Study(Record):
     )
     monitors: tuple = tables(Monitor, "points recorded during every stage")
     metrics: Metrics | None = _declare(Spec("table", doc=_first_line(Metrics.__doc__), of=Metrics), default=None)
+    output: Output = table(Output, required=False)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -619,7 +686,26 @@ class Study(Record):
     def name(self) -> str:
         return self.study.name
 
+    @property
+    def strength_reduction(self) -> "StrengthReductionStage | None":
+        """The strength-reduction stage (always the last), or None for a plain study."""
+        last = self.stages[-1]
+        return last if isinstance(last, StrengthReductionStage) else None
+
     def check(self):
+        for i, stage in enumerate(self.stages):
+            if isinstance(stage, StrengthReductionStage):
+                if i != len(self.stages) - 1:
+                    raise StudyError(f"stages[{i}].kind", "a strength_reduction stage must be the last stage")
+                if i == 0:
+                    raise StudyError(
+                        f"stages[{i}].kind",
+                        "a strength_reduction stage starts from a gravity state: put a relaxation stage before it",
+                    )
+                if not any(m.model != "elastic" for m in self.materials):
+                    raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
+        if self.metrics is not None and self.strength_reduction is not None:
+            raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
         known = {b.name for b in self.boundary}
         for i, stage in enumerate(self.stages):
             for name in stage.boundary or ():

@@ -1,0 +1,100 @@
+"""Figures of a strength-reduction study (PNG, matplotlib without a display).
+
+- ``srf_curve.png``: largest displacement against SRF (log scale), each run coloured by its
+  verdict, the knee and the FOS bracket marked;
+- ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
+  equivalent plastic strain and displacement magnitude on the final particle positions.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def srf_curve(summary: xr.Dataset, path: Path) -> Path:
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    srf = summary["srf"].values
+    u = summary["max_displacement"].values
+    status = summary["status"].values.astype(str)
+    ax.plot(srf, u, "-", color="0.6", lw=1)
+    for name, colour in COLOURS.items():
+        pick = status == name
+        if pick.any():
+            ax.plot(srf[pick], u[pick], "o", color=colour, label=name)
+    fos = summary["fos"]
+    if math.isfinite(float(fos)):
+        low, high = fos.attrs["fos_low"], fos.attrs["fos_high"]
+        ax.axvspan(low, high, color="orange", alpha=0.3, label=f"FOS {float(fos):.3f} [{low:.4g}, {high:.4g}]")
+        ax.axvline(low, color="orange", lw=1)
+    ax.set_yscale("log")
+    ax.set_xlabel("strength reduction factor F")
+    ax.set_ylabel("largest displacement (m)")
+    ax.set_title(f"{summary.attrs.get('study_name', '')}: SRF against displacement")
+    ax.legend(loc="upper left", fontsize=8)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def run_fields(run_path: Path, path: Path) -> Path:
+    plt = _pyplot()
+    import matplotlib.tri as mtri
+
+    with xr.open_dataset(run_path, engine="netcdf4") as ds:
+        x, y = ds["particle_x"].values, ds["particle_y"].values
+        triangles = ds["mesh2d_face_nodes"].values
+        plastic = ds["particle_plastic_strain"].values
+        u = np.hypot(ds["particle_ux"].values, ds["particle_uy"].values)
+        srf, status = float(ds.attrs["srf"]), ds.attrs["status"]
+    mesh = mtri.Triangulation(x, y, triangles)
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.0), constrained_layout=True, sharex=True)
+    for ax, values, label in ((axes[0], plastic, "equivalent plastic strain"), (axes[1], u, "displacement (m)")):
+        shading = ax.tripcolor(mesh, values, shading="gouraud", cmap="viridis")
+        fig.colorbar(shading, ax=ax, label=label)
+        ax.set_aspect("equal")
+        ax.set_ylabel("y (m)")
+    axes[0].set_title(f"SRF {srf:g} ({status}), final state")
+    axes[1].set_xlabel("x (m)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
+    """The SRF curve and the fields at the last stable and first failed SRF (module doc)."""
+    from workflows.fos_study import run_file_name
+
+    paths = [srf_curve(summary, out_dir / "srf_curve.png")]
+    srf = summary["srf"].values
+    status = summary["status"].values.astype(str)
+    failed = srf[status == "failed"]
+    picks = []
+    if failed.size:
+        first_failed = failed.min()
+        stable_below = srf[(status == "stable") & (srf < first_failed)]
+        if stable_below.size:
+            picks.append(stable_below.max())
+        picks.append(first_failed)
+    elif (status == "stable").any():
+        picks.append(srf[status == "stable"].max())
+    for value in picks:
+        run_path = out_dir / run_file_name(float(value))
+        if run_path.is_file():
+            paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png"))
+    return paths

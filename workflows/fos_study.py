@@ -1,0 +1,383 @@
+"""A strength-reduction study, from study file to factor of safety.
+
+1. **Gravity** (the stages before the ``strength_reduction`` stage) runs once, in this
+   process, and is stored as ``OUT/<stage>.nc`` (``gravity.nc``).  Its files carry a key
+   over everything that shapes that state (geometry, materials, loads, supports, solver,
+   those stages, the core's sources); a later invocation with the same key reuses them.
+2. The numba cache is warm by then (the gravity run compiled the loop, or
+   :func:`spfem_core.warmup.warm_up` loads it), so workers start without compiling.
+3. **SRF runs** are dask tasks (:func:`workflows.srf_run.run_srf`) on a local cluster of
+   ``workers`` processes with one thread each, or on the cluster at ``scheduler``.  Which
+   values to run comes from :class:`workflows.srf_search.SrfSearch`.  Each finished run is
+   written by this process to ``OUT/srf_<F>.nc`` (temporary name, then rename) with a key
+   over the gravity key, the stage and F: a rerun reuses it, and recomputes a damaged one.
+4. ``OUT/summary.nc`` (coordinate ``srf``; scalar ``fos`` with ``fos_low``/``fos_high``)
+   is written last, then the figures.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import math
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import xarray as xr
+
+from workflows.fos_criterion import DIVERGED, FAILED, STABLE, brackets_agree, status_bracket
+from workflows.results import write_dataset
+from workflows.srf_run import SrfRunResult, displacement_floor_m, run_srf
+from workflows.srf_search import RunOutcome, SrfSearch
+from workflows.study import Study, StudyError
+
+SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
+"""Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
+
+SUMMARY_NAME = "summary.nc"
+
+
+def run_file_name(srf: float) -> str:
+    return f"srf_{srf:.4f}.nc"
+
+
+def _digest(payload) -> str:
+    text = json.dumps(payload, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def gravity_key(study: Study) -> str:
+    """Hash of everything that shapes the gravity state (module doc)."""
+    from spfem_core.jit import source_hash
+
+    raw = dataclasses.asdict(study)
+    for key in ("source_text", "output", "metrics"):
+        raw.pop(key, None)
+    raw["study"].pop("description", None)
+    raw["stages"] = raw["stages"][:-1]
+    raw["core"] = source_hash()
+    return _digest(raw)
+
+
+def run_key(study: Study, srf: float) -> str:
+    """Hash of the gravity key, what a run does (not how the search picks runs) and F."""
+    stage = dataclasses.asdict(study.strength_reduction)
+    for key in SEARCH_FIELDS:
+        stage.pop(key)
+    return _digest({"gravity": gravity_key(study), "stage": stage, "srf": f"{srf:.4f}"})
+
+
+@dataclass
+class FosProgress:
+    """Callbacks of a study run (all optional)."""
+
+    stage: Callable[[str, float], None] = lambda name, fraction: None  # gravity stage progress
+    runs: Callable[[int, int], None] = lambda done, planned: None  # SRF runs done / planned so far
+    message: Callable[[str], None] = lambda text: None  # one line of news (reuse, skips, warnings)
+
+
+@dataclass
+class FosOutcome:
+    """What :func:`run_fos_study` did and found."""
+
+    out_dir: Path
+    summary_path: Path
+    fos: float
+    fos_low: float
+    fos_high: float
+    criterion: str
+    status_low: float
+    status_high: float
+    criteria_agree: bool
+    verdict: str  # one line for the report
+    runs: list[dict] = field(default_factory=list)  # per SRF: srf, max_displacement_m, status, ...
+    skipped: dict[float, str] = field(default_factory=dict)
+    gravity_reused: bool = False
+    timings_s: dict[str, float] = field(default_factory=dict)
+    n_particles: int = 0
+    figures: list[Path] = field(default_factory=list)
+
+
+# ------------------------------------------------------------------------------ gravity
+
+
+def _gravity_paths(study: Study, out_dir: Path) -> list[Path]:
+    return [out_dir / f"{stage.name}.nc" for stage in study.stages[:-1]]
+
+
+def _read_gravity(path: Path, key: str):
+    """(stress (n, 4), plastic strain (n,)) from a gravity file with this key, else None."""
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            if ds.attrs.get("gravity_key") != key:
+                return None
+            stress = np.stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")], axis=1)
+            return stress, ds["particle_plastic_strain"].values.copy()
+    except (OSError, KeyError, ValueError, RuntimeError):
+        return None
+
+
+def gravity_state(study: Study, out_dir: Path, *, force: bool, progress: FosProgress):
+    """Run (or reuse) the stages before the strength reduction; (stress, plastic strain, reused, n, wall s)."""
+    from spfem_core.simulation import Simulation, UnstableTimeStepError
+    from workflows.runner import prepare_stage, run_stage
+    from workflows.results import run_dataset
+    from workflows.scene_builder import build_scene, monitor_particles, solver_settings
+
+    key = gravity_key(study)
+    paths = _gravity_paths(study, out_dir)
+    scene = build_scene(study)
+    monitors = monitor_particles(study, scene)
+    try:
+        sim = Simulation(scene, solver_settings(study))
+    except UnstableTimeStepError as error:
+        raise StudyError("solver", str(error)) from None
+    if not force and all(path.is_file() for path in paths):
+        state = _read_gravity(paths[-1], key)
+        if state is not None and state[0].shape == (scene.n_particles, 4):
+            progress.message(f"gravity state reused from {paths[-1]} (its inputs are unchanged)")
+            return state[0], state[1], True, scene.n_particles, 0.0
+    out_dir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    for index, (stage, path) in enumerate(zip(study.stages[:-1], paths)):
+        try:
+            prepare_stage(sim, study, stage, index)
+        except UnstableTimeStepError as error:
+            raise StudyError(f"stages[{index}]", str(error)) from None
+        series = run_stage(sim, stage, monitors, lambda fraction, name=stage.name: progress.stage(name, fraction))
+        if series.converged is False:
+            progress.message(f"warning: stage {stage.name!r} reached max_duration_s before converging")
+        ds = run_dataset(study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitors)
+        ds.attrs["gravity_key"] = key
+        write_dataset(ds, path)
+    return sim.node_stress_pa.copy(), sim.node_plastic_strain.copy(), False, scene.n_particles, time.perf_counter() - start
+
+
+# ------------------------------------------------------------------------------ runs on disk
+
+
+_RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
+                   "wall_time_s", "remesh_wall_s", "n_steps")
+
+
+def _stored_run(path: Path, key: str) -> dict | None:
+    """The scalars of a finished run file with this key; None if missing, stale or damaged."""
+    if not path.is_file():
+        return None
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            attrs = dict(ds.attrs)
+            _ = ds["max_displacement"].values  # a damaged file fails here
+    except (OSError, KeyError, ValueError, RuntimeError):
+        path.unlink(missing_ok=True)  # damaged: recompute
+        return None
+    if attrs.get("run_key") != key:
+        return None
+    return {name: attrs[f"run_{name}"] for name in _RESULT_SCALARS} | {"srf": float(attrs["srf"])}
+
+
+def _write_run(result: SrfRunResult, path: Path, key: str, gkey: str) -> dict:
+    ds = result.dataset
+    scalars = {name: getattr(result, name) for name in _RESULT_SCALARS}
+    ds.attrs.update({f"run_{name}": value for name, value in scalars.items()})
+    ds.attrs.update(run_key=key, gravity_key=gkey)
+    write_dataset(ds, path)
+    return scalars | {"srf": result.srf}
+
+
+def _remove_stale_runs(out_dir: Path, gkey: str) -> int:
+    """Delete run files of another gravity state (another slope or another core)."""
+    removed = 0
+    for path in out_dir.glob("srf_*.nc"):
+        try:
+            with xr.open_dataset(path, engine="netcdf4") as ds:
+                stale = ds.attrs.get("gravity_key") != gkey
+        except (OSError, ValueError, RuntimeError):
+            stale = True
+        if stale:
+            path.unlink(missing_ok=True)
+            removed += 1
+    for path in out_dir.glob("*.nc.tmp"):
+        path.unlink(missing_ok=True)
+    return removed
+
+
+# ------------------------------------------------------------------------------ dask
+
+
+@contextmanager
+def dask_client(workers: int, scheduler: str | None):
+    """A client on a local cluster of ``workers`` single-thread processes, or on ``scheduler``."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as error:
+            raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
+        try:
+            client.wait_for_workers(1, timeout=60)
+            yield client
+        finally:
+            client.close()
+        return
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    client = Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
+
+
+# ------------------------------------------------------------------------------ the study
+
+
+def run_fos_study(
+    study: Study,
+    out_dir: str | Path,
+    *,
+    workers: int = 2,
+    scheduler: str | None = None,
+    force: bool = False,
+    progress: FosProgress | None = None,
+) -> FosOutcome:
+    """Gravity once, SRF runs on dask, the FOS from the knee; everything written to ``out_dir``."""
+    from distributed import wait
+
+    if study.strength_reduction is None:
+        raise StudyError("stages", "the last stage is not a strength_reduction stage")
+    progress = progress or FosProgress()
+    out_dir = Path(out_dir)
+    wall_start = time.perf_counter()
+    timings = {"gravity": 0.0, "srf_runs_elapsed": 0.0, "srf_runs_worker": 0.0, "remeshing": 0.0, "io": 0.0}
+
+    stress, plastic, reused, n_particles, gravity_wall = gravity_state(study, out_dir, force=force, progress=progress)
+    timings["gravity"] = gravity_wall
+    gkey = gravity_key(study)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if force:
+        for path in out_dir.glob("srf_*.nc"):
+            path.unlink()
+    removed = _remove_stale_runs(out_dir, gkey)
+    if removed:
+        progress.message(f"removed {removed} run files of another gravity state")
+    if reused:
+        from spfem_core.warmup import warm_up
+
+        warm_up()  # load the compiled loop into the disk cache before the workers start
+
+    stage = study.strength_reduction
+    floor_m = displacement_floor_m(study)
+    runs: dict[float, dict] = {}
+    srf_start = time.perf_counter()
+    with dask_client(workers, scheduler) as client:
+        n_parallel = max(1, sum(client.nthreads().values()))
+        search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, floor_m,
+                           n_parallel=n_parallel, max_runs=stage.max_runs)
+        [study_future] = client.scatter([study.source_text], broadcast=True)
+        [stress_future] = client.scatter([stress], broadcast=True)
+        [plastic_future] = client.scatter([plastic], broadcast=True)
+        in_flight = {}
+        reused_runs = 0
+        while True:
+            planned = search.next_values()
+            for srf in planned:
+                key = run_key(study, srf)
+                stored = _stored_run(out_dir / run_file_name(srf), key)
+                search.started(srf)
+                if stored is not None:
+                    runs[srf] = stored
+                    reused_runs += 1
+                    search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
+                    continue
+                future = client.submit(
+                    run_srf, study_future, stress_future, plastic_future, srf, key=f"srf-{srf:.4f}-{key}", pure=False
+                )
+                in_flight[future] = (srf, key)
+            progress.runs(len(runs), len(runs) + len(in_flight))
+            if not in_flight:
+                if planned:
+                    continue  # every planned run was reused from disk: plan again
+                break
+            done, _ = wait(list(in_flight), return_when="FIRST_COMPLETED")
+            for future in done:
+                srf, key = in_flight.pop(future)
+                result: SrfRunResult = future.result()  # a task's exception propagates: the study stops
+                io_start = time.perf_counter()
+                runs[srf] = _write_run(result, out_dir / run_file_name(srf), key, gkey)
+                timings["io"] += time.perf_counter() - io_start
+                search.finished(RunOutcome(srf, result.max_displacement_m, result.status))
+                if result.status == DIVERGED:
+                    progress.message(f"warning: SRF {srf:g} diverged: {result.status_reason}")
+        progress.runs(len(runs), len(runs))
+    timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
+    if reused_runs:
+        progress.message(f"{reused_runs} SRF runs reused from {out_dir} (finished by an earlier invocation)")
+    for srf, reason in sorted(search.skipped.items()):
+        if srf not in runs:
+            progress.message(f"SRF {srf:g} not run: {reason}")
+
+    ordered = [runs[f] for f in sorted(runs)]
+    timings["srf_runs_worker"] = float(sum(r["wall_time_s"] for r in ordered))
+    timings["remeshing"] = float(sum(r["remesh_wall_s"] for r in ordered))
+    knee = search.knee()
+    status = status_bracket([r["srf"] for r in ordered], [r["status"] for r in ordered])
+    agree = brackets_agree(knee, status, stage.fos_tolerance)
+    verdict = _verdict(knee, status, agree, ordered, stage)
+    outcome = FosOutcome(
+        out_dir=out_dir, summary_path=out_dir / SUMMARY_NAME, fos=knee.fos, fos_low=knee.fos_low,
+        fos_high=knee.fos_high, criterion=knee.reason, status_low=status.fos_low, status_high=status.fos_high,
+        criteria_agree=agree, verdict=verdict, runs=ordered,
+        skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=reused,
+        timings_s=timings, n_particles=n_particles,
+    )
+    io_start = time.perf_counter()
+    from workflows.fos_summary import summary_dataset
+
+    summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
+    timings["io"] += time.perf_counter() - io_start
+    timings["total"] = time.perf_counter() - wall_start
+    summary.attrs.update({f"time_{name}_s": value for name, value in timings.items()})
+    write_dataset(summary, outcome.summary_path)
+    if study.output.figures:
+        from workflows.fos_figures import draw_figures
+
+        outcome.figures = draw_figures(out_dir, summary)
+    return outcome
+
+
+def _verdict(knee, status, agree, runs, stage) -> str:
+    """One line: the FOS or why there is none, and any warning."""
+    if not runs:
+        return "no SRF run was made"
+    failed_at_or_below_1 = [r["srf"] for r in runs if r["status"] == FAILED and r["srf"] <= 1.0]
+    parts = []
+    if math.isnan(knee.fos):
+        if all(r["status"] == FAILED for r in runs if r["status"] != DIVERGED):
+            parts.append(f"FOS < {runs[0]['srf']:g}: every run failed")
+        elif all(r["status"] == STABLE for r in runs if r["status"] != DIVERGED):
+            parts.append(f"FOS > {runs[-1]['srf']:g}: no run failed (raise srf_max)")
+        else:
+            parts.append(f"no FOS: {knee.reason}")
+    else:
+        parts.append(
+            f"FOS = {knee.fos:.4g}, bracket [{knee.fos_low:.4g}, {knee.fos_high:.4g}] (steepest rise of the "
+            f"displacement after the maximum-curvature knee at SRF {knee.knee_srf:g})"
+        )
+    if failed_at_or_below_1 or (not math.isnan(knee.fos) and knee.fos_high <= 1.0):
+        parts.append("the slope is UNSTABLE AS BUILT (it fails at SRF <= 1)")
+    if not agree:
+        parts.append(f"WARNING: the run verdicts disagree ({status.reason})")
+    elif status.non_monotone:
+        parts.append(f"note: {status.reason}")
+    return "; ".join(parts)

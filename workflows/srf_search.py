@@ -1,0 +1,120 @@
+"""Which strength-reduction runs to make, and in what order.
+
+The search knows nothing of dask or files: it is told which runs finished with which
+maximum displacement and verdict, and says which SRF values to start next.
+
+1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max`` in ascending order.  Once a
+   run has failed, sweep values above it are not started (they cannot move the knee, which
+   lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
+2. **Refinement**: when the sweep is done, the FOS bracket (the largest rise after the
+   knee, see :mod:`workflows.fos_criterion`) is split by at most ``n_parallel`` equally
+   spaced runs, no more than needed to bring it under ``tolerance``; the bracket is picked
+   again from all runs and the step repeats until it is within the tolerance, there is no
+   knee, or ``max_runs`` runs have been made.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from workflows.fos_criterion import DIVERGED, FAILED, FosPick, pick_fos, refinement_points
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What the search needs from one finished run."""
+
+    srf: float
+    max_displacement_m: float
+    status: str  # fos_criterion.STABLE / FAILED / DIVERGED
+
+
+def sweep_values(srf_min: float, srf_max: float, srf_step: float) -> list[float]:
+    """srf_min, srf_min + step, ... up to srf_max (inclusive within 1e-9), rounded to 1e-4."""
+    n = int(math.floor((srf_max - srf_min) / srf_step + 1e-9))
+    return sorted({round(srf_min + i * srf_step, 4) for i in range(n + 1)})
+
+
+class SrfSearch:
+    """The sweep-then-refine plan (module doc)."""
+
+    def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40):
+        self.sweep = sweep_values(srf_min, srf_max, srf_step)
+        self.sweep_set = set(self.sweep)
+        self.tolerance = float(tolerance)
+        self.floor_m = float(floor_m)
+        self.n_parallel = max(1, int(n_parallel))
+        self.max_runs = int(max_runs)
+        self.outcomes: dict[float, RunOutcome] = {}
+        self.pending: set[float] = set()
+        self.skipped: dict[float, str] = {}
+        self.stop_reason = ""
+
+    # ------------------------------------------------------------------ bookkeeping
+    def started(self, srf: float) -> None:
+        self.pending.add(srf)
+
+    def finished(self, outcome: RunOutcome) -> None:
+        self.pending.discard(outcome.srf)
+        self.outcomes[outcome.srf] = outcome
+
+    @property
+    def lowest_failed(self) -> float:
+        failed = [o.srf for o in self.outcomes.values() if o.status == FAILED]
+        return min(failed) if failed else math.inf
+
+    def knee(self) -> FosPick:
+        """The FOS from the runs made so far (diverged runs left out): the knee of the sweep
+        runs, then the largest rise after it among all runs."""
+        usable = sorted((o for o in self.outcomes.values() if o.status != DIVERGED), key=lambda o: o.srf)
+        sweep = [o for o in usable if o.srf in self.sweep_set]
+        return pick_fos(
+            [o.srf for o in sweep], [o.max_displacement_m for o in sweep],
+            [o.srf for o in usable], [o.max_displacement_m for o in usable], [o.status for o in usable],
+            self.floor_m,
+        )
+
+    # ------------------------------------------------------------------ planning
+    def next_values(self) -> list[float]:
+        """SRF values to start now (may be empty while runs are pending); [] and ``done`` at the end."""
+        if len(self.outcomes) + len(self.pending) >= self.max_runs:
+            if not self.pending and not self.stop_reason:
+                self.stop_reason = f"stopped at max_runs = {self.max_runs} before the bracket reached the tolerance"
+            return []
+        ceiling = self.lowest_failed
+        todo = [f for f in self.sweep if f not in self.outcomes and f not in self.pending and f not in self.skipped]
+        for f in todo:
+            if f > ceiling:
+                self.skipped[f] = f"above the failed SRF {ceiling:g}: cannot move the knee"
+        todo = [f for f in todo if f <= ceiling]
+        if todo:
+            free = self.n_parallel - len(self.pending)
+            room = self.max_runs - len(self.outcomes) - len(self.pending)
+            return todo[: max(0, min(free, room))]
+        if self.pending:
+            return []  # the refinement needs the whole sweep (or batch) first
+        knee = self.knee()
+        if math.isnan(knee.fos):
+            self.stop_reason = knee.reason
+            return []
+        room = self.max_runs - len(self.outcomes)
+        points = [
+            f for f in refinement_points(knee.fos_low, knee.fos_high, self.tolerance, self.n_parallel)
+            if f not in self.outcomes
+        ][:room]
+        if not points:
+            if not self.stop_reason:
+                self.stop_reason = (
+                    f"bracket [{knee.fos_low:g}, {knee.fos_high:g}] within the tolerance {self.tolerance:g}"
+                    if knee.fos_high - knee.fos_low <= self.tolerance + 1e-12
+                    else f"bracket [{knee.fos_low:g}, {knee.fos_high:g}] cannot be split further on the 1e-4 grid"
+                )
+            return []
+        return points
+
+    @property
+    def done(self) -> bool:
+        return not self.pending and bool(self.stop_reason)
