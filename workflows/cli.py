@@ -112,35 +112,47 @@ def main(
 
 def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler) -> None:
     from spfem_core.simulation import DivergenceError
-    from workflows.fos_study import FosProgress, run_fos_study
+    from workflows.fos_study import FosProgress, connect, run_fos_study
     from workflows.fos_summary import report_lines
 
+    if scheduler:  # before any output: an unreachable cluster is one line and exit 2
+        try:
+            connect(scheduler).close()
+        except StudyError as error:
+            raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+    progress = Progress(*columns, console=console)
+    bars: dict[str, int] = {}
+
+    def bar(key: str, description: str, total: float) -> int:
+        """The bar ``key``; the display starts with the first bar, so an early error stays one line."""
+        if key not in bars:
+            if not bars:
+                progress.start()
+            bars[key] = progress.add_task(description, total=total)
+        return bars[key]
+
+    def stage(name, fraction):
+        progress.update(bar(name, f"{name} (gravity)", 1.0), completed=min(max(fraction, 0.0), 1.0))
+
+    def runs(done, planned):
+        progress.update(bar("runs", "SRF runs", max(planned, 1)), completed=done, total=max(planned, 1))
+
+    def message(text):
+        if text.startswith("warning") or not quiet:
+            progress.console.print(text, highlight=False, markup=False)
+
     try:
-        with Progress(*columns, console=console) as progress:
-            bars: dict[str, int] = {}
-
-            def stage(name, fraction):
-                if name not in bars:
-                    bars[name] = progress.add_task(f"{name} (gravity)", total=1.0)
-                progress.update(bars[name], completed=min(max(fraction, 0.0), 1.0))
-
-            def runs(done, planned):
-                if "runs" not in bars:
-                    bars["runs"] = progress.add_task("SRF runs", total=max(planned, 1))
-                progress.update(bars["runs"], completed=done, total=max(planned, 1))
-
-            def message(text):
-                if text.startswith("warning") or not quiet:
-                    progress.console.print(text, highlight=False, markup=False)
-
-            outcome = run_fos_study(
-                study, out_dir, workers=workers, scheduler=scheduler, force=force,
-                progress=FosProgress(stage=stage, runs=runs, message=message),
-            )
+        outcome = run_fos_study(
+            study, out_dir, workers=workers, scheduler=scheduler, force=force,
+            progress=FosProgress(stage=stage, runs=runs, message=message),
+        )
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
         raise _fail(f"error: {study_file}: the gravity stage diverged: {error}", EXIT_DIVERGED) from None
+    finally:
+        if bars:
+            progress.stop()
     if quiet:
         return
     typer.echo(f"{study.name}: {outcome.n_particles} particles, {len(outcome.runs)} SRF runs, "

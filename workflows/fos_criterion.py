@@ -21,7 +21,8 @@ not a well-posed target for refinement: at a jump between two samples, inserting
 on both sides makes y' grow like 1/h and kappa at the foot *fall* like h, so a refined
 curvature maximum drifts into the smooth stable branch.  The FOS is therefore the
 *abrupt increase* that follows the knee: the consecutive pair of samples with the steepest
-rise of log10 u per unit SRF between the knee and the first failed run after it.
+rise of log10 u per unit SRF between the knee and the first failed run after it (no FOS
+without a failed run: a convex but stable curve only says the FOS is higher).
 Refining inside that pair converges to a jump (its slope grows like 1/h) and, on a smooth
 curve, to the steepest point of the rise.  ``fos`` is the middle of [fos_low, fos_high].
 
@@ -149,7 +150,10 @@ def pick_fos(sweep_srf, sweep_u, srf, u, status, floor_m: float) -> FosPick:
     y = log_rise(np.asarray(u, dtype=float)[order], floor_m)
     status = np.asarray(status, dtype=object)[order]
     failed_after = srf[(status == FAILED) & (srf > knee.fos_low)]
-    end = failed_after.min() if failed_after.size else srf.max()
+    if not failed_after.size:
+        return FosPick(nan, nan, nan, knee.fos_low,
+                       f"no run failed after the knee at SRF {knee.fos_low:g}: the FOS is above the runs made")
+    end = failed_after.min()
     inside = np.flatnonzero((srf >= knee.fos_low) & (srf <= end))
     if inside.size < 2:
         return FosPick(nan, nan, nan, knee.fos_low, f"no run after the knee at SRF {knee.fos_low:g}")

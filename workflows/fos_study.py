@@ -211,16 +211,23 @@ def _remove_stale_runs(out_dir: Path, gkey: str) -> int:
 # ------------------------------------------------------------------------------ dask
 
 
+def connect(scheduler: str):
+    """A client of the dask scheduler at ``scheduler``; StudyError (exit 2) if it cannot be reached."""
+    from distributed import Client
+
+    try:
+        return Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as error:
+        raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
+
+
 @contextmanager
 def dask_client(workers: int, scheduler: str | None):
     """A client on a local cluster of ``workers`` single-thread processes, or on ``scheduler``."""
     from distributed import Client, LocalCluster
 
     if scheduler:
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as error:
-            raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
+        client = connect(scheduler)
         try:
             client.wait_for_workers(1, timeout=60)
             yield client
@@ -261,6 +268,8 @@ def run_fos_study(
     wall_start = time.perf_counter()
     timings = {"gravity": 0.0, "srf_runs_elapsed": 0.0, "srf_runs_worker": 0.0, "remeshing": 0.0, "io": 0.0}
 
+    if scheduler:  # fail before any work when the cluster cannot be reached
+        connect(scheduler).close()
     stress, plastic, reused, n_particles, gravity_wall = gravity_state(study, out_dir, force=force, progress=progress)
     timings["gravity"] = gravity_wall
     gkey = gravity_key(study)

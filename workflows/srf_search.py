@@ -6,8 +6,8 @@ maximum displacement and verdict, and says which SRF values to start next.
 1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max`` in ascending order.  Once a
    run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
-2. **Refinement**: when the sweep is done, the FOS bracket (the largest rise after the
-   knee, see :mod:`workflows.fos_criterion`) is split by at most ``n_parallel`` equally
+2. **Refinement**: when the sweep is done, the FOS bracket (the steepest rise after the
+   knee, see :mod:`workflows.fos_criterion`) is split by at most ``REFINE_SPLIT`` equally
    spaced runs, no more than needed to bring it under ``tolerance``; the bracket is picked
    again from all runs and the step repeats until it is within the tolerance, there is no
    knee, or ``max_runs`` runs have been made.
@@ -21,6 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from workflows.fos_criterion import DIVERGED, FAILED, FosPick, pick_fos, refinement_points
+
+
+REFINE_SPLIT = 2
+"""Runs per refinement round (the bracket is split in three).  Fixed, not the worker count,
+so that the runs made, and the FOS, do not depend on how many workers there are."""
 
 
 @dataclass(frozen=True)
@@ -70,7 +75,11 @@ class SrfSearch:
         """The FOS from the runs made so far (diverged runs left out): the knee of the sweep
         runs, then the largest rise after it among all runs."""
         usable = sorted((o for o in self.outcomes.values() if o.status != DIVERGED), key=lambda o: o.srf)
-        sweep = [o for o in usable if o.srf in self.sweep_set]
+        # the sweep up to its first failure: runs above it (started before that failure was known)
+        # depend on timing and must not change the answer
+        failed = [o.srf for o in usable if o.srf in self.sweep_set and o.status == FAILED]
+        ceiling = min(failed) if failed else math.inf
+        sweep = [o for o in usable if o.srf in self.sweep_set and o.srf <= ceiling]
         return pick_fos(
             [o.srf for o in sweep], [o.max_displacement_m for o in sweep],
             [o.srf for o in usable], [o.max_displacement_m for o in usable], [o.status for o in usable],
@@ -102,7 +111,7 @@ class SrfSearch:
             return []
         room = self.max_runs - len(self.outcomes)
         points = [
-            f for f in refinement_points(knee.fos_low, knee.fos_high, self.tolerance, self.n_parallel)
+            f for f in refinement_points(knee.fos_low, knee.fos_high, self.tolerance, REFINE_SPLIT)
             if f not in self.outcomes
         ][:room]
         if not points:

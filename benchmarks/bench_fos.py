@@ -1,0 +1,88 @@
+"""The factor-of-safety workflow end to end: wall time, its shares, and the FOS.
+
+    python benchmarks/bench_fos.py                       # reference slope, h = 0.3 m, 2 then 1 worker
+    python benchmarks/bench_fos.py --spacing 1.0 0.5 0.3 --workers 2
+    python benchmarks/bench_fos.py --spacing 0.3 --fit inner --workers 2
+
+Each case runs ``spfem-fos`` in a fresh process on a fresh output folder and, unless
+``--warm`` is given, a fresh numba cache (so the time includes compilation), then reads the
+FOS and the time shares from ``summary.nc``: gravity, SRF runs (elapsed, and the summed
+worker time), remeshing inside the runs, and file writing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import xarray as xr
+
+ROOT = Path(__file__).resolve().parents[1]
+STUDY = ROOT / "studies" / "reference_slope.toml"
+FITS = {"mc": "mohr_coulomb_match", "inner": "inner", "outer": "outer"}
+
+
+def run_case(spacing_m: float, fit: str, workers: int, warm: bool, scratch: Path) -> dict:
+    text = STUDY.read_text()
+    text = text.replace("spacing_m = 0.3", f"spacing_m = {spacing_m}")
+    text = text.replace('dp_fit = "mohr_coulomb_match"', f'dp_fit = "{FITS[fit]}"')
+    case = scratch / f"h{spacing_m}_{fit}_w{workers}"
+    case.mkdir(parents=True)
+    study = case / "study.toml"
+    study.write_text(text)
+    env = dict(__import__("os").environ)
+    if not warm:
+        env["SPFEM_CACHE_DIR"] = str(case / "numba-cache")
+    start = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "workflows.cli", str(study), "--out", str(case / "out"), "--workers", str(workers),
+         "--quiet"],
+        capture_output=True, text=True, env=env, cwd=ROOT,
+    )
+    wall = time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(f"case h={spacing_m} fit={fit} workers={workers} failed:\n{done.stderr}")
+    with xr.open_dataset(case / "out" / "summary.nc") as summary:
+        fos = summary["fos"]
+        return dict(
+            spacing=spacing_m, fit=fit, workers=workers, wall=wall, fos=float(fos), low=fos.attrs["fos_low"],
+            high=fos.attrs["fos_high"], runs=summary.sizes["srf"], particles=summary.attrs["n_particles"],
+            agree=fos.attrs["criteria_agree"],
+            **{key[5:-2]: float(value) for key, value in summary.attrs.items() if key.startswith("time_")},
+        )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--spacing", type=float, nargs="+", default=[0.3])
+    parser.add_argument("--fit", choices=sorted(FITS), nargs="+", default=["mc"])
+    parser.add_argument("--workers", type=int, nargs="+", default=[2, 1])
+    parser.add_argument("--warm", action="store_true", help="reuse the numba cache (no compilation in the time)")
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        for spacing in args.spacing:
+            for fit in args.fit:
+                for workers in args.workers:
+                    row = run_case(spacing, fit, workers, args.warm, Path(scratch))
+                    rows.append(row)
+                    print(
+                        f"h {spacing:4.2f} m  fit {fit:5s}  workers {workers}  particles {row['particles']:6d}  "
+                        f"FOS {row['fos']:.4f} [{row['low']:.4f}, {row['high']:.4f}]  runs {row['runs']:2d}  "
+                        f"agree {row['agree']}  wall {row['wall']:6.1f} s  (gravity {row['gravity']:.1f} s, "
+                        f"SRF runs {row['srf_runs_elapsed']:.1f} s elapsed / {row['srf_runs_worker']:.1f} s on workers, "
+                        f"remeshing {row['remeshing']:.1f} s, I/O {row['io']:.1f} s)",
+                        flush=True,
+                    )
+    by = {(r["spacing"], r["fit"], r["workers"]): r["wall"] for r in rows}
+    for (spacing, fit, workers), wall in by.items():
+        if workers == 1 and (spacing, fit, 2) in by:
+            print(f"h {spacing} m fit {fit}: 2 workers are {wall / by[(spacing, fit, 2)]:.2f}x faster than 1")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,158 @@
+"""The FOS criterion on synthetic SRF-displacement curves, and the sweep-then-refine search.
+
+Synthetic curves: a stable branch (displacement growing slowly with F) and a failure jump at
+a known F*; uniform and non-uniform SRF spacing, a noisy stable branch, curves with no knee.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from workflows.fos_criterion import (
+    FAILED,
+    STABLE,
+    brackets_agree,
+    curvature,
+    pick_fos,
+    pick_knee,
+    refinement_points,
+    status_bracket,
+)
+from workflows.srf_search import RunOutcome, SrfSearch, sweep_values
+
+FLOOR_M = 1e-3
+
+
+def slope_response(srf, f_star=1.3712, noise=0.0, seed=0):
+    """Largest displacement (m) of a synthetic slope: 5 mm growing gently below F*, 2 m above."""
+    srf = np.asarray(srf, dtype=float)
+    rng = np.random.default_rng(seed)
+    stable = 0.005 * np.exp(2.0 * (srf - 1.0)) * (1.0 + noise * rng.uniform(-1, 1, srf.shape))
+    return np.where(srf > f_star, 2.0, stable)
+
+
+def statuses(srf, f_star=1.3712):
+    return [FAILED if f > f_star else STABLE for f in srf]
+
+
+def test_curvature_is_exact_for_a_parabola_on_a_non_uniform_grid():
+    # log10 u = x^2 on [0, 1]: normalised y = x^2, kappa = 2 / (1 + 4 x^2)^1.5 (3-point formulas are exact)
+    x = np.array([0.0, 0.1, 0.25, 0.3, 0.55, 0.6, 0.9, 1.0])
+    kappa = curvature(x, 10.0 ** (x**2), floor_m=1e-9)
+    expected = 2.0 / (1.0 + 4.0 * x**2) ** 1.5
+    assert np.isnan(kappa[[0, -1]]).all()
+    np.testing.assert_allclose(kappa[1:-1], expected[1:-1], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "srf",
+    [
+        np.round(np.arange(1.0, 2.01, 0.1), 4),  # uniform
+        np.array([0.8, 1.0, 1.05, 1.2, 1.25, 1.33, 1.42, 1.6, 1.9]),  # non-uniform
+    ],
+    ids=["uniform", "non-uniform"],
+)
+def test_knee_and_bracket_sit_on_the_jump(srf):
+    u = slope_response(srf)
+    fos = pick_fos(srf, u, srf, u, statuses(srf), FLOOR_M)
+    below, above = srf[srf <= 1.3712].max(), srf[srf > 1.3712].min()
+    assert (fos.fos_low, fos.fos_high) == (below, above)
+    assert fos.fos == pytest.approx(0.5 * (below + above))
+    assert pick_knee(srf, u, FLOOR_M).fos_low == below  # a sharp jump: the knee is the last stable sample
+
+
+def test_noisy_stable_branch_does_not_move_the_bracket():
+    srf = np.round(np.arange(0.8, 2.01, 0.1), 4)
+    for seed in range(20):
+        u = slope_response(srf, noise=0.3, seed=seed)
+        fos = pick_fos(srf, u, srf, u, statuses(srf), FLOOR_M)
+        assert fos.fos_low < 1.3712 < fos.fos_high, seed
+
+
+def test_displacements_below_the_floor_make_no_knee():
+    # decades of numerical noise far below the floor, then the jump: the knee is still the jump
+    srf = np.round(np.arange(0.5, 1.61, 0.1), 4)
+    u = np.where(srf > 1.25, 1.5, 10.0 ** np.linspace(-9, -5, srf.size))
+    fos = pick_fos(srf, u, srf, u, statuses(srf, 1.25), FLOOR_M)
+    assert (fos.fos_low, fos.fos_high) == (1.2, 1.3)
+
+
+@pytest.mark.parametrize(
+    "u, why",
+    [(np.full(8, 0.01), "no convex upturn"), (np.full(8, 2.0), "no convex upturn"), (np.array([0.01, 2.0]), "at least 3")],
+    ids=["all stable and flat", "all failed", "two runs"],
+)
+def test_no_knee_gives_nan_and_says_why(u, why):
+    srf = np.linspace(1.0, 1.7, u.size)
+    fos = pick_fos(srf, u, srf, u, [STABLE] * u.size, FLOOR_M)
+    assert math.isnan(fos.fos) and why in fos.reason
+
+
+def test_smooth_rise_brackets_its_steepest_part():
+    # a logistic rise in log10 u centred at 1.4: no jump, the steepest point is the centre
+    srf = np.round(np.arange(1.0, 1.81, 0.05), 4)
+    u = 10.0 ** (-2.0 + 2.5 / (1.0 + np.exp(-(srf - 1.4) / 0.04)))
+    verdicts = [FAILED if value > 0.3 else STABLE for value in u]
+    fos = pick_fos(srf, u, srf, u, verdicts, FLOOR_M)
+    assert fos.fos_low <= 1.4 <= fos.fos_high
+
+
+def test_status_bracket_and_disagreement():
+    srf = [1.0, 1.1, 1.2, 1.3, 1.4]
+    verdict = status_bracket(srf, [STABLE, STABLE, FAILED, STABLE, FAILED])
+    assert (verdict.fos_low, verdict.fos_high, verdict.non_monotone) == (1.1, 1.2, [1.3])
+    assert "stable again at 1.3" in verdict.reason
+    u = slope_response(srf, f_star=1.35)
+    fos = pick_fos(srf, u, srf, u, statuses(srf, 1.35), FLOOR_M)  # bracket [1.3, 1.4]
+    assert not brackets_agree(fos, verdict, tolerance=0.01)
+    assert brackets_agree(fos, status_bracket(srf, statuses(srf, 1.35)), tolerance=0.01)
+
+
+def test_refinement_points_split_just_enough():
+    assert refinement_points(1.3, 1.4, 0.01, n_parallel=2) == [1.3333, 1.3667]
+    assert refinement_points(1.3333, 1.3444, 0.01, n_parallel=2) == [1.3388]  # one run halves it below 0.01
+    assert refinement_points(1.30, 1.305, 0.01, n_parallel=2) == []
+    assert sweep_values(0.8, 1.2, 0.1) == [0.8, 0.9, 1.0, 1.1, 1.2]
+
+
+def drive(search: SrfSearch, response, f_star):
+    """Run the search to the end, finishing runs in start order (as a 2-worker pool would)."""
+    queue = []
+    while True:
+        for srf in search.next_values():
+            search.started(srf)
+            queue.append(srf)
+        if not queue:
+            return
+        srf = queue.pop(0)
+        u = float(response(srf))
+        search.finished(RunOutcome(srf, u, FAILED if srf > f_star else STABLE))
+
+
+@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.6789])
+def test_search_converges_to_the_jump_within_the_tolerance(f_star):
+    search = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
+    drive(search, lambda f: slope_response(f, f_star), f_star)
+    fos = search.knee()
+    assert fos.fos_low <= f_star < fos.fos_high
+    assert fos.fos_high - fos.fos_low <= 0.01
+    assert "within the tolerance" in search.stop_reason
+    # values above the first failure are skipped, not run
+    assert all(f > min(o.srf for o in search.outcomes.values() if o.status == FAILED) for f in search.skipped)
+    assert len(search.outcomes) <= 20
+
+
+def test_search_without_a_failure_stops_and_says_so():
+    search = SrfSearch(1.0, 1.5, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
+    drive(search, lambda f: slope_response(f, 9.0), 9.0)
+    assert sorted(search.outcomes) == [1.0, 1.1, 1.2, 1.3, 1.4, 1.5]
+    assert math.isnan(search.knee().fos) and "no run failed" in search.stop_reason
+
+
+def test_search_respects_max_runs():
+    search = SrfSearch(1.0, 2.0, 0.1, tolerance=1e-4, floor_m=FLOOR_M, n_parallel=2, max_runs=8)
+    drive(search, lambda f: slope_response(f), 1.3712)
+    assert len(search.outcomes) == 8 and "max_runs" in search.stop_reason

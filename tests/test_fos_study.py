@@ -1,0 +1,255 @@
+"""The strength-reduction workflow end to end: a quickstart-sized study through a real local
+dask cluster and through separately started ``dask scheduler`` / ``dask worker`` processes,
+resume after a killed study, damaged files, and the gravity stage against the elastic column."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from workflows.fos_study import FosProgress, gravity_key, gravity_state, run_file_name, run_fos_study
+from workflows.study import parse_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+
+
+def cli(*args, **kwargs):
+    return subprocess.run([sys.executable, "-m", "workflows.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=REPO, **kwargs)
+
+
+class Messages(FosProgress):
+    def __init__(self):
+        self.lines = []
+        super().__init__(message=self.lines.append)
+
+
+@pytest.fixture(scope="module")
+def quickstart_run(tmp_path_factory):
+    """The quickstart study run once through a local cluster of 2 worker processes."""
+    out = tmp_path_factory.mktemp("quickstart")
+    study = parse_study(QUICKSTART)
+    outcome = run_fos_study(study, out, workers=2)
+    return study, out, outcome
+
+
+def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
+    study, out, outcome = quickstart_run
+    # limit equilibrium 1.366-1.369; a 1 m cloud is coarse, so a wider band here
+    assert 1.30 <= outcome.fos <= 1.45
+    assert outcome.fos_high - outcome.fos_low <= study.strength_reduction.fos_tolerance + 1e-9
+    assert outcome.criteria_agree
+    summary = xr.open_dataset(out / "summary.nc")
+    assert float(summary["fos"]) == pytest.approx(outcome.fos)
+    assert summary["fos"].attrs["fos_low"] == outcome.fos_low and summary["fos"].attrs["fos_high"] == outcome.fos_high
+    assert "maximum curvature" in summary["fos"].attrs["criterion"]
+    assert np.all(np.diff(summary["srf"].values) > 0)
+    assert set(summary["status"].values) <= {"stable", "failed"}
+    assert summary["max_displacement"].attrs["units"] == "m"
+    # values above the first failure were not run, and the summary says so
+    first_failed = summary["srf"].values[summary["status"].values == "failed"].min()
+    skipped = [float(v) for v in summary.attrs["srf_not_run"].split(", ")]
+    assert skipped and min(skipped) > first_failed
+    # stable runs far below the FOS stopped early at rest, failed ones past the failure displacement
+    stop = summary["stop_time"].values
+    assert stop[0] < study.strength_reduction.duration_s
+    for srf in summary["srf"].values:
+        assert (out / run_file_name(float(srf))).is_file()
+    assert (out / "gravity.nc").is_file() and (out / "srf_curve.png").is_file()
+    assert len(list(out.glob("fields_srf_*.png"))) == 2
+    assert not list(out.glob("*.tmp"))
+
+
+def test_run_file_holds_the_series_and_the_final_fields(quickstart_run):
+    study, out, outcome = quickstart_run
+    failed = [r for r in outcome.runs if r["status"] == "failed"][-1]  # far above the FOS: stopped early
+    ds = xr.open_dataset(out / run_file_name(failed["srf"]))
+    assert ds.attrs["srf"] == failed["srf"] and ds.attrs["status"] == "failed"
+    assert "early_stop" in " ".join(ds.attrs) and "failed" in ds.attrs["note_early_stop"]
+    for name in ("max_displacement", "kinetic_energy", "monitor_ux", "particle_x", "particle_ux",
+                 "particle_plastic_strain", "particle_sxx", "mesh2d_face_nodes"):
+        assert name in ds, name
+    assert ds["mesh2d"].attrs["cf_role"] == "mesh_topology"
+    assert float(ds["max_displacement"].max()) == pytest.approx(failed["max_displacement_m"])
+    assert float(ds["particle_plastic_strain"].max()) > 0.01  # a failure mechanism formed
+    assert ds.attrs["gravity_key"] == gravity_key(study)
+
+
+def test_a_second_invocation_reuses_gravity_and_every_run(quickstart_run, tmp_path):
+    study, out, outcome = quickstart_run
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")}
+    messages = Messages()
+    again = run_fos_study(study, out, workers=1, progress=messages)
+    assert again.fos == outcome.fos and again.gravity_reused
+    assert any("gravity state reused" in line for line in messages.lines)
+    # one worker starts no run above the first failure ahead of time, so it may need fewer runs
+    assert {r["srf"] for r in again.runs} <= {r["srf"] for r in outcome.runs}
+    assert any(f"{len(again.runs)} SRF runs reused" in line for line in messages.lines)
+    assert {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")} == stamps
+
+
+def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
+    study, out, outcome = quickstart_run
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for path in out.glob("*.nc"):
+        (copy / path.name).write_bytes(path.read_bytes())
+    damaged = copy / run_file_name(outcome.runs[1]["srf"])
+    damaged.write_bytes(damaged.read_bytes()[:2000])
+    messages = Messages()
+    again = run_fos_study(study, copy, workers=1, progress=messages)
+    assert again.fos == outcome.fos
+    assert any(line.endswith("SRF runs reused from " + str(copy) + " (finished by an earlier invocation)")
+               and int(line.split()[0]) == len(again.runs) - 1 for line in messages.lines)
+    assert xr.open_dataset(damaged).attrs["status"] == outcome.runs[1]["status"]
+
+
+def test_changed_strength_invalidates_the_cached_runs_but_not_the_gravity(quickstart_run, tmp_path):
+    study, _, _ = quickstart_run
+    other = parse_study(QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 12e3"))
+    # strength does not shape an elastic gravity stage ... but it is part of the study, so the key changes
+    assert gravity_key(other) != gravity_key(study)
+    assert gravity_key(parse_study(QUICKSTART.replace("fos_tolerance = 0.01", "fos_tolerance = 0.02"))) == gravity_key(study)
+
+
+def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):
+    study_path = tmp_path / "quickstart.toml"
+    study_path.write_text(QUICKSTART)
+    out = tmp_path / "out"
+    log = tmp_path / "first.log"
+    with log.open("w") as sink:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out), "--workers", "2"],
+            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True,
+        )
+    deadline = time.monotonic() + 240
+    try:
+        while len(list(out.glob("srf_*.nc"))) < 4:
+            assert process.poll() is None, log.read_text()
+            assert time.monotonic() < deadline, "no run finished in time"
+            time.sleep(0.05)
+    finally:
+        os.killpg(process.pid, signal.SIGKILL)  # the CLI and its dask workers
+        process.wait()
+    assert not (out / "summary.nc").exists()
+    finished = sorted(p.name for p in out.glob("srf_*.nc"))
+    for name in finished:  # every file under a final name is complete
+        xr.open_dataset(out / name).close()
+    rerun = cli(study_path, "--out", out, "--workers", "2")
+    assert rerun.returncode == 0, rerun.stderr
+    reused = [line for line in rerun.stdout.splitlines() + rerun.stderr.splitlines() if "SRF runs reused" in line]
+    assert reused and int(reused[0].split()[0]) >= len(finished)
+    assert "gravity state reused" in rerun.stdout + rerun.stderr
+    assert (out / "summary.nc").is_file() and not list(out.glob("*.tmp"))
+
+
+def test_runs_on_a_separately_started_dask_cluster(quickstart_run, tmp_path):
+    _, _, local = quickstart_run
+    scheduler_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    processes = [subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+         "--no-dashboard", "--scheduler-file", str(scheduler_file)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env,
+    )]
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.is_file() or not scheduler_file.read_text().strip():
+            assert time.monotonic() < deadline, "the scheduler did not start"
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        for _ in range(2):
+            processes.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
+            ))
+        study_path = tmp_path / "quickstart.toml"
+        study_path.write_text(QUICKSTART)
+        run = cli(study_path, "--out", tmp_path / "out", "--scheduler", address)
+        assert run.returncode == 0, run.stderr
+        summary = xr.open_dataset(tmp_path / "out" / "summary.nc")
+        assert float(summary["fos"]) == pytest.approx(local.fos)  # the same runs, another cluster
+        assert f"FOS = {local.fos:.4g}" in run.stdout
+    finally:
+        for process in processes:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+def test_unreachable_scheduler_exits_2(tmp_path):
+    study_path = tmp_path / "quickstart.toml"
+    study_path.write_text(QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0"))
+    run = cli(study_path, "--out", tmp_path / "out", "--scheduler", "tcp://127.0.0.1:9")
+    assert run.returncode == 2
+    assert run.stderr.startswith(f"error: {study_path}: --scheduler: cannot connect") and run.stderr.count("\n") == 1
+
+
+COLUMN_FOS = """
+[study]
+name = "column"
+[geometry]
+polygon_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 10.0], [0.0, 10.0]]
+spacing_m = 0.25
+[[materials]]
+name = "soil"
+model = "drucker_prager"
+density_kg_m3 = 2000.0
+youngs_modulus_pa = 100e6
+poisson_ratio = 0.3
+cohesion_pa = 10e3
+friction_deg = 20.0
+[loads]
+gravity_m_s2 = [0.0, -10.0]
+[[boundary]]
+name = "base"
+y_max_m = 0.0
+vx_m_s = 0.0
+vy_m_s = 0.0
+[[boundary]]
+name = "sides"
+x_max_m = 0.0
+vx_m_s = 0.0
+[[boundary]]
+name = "right"
+x_min_m = 2.0
+vx_m_s = 0.0
+[[stages]]
+name = "gravity"
+kind = "relaxation"
+elastic = true
+tolerance = 1e-5
+max_duration_s = 20.0
+record_interval_s = 0.05
+[[stages]]
+name = "srf"
+kind = "strength_reduction"
+duration_s = 2.0
+record_interval_s = 0.05
+srf_min = 1.0
+srf_max = 2.0
+srf_step = 0.5
+"""
+
+
+def test_gravity_stage_matches_the_elastic_column(tmp_path):
+    """The FOS study's gravity stage: sigma_yy = -rho g (H - y), sigma_xx = nu/(1-nu) sigma_yy."""
+    study = parse_study(COLUMN_FOS)
+    stress, plastic, reused, n, _ = gravity_state(study, tmp_path, force=False, progress=FosProgress())
+    assert not reused and np.all(plastic == 0.0)
+    y0 = xr.open_dataset(tmp_path / "gravity.nc")["particle_y0"].values
+    band = (y0 >= 1.0) & (y0 <= 8.0)
+    syy_exact = -2000.0 * 10.0 * (10.0 - y0[band])
+    np.testing.assert_allclose(stress[band, 1], syy_exact, rtol=0.02)
+    np.testing.assert_allclose(stress[band, 0], 0.3 / 0.7 * syy_exact, rtol=0.02)
+    assert gravity_state(study, tmp_path, force=False, progress=FosProgress())[2]  # reused the second time

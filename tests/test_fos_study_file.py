@@ -1,0 +1,112 @@
+"""Malformed strength-reduction study files: each gives one line naming the field, exit code 2
+from the command, and nothing written."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from workflows.cli import app
+from workflows.study import StudyError, parse_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+SR_STAGE = QUICKSTART[QUICKSTART.index('[[stages]]\nname = "srf"'):QUICKSTART.index("[[monitors]]")]
+GRAVITY_STAGE = QUICKSTART[QUICKSTART.index('[[stages]]\nname = "gravity"'):QUICKSTART.index('[[stages]]\nname = "srf"')]
+
+
+def variant(old: str, new: str) -> str:
+    assert QUICKSTART.count(old) == 1, old
+    return QUICKSTART.replace(old, new)
+
+
+MALFORMED = {
+    "srf_max below srf_min": (variant("srf_max = 2.0", "srf_max = 0.9"), "stages[1].srf_max", "must be >= srf_min = 1"),
+    "srf_step wider than the range": (variant("srf_step = 0.1", "srf_step = 1.5"), "stages[1].srf_step", "<= srf_max - srf_min"),
+    "srf_step tiny": (variant("srf_step = 0.1", "srf_step = 0.001"), "stages[1].srf_step", "more than 200"),
+    "zero srf_min": (variant("srf_min = 1.0", "srf_min = 0.0"), "stages[1].srf_min", "must be > 0"),
+    "srf as text": (variant("srf_min = 1.0", 'srf_min = "1.0"'), "stages[1].srf_min", "must be a number"),
+    "negative tolerance": (variant("fos_tolerance = 0.01", "fos_tolerance = -0.01"), "stages[1].fos_tolerance", "> 0"),
+    "max_runs too small": (variant("fos_tolerance = 0.01", "fos_tolerance = 0.01\nmax_runs = 2"), "stages[1].max_runs", ">= 3"),
+    "max_runs not an integer": (variant("fos_tolerance = 0.01", "fos_tolerance = 0.01\nmax_runs = 10.5"), "stages[1].max_runs", "integer"),
+    "missing duration": (variant("duration_s = 5.0\n", ""), "stages[1].duration_s", "required field missing"),
+    "unknown key in the stage": (variant("fos_tolerance = 0.01", "fos_tolerence = 0.01"), "stages[1].fos_tolerence", "did you mean 'fos_tolerance'"),
+    "elastic strength reduction": (variant("srf_step = 0.1", "srf_step = 0.1\nelastic = true"), "stages[1].elastic", "must be false"),
+    "continue instead of original positions": (variant("srf_step = 0.1", 'srf_step = 0.1\nstart = "continue"'), "stages[1].start", "original_positions"),
+    "rest window longer than half the run": (variant("srf_step = 0.1", "srf_step = 0.1\nrest_window_s = 3.0"), "stages[1].rest_window_s", "<= duration_s / 2"),
+    "floor above failure": (
+        variant("srf_step = 0.1", "srf_step = 0.1\nfailure_displacement_m = 0.5\ndisplacement_floor_m = 0.5"),
+        "stages[1].displacement_floor_m", "< failure_displacement_m",
+    ),
+    "negative failure displacement": (variant("srf_step = 0.1", "srf_step = 0.1\nfailure_displacement_m = -1"), "stages[1].failure_displacement_m", "> 0"),
+    "rest growth of 1": (variant("srf_step = 0.1", "srf_step = 0.1\nrest_growth = 1.0"), "stages[1].rest_growth", "< 1"),
+    "strength reduction not last": (
+        QUICKSTART.replace(SR_STAGE, "").replace(GRAVITY_STAGE, SR_STAGE + GRAVITY_STAGE), "stages[0].kind", "must be the last stage"
+    ),
+    "no gravity stage before it": (QUICKSTART.replace(GRAVITY_STAGE, ""), "stages[0].kind", "put a relaxation stage before it"),
+    "only elastic materials": (
+        variant('model = "drucker_prager"\ndp_fit = "mohr_coulomb_match"', 'model = "elastic"').replace(
+            "cohesion_pa = 10e3\nfriction_deg = 20.0\ndilation_deg = 0.0\n", ""),
+        "materials", "needs a material with strength",
+    ),
+    "dilation above friction": (variant("dilation_deg = 0.0", "dilation_deg = 25.0"), "materials[0].dilation_deg", "must be <= friction_deg"),
+    "friction of 90 degrees": (variant("friction_deg = 20.0", "friction_deg = 90.0"), "materials[0].friction_deg", "< 90"),
+    "no strength at all": (
+        variant("cohesion_pa = 10e3", "cohesion_pa = 0.0").replace("friction_deg = 20.0", "friction_deg = 0.0"),
+        "materials[0].cohesion_pa", "no strength",
+    ),
+    "unknown dp fit": (variant('dp_fit = "mohr_coulomb_match"', 'dp_fit = "middle"'), "materials[0].dp_fit", "must be one of"),
+    "region outside the domain leaves particles without material": (
+        variant('name = "soil"', 'name = "soil"\nregion_m = [[100.0, 0.0], [110.0, 0.0], [110.0, 5.0]]'), "materials",
+        "lie in no material region",
+    ),
+    "unknown output option": (QUICKSTART + "\n[output]\nfigure = true\n", "output.figure", "did you mean 'figures'"),
+    "collapse metrics on an FOS study": (
+        QUICKSTART + '\n[metrics]\nkind = "cohesive_collapse"\nmoved_threshold_m = 0.1\n', "metrics", "do not apply",
+    ),
+}
+
+
+def check_message(text: str) -> str:
+    """The one-line error of a study text, from the loader or from building its scene."""
+    from workflows.scene_builder import build_scene
+
+    try:
+        build_scene(parse_study(text))
+    except StudyError as error:
+        return str(error)
+    raise AssertionError("the study was accepted")
+
+
+def test_at_least_fifteen_malformed_fos_studies():
+    assert len(MALFORMED) >= 15
+
+
+@pytest.mark.parametrize("case", MALFORMED, ids=list(MALFORMED))
+def test_malformed_fos_study_names_the_field(case):
+    text, field, fragment = MALFORMED[case]
+    message = check_message(text)
+    assert message.startswith(field + ": ") or message.startswith(field + "["), message
+    assert fragment in message, message
+    assert "\n" not in message
+
+
+@pytest.mark.parametrize("case", ["srf_max below srf_min", "region outside the domain leaves particles without material"])
+def test_command_exits_2_and_writes_nothing(case, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    study = tmp_path / "study.toml"
+    study.write_text(MALFORMED[case][0])
+    result = CliRunner().invoke(app, [str(study), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.stderr.startswith(f"error: {study}: {MALFORMED[case][1]}") and result.stderr.count("\n") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_zero_workers_exits_2(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(QUICKSTART)
+    result = CliRunner().invoke(app, [str(study), "--workers", "0", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and result.stderr == "error: --workers: must be >= 1, got 0\n"
+    assert not (tmp_path / "out").exists()
