@@ -253,3 +253,13 @@ def test_gravity_stage_matches_the_elastic_column(tmp_path):
     np.testing.assert_allclose(stress[band, 1], syy_exact, rtol=0.02)
     np.testing.assert_allclose(stress[band, 0], 0.3 / 0.7 * syy_exact, rtol=0.02)
     assert gravity_state(study, tmp_path, force=False, progress=FosProgress())[2]  # reused the second time
+
+
+def test_mohr_coulomb_and_its_drucker_prager_match_give_the_same_fos(quickstart_run, tmp_path):
+    """A structural collapse load: the quickstart slope's FOS with Mohr-Coulomb equals the FOS
+    with the plane-strain psi = 0 Drucker-Prager fit within 1% (method notes, section 2)."""
+    _, _, dp = quickstart_run
+    text = QUICKSTART.replace('model = "drucker_prager"\ndp_fit = "mohr_coulomb_match"', 'model = "mohr_coulomb"')
+    mc = run_fos_study(parse_study(text), tmp_path, workers=2)
+    assert math.isfinite(mc.fos) and math.isfinite(dp.fos)
+    assert abs(mc.fos - dp.fos) <= 0.01 * dp.fos
