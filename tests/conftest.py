@@ -52,3 +52,17 @@ def make_beam():
 @pytest.fixture
 def make_column():
     return column_scene
+
+
+@pytest.fixture(scope="session")
+def quickstart_run(tmp_path_factory):
+    """studies/quickstart.toml run once through a local cluster of 2 worker processes:
+    (study, output folder, FosOutcome).  Shared by the FOS, ParaView and notebook tests."""
+    from pathlib import Path
+
+    from workflows.fos_study import run_fos_study
+    from workflows.study import load_study
+
+    out = tmp_path_factory.mktemp("quickstart")
+    study = load_study(Path(__file__).resolve().parents[1] / "studies" / "quickstart.toml")
+    return study, out, run_fos_study(study, out, workers=2)

@@ -35,15 +35,6 @@ class Messages(FosProgress):
         super().__init__(message=self.lines.append)
 
 
-@pytest.fixture(scope="module")
-def quickstart_run(tmp_path_factory):
-    """The quickstart study run once through a local cluster of 2 worker processes."""
-    out = tmp_path_factory.mktemp("quickstart")
-    study = parse_study(QUICKSTART)
-    outcome = run_fos_study(study, out, workers=2)
-    return study, out, outcome
-
-
 def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
     study, out, outcome = quickstart_run
     # limit equilibrium 1.366-1.369; a 1 m cloud is coarse, so a wider band here
