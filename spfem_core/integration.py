@@ -36,8 +36,14 @@ def leapfrog(
 
     ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with
     [max speed^2 (m^2/s^2), |f_unbalanced|^2 on free directions, |m g|^2 on free directions,
-    damping power (W/m, <= 0), kinetic energy removed by the walls (J/m, >= 0),
+    damping power (W/m, <= 0), energy removed by the walls (J/m),
     particles touching a wall].
+
+    The walls' share is minus the work of their impulse m (w - v) at the mid-step velocity
+    (v^{n-1/2} + w) / 2, the same measure leapfrog uses for every force (the kinetic energy
+    change over a step is sum m dv . (v^{n-1/2} + v^{n+1/2}) / 2).  Measuring it as
+    m (v^2 - w^2) / 2 instead counted m (dt f / m)^2 / 2 every step for a particle at rest
+    on a floor, a loss proportional to dt that never happened.
     """
     max_speed_sq = 0.0
     unbalanced_sq = 0.0
@@ -48,6 +54,8 @@ def leapfrog(
     use_walls = wall_xy.shape[0] > 0
     for k in range(node_xy.shape[0]):
         m = node_mass[k]
+        v_start_x = node_v[k, 0]
+        v_start_y = node_v[k, 1]
         for d in range(2):
             weight = m * gravity[d]
             f = node_force[k, d] + weight
@@ -72,7 +80,9 @@ def leapfrog(
                     node_xy[k, 0], node_xy[k, 1], vx, vy, dt, wall_xy, wall_friction, reach
                 )
                 if dvn != 0.0 or wx != vx or wy != vy:
-                    contact_loss += 0.5 * m * (vx * vx + vy * vy - wx * wx - wy * wy)
+                    # work of the wall's impulse m (w - v) over the step, at the leapfrog mid-step
+                    # velocity (v^{n-1/2} + v^{n+1/2}) / 2: zero for a particle resting on it
+                    contact_loss -= 0.5 * m * ((wx - vx) * (v_start_x + wx) + (wy - vy) * (v_start_y + wy))
                     node_contact[k] = 1
                     n_contact += 1
                     vx = wx
