@@ -5,19 +5,29 @@ from __future__ import annotations
 from pathlib import Path
 
 import nbformat
-import pytest
 from nbclient import NotebookClient
 
-NOTEBOOKS = sorted((Path(__file__).resolve().parents[1] / "studies" / "notebooks").glob("*.ipynb"))
+NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "studies" / "notebooks"
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
-def test_notebook_runs_on_the_quickstart_results(path, quickstart_run, monkeypatch):
-    _, out, outcome = quickstart_run
-    monkeypatch.setenv("SPFEM_RESULTS", str(out))
+def run_notebook(path: Path):
     notebook = nbformat.read(path, as_version=4)
     NotebookClient(notebook, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}).execute()
-    printed = "".join(
+    return "".join(
         output.get("text", "") for cell in notebook.cells if cell.cell_type == "code" for output in cell.outputs
     )
-    assert f"FOS {outcome.fos:.4f}" in printed
+
+
+def test_results_notebook_runs_on_the_quickstart_results(quickstart_run, monkeypatch):
+    _, out, outcome = quickstart_run
+    monkeypatch.setenv("SPFEM_RESULTS", str(out))
+    assert f"FOS {outcome.fos:.4f}" in run_notebook(NOTEBOOK_DIR / "fos_results.ipynb")
+
+
+def test_benchmark_notebook_runs_on_the_committed_tables():
+    printed = run_notebook(NOTEBOOK_DIR / "benchmarks.ipynb")
+    assert "beam" in printed and "slope" in printed
+
+
+def test_every_notebook_is_tested():
+    assert sorted(p.name for p in NOTEBOOK_DIR.glob("*.ipynb")) == ["benchmarks.ipynb", "fos_results.ipynb"]
