@@ -1,4 +1,5 @@
-"""The notebooks in studies/notebooks run top to bottom (nbclient) on a quickstart result."""
+"""The notebooks in studies/notebooks run top to bottom (nbclient): the results notebook on a
+fresh quickstart result, the benchmark notebook on the committed bench_results tables."""
 
 from __future__ import annotations
 
