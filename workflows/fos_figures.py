@@ -1,7 +1,7 @@
 """Figures of a strength-reduction study (PNG, matplotlib without a display).
 
 - ``srf_curve.png``: largest displacement against SRF (log scale), each run coloured by its
-  verdict, the knee and the FOS bracket marked;
+  verdict, the knee (maximum curvature of the sweep) and the FOS bracket marked;
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
   equivalent plastic strain and displacement magnitude on the final particle positions.
 """
@@ -38,6 +38,9 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
         if pick.any():
             ax.plot(srf[pick], u[pick], "o", color=colour, label=name)
     fos = summary["fos"]
+    knee = float(fos.attrs.get("knee_srf", math.nan))
+    if math.isfinite(knee):
+        ax.axvline(knee, color="tab:green", ls="--", lw=1, label=f"knee (maximum curvature) {knee:g}")
     if math.isfinite(float(fos)):
         low, high = fos.attrs["fos_low"], fos.attrs["fos_high"]
         ax.axvspan(low, high, color="orange", alpha=0.3, label=f"FOS {float(fos):.3f} [{low:.4g}, {high:.4g}]")

@@ -182,13 +182,15 @@ def _stored_run(path: Path, key: str) -> dict | None:
     return {name: attrs[f"run_{name}"] for name in _RESULT_SCALARS} | {"srf": float(attrs["srf"])}
 
 
-def _write_run(result: SrfRunResult, path: Path, key: str, gkey: str) -> dict:
+def _run_scalars(result: SrfRunResult) -> dict:
+    return {name: getattr(result, name) for name in _RESULT_SCALARS} | {"srf": result.srf}
+
+
+def _write_run(result: SrfRunResult, path: Path, key: str, gkey: str) -> None:
     ds = result.dataset
-    scalars = {name: getattr(result, name) for name in _RESULT_SCALARS}
-    ds.attrs.update({f"run_{name}": value for name, value in scalars.items()})
+    ds.attrs.update({f"run_{name}": getattr(result, name) for name in _RESULT_SCALARS})
     ds.attrs.update(run_key=key, gravity_key=gkey)
     write_dataset(ds, path)
-    return scalars | {"srf": result.srf}
 
 
 def _remove_stale_runs(out_dir: Path, gkey: str) -> int:
@@ -297,6 +299,7 @@ def run_fos_study(
         [stress_future] = client.scatter([stress], broadcast=True)
         [plastic_future] = client.scatter([plastic], broadcast=True)
         in_flight = {}
+        unwritten: list[tuple[SrfRunResult, str]] = []  # finished, written once the next runs are submitted
         reused_runs = 0
         while True:
             planned = search.next_values()
@@ -313,6 +316,11 @@ def run_fos_study(
                     run_srf, study_future, stress_future, plastic_future, srf, key=f"srf-{srf:.4f}-{key}", pure=False
                 )
                 in_flight[future] = (srf, key)
+            io_start = time.perf_counter()
+            for result, key in unwritten:  # the workers are busy with the next runs meanwhile
+                _write_run(result, out_dir / run_file_name(result.srf), key, gkey)
+            unwritten.clear()
+            timings["io"] += time.perf_counter() - io_start
             progress.runs(len(runs), len(runs) + len(in_flight))
             if not in_flight:
                 if planned:
@@ -322,9 +330,8 @@ def run_fos_study(
             for future in done:
                 srf, key = in_flight.pop(future)
                 result: SrfRunResult = future.result()  # a task's exception propagates: the study stops
-                io_start = time.perf_counter()
-                runs[srf] = _write_run(result, out_dir / run_file_name(srf), key, gkey)
-                timings["io"] += time.perf_counter() - io_start
+                runs[srf] = _run_scalars(result)
+                unwritten.append((result, key))
                 search.finished(RunOutcome(srf, result.max_displacement_m, result.status))
                 if result.status == DIVERGED:
                     progress.message(f"warning: SRF {srf:g} diverged: {result.status_reason}")

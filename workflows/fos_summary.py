@@ -4,7 +4,7 @@ Variables (coordinate ``srf``): ``max_displacement`` (m, largest displacement of
 particle during the run), ``final_kinetic_energy`` (J m-1), ``status`` (stable / failed /
 diverged), ``status_reason``, ``stop_time`` (s, < the stage duration when a run stopped
 early), ``curvature`` (of the normalised curve, NaN at the ends), ``wall_time`` (s).
-Scalar ``fos`` (NaN without a knee) with attributes ``fos_low``, ``fos_high``,
+Scalar ``fos`` (NaN without a knee) with attributes ``fos_low``, ``fos_high``, ``knee_srf``,
 ``criterion``, ``second_criterion``, ``status_fos_low``/``status_fos_high`` and
 ``criteria_agree``.
 """
@@ -52,6 +52,7 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
         "long_name": "factor of safety: middle of the bracket around the knee of the SRF-displacement curve",
         "fos_low": float(knee.fos_low),
         "fos_high": float(knee.fos_high),
+        "knee_srf": float(knee.knee_srf),
         "criterion": "maximum curvature, convex upturns only: " + knee.reason,
         "second_criterion": "run verdicts (failed: past failure_displacement_m or still moving at the end): "
         + status.reason,

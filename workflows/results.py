@@ -104,7 +104,7 @@ def run_dataset(*, study: Study, stage_index: int, series, sim, scene, monitor_p
             ),
             "monitor": (
                 "monitor",
-                np.array([m.name for m in study.monitors], dtype=object),
+                np.array([m.name for m in study.monitors], dtype=str),
                 {"units": "1", "long_name": "monitor name, as given in the study"},
             ),
         }
