@@ -218,7 +218,7 @@ def connect(scheduler: str):
     from distributed import Client
 
     try:
-        return Client(scheduler, timeout="10s")
+        return Client(scheduler, timeout="30s")
     except (OSError, TimeoutError, ValueError) as error:
         raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
 
@@ -321,6 +321,13 @@ def run_fos_study(
                 _write_run(result, out_dir / run_file_name(result.srf), key, gkey)
             unwritten.clear()
             timings["io"] += time.perf_counter() - io_start
+            if not planned and search.stop_reason and in_flight and all(
+                srf > search.lowest_failed for srf, _ in in_flight.values()
+            ):  # the answer is complete: runs above the first failure cannot change it
+                for future, (srf, _) in in_flight.items():
+                    future.cancel()
+                    search.skipped[srf] = f"cancelled: above the failed SRF {search.lowest_failed:g}, cannot move the knee"
+                in_flight.clear()
             progress.runs(len(runs), len(runs) + len(in_flight))
             if not in_flight:
                 if planned:

@@ -103,8 +103,9 @@ class SrfSearch:
             free = self.n_parallel - len(self.pending)
             room = self.max_runs - len(self.outcomes) - len(self.pending)
             return todo[: max(0, min(free, room))]
-        if self.pending:
-            return []  # the refinement needs the whole sweep (or batch) first
+        if any(f <= ceiling for f in self.pending):
+            return []  # the refinement needs the sweep (or the last batch) below the first failure
+
         knee = self.knee()
         if math.isnan(knee.fos):
             self.stop_reason = knee.reason
