@@ -97,3 +97,29 @@ def test_coarse_cohesive_collapse_conserves_mass_and_energy():
     assert released > 1e3  # J/m: the face really failed
     assert abs(drift) < 0.03 * released, (drift, released)
     assert np.max(sim.node_plastic_strain) > 0.1
+
+
+def _cohesive_metrics(spacing_m: float, out_dir: Path) -> dict:
+    """The cohesive collapse study at ``spacing_m`` run as the command runs it; its scalar metrics."""
+    import xarray as xr
+
+    from workflows.runner import run_study
+
+    study = parse_study(COHESIVE.read_text().replace("spacing_m = 0.04", f"spacing_m = {spacing_m}"))
+    run_study(study, out_dir)
+    with xr.open_dataset(out_dir / "collapse.nc") as ds:
+        return {k: float(ds[k]) for k in ("back_scarp_x_m", "crest_height_m", "toe_x_m", "plastic_zone_area_m2")}
+
+
+@pytest.mark.slow
+def test_cohesive_collapse_converges_into_the_closed_form_band(tmp_path):
+    """h = 0.04, 0.02, 0.01 m (about 40 minutes): the back scarp rises towards the Culmann
+    plane (x = 2.73 m) and lies in the band 2.6-3.0 m at h = 0.01 m; the toe and the crest
+    settle; the plastic zone shrinks monotonically."""
+    metrics = [_cohesive_metrics(h, tmp_path / str(h)) for h in (0.04, 0.02, 0.01)]
+    scarp = [m["back_scarp_x_m"] for m in metrics]
+    area = [m["plastic_zone_area_m2"] for m in metrics]
+    assert scarp[0] < scarp[1] < scarp[2] and 2.6 <= scarp[2] <= 3.0
+    assert area[0] > area[1] > area[2]
+    assert abs(metrics[2]["toe_x_m"] / metrics[1]["toe_x_m"] - 1.0) < 0.01
+    assert all(m["crest_height_m"] == pytest.approx(2.0, abs=0.02) for m in metrics)
