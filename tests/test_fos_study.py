@@ -254,3 +254,13 @@ def test_mohr_coulomb_and_its_drucker_prager_match_give_the_same_fos(quickstart_
     mc = run_fos_study(parse_study(text), tmp_path, workers=2)
     assert math.isfinite(mc.fos) and math.isfinite(dp.fos)
     assert abs(mc.fos - dp.fos) <= 0.01 * dp.fos
+
+
+def test_a_slope_unstable_as_built_is_reported(tmp_path):
+    """With c = 3 kPa the reference slope fails at its own strength: a range starting below 1
+    finds an FOS below 1 and the verdict says the slope is unstable as built."""
+    text = QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 3e3").replace("srf_min = 1.0", "srf_min = 0.5")
+    outcome = run_fos_study(parse_study(text), tmp_path, workers=2)
+    assert outcome.fos < 1.0
+    assert "UNSTABLE AS BUILT" in outcome.verdict
+    assert xr.open_dataset(tmp_path / "summary.nc")["fos"].attrs["verdict"] == outcome.verdict
