@@ -87,6 +87,10 @@ StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
 kinetic_energy_j_per_m; read-only views): a reason (one line) to end the stage now, or None."""
 
 
+Snapshot = tuple[float, Callable[[float], None]]
+"""(interval in s, callback(stage time in s)): the callback reads the state from the simulation."""
+
+
 class DivergenceError(RuntimeError):
     """The solution blew up; ``step`` and ``time_s`` say where, ``partial`` holds the records so far."""
 
@@ -412,13 +416,16 @@ class Simulation:
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
         stop: StopRule | None = None,
+        snapshot: Snapshot | None = None,
     ) -> TimeSeries:
         """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``.
 
         ``stop`` is asked between compiled calls whether the outcome is decided (see
-        :data:`StopRule`); the stage then ends early and its notes say why.
+        :data:`StopRule`); the stage then ends early and its notes say why.  ``snapshot``
+        (interval in s, callback) is called with the stage time at its start, every interval
+        and at its end, with the state of that moment in this object.
         """
-        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop)
+        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop, snapshot)
 
     def relax(
         self,
@@ -428,6 +435,7 @@ class Simulation:
         record_interval_s: float | None = None,
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
+        snapshot: Snapshot | None = None,
     ) -> TimeSeries:
         """Dynamic relaxation: locally damped steps until |f_unbalanced| / |m g| < ``tolerance``.
 
@@ -436,9 +444,10 @@ class Simulation:
         """
         if not tolerance > 0.0:
             raise ValueError(f"tolerance must be > 0, got {tolerance}")
-        return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress)
+        return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, None, snapshot)
 
-    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None):
+    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None,
+               snapshot=None):
         if not duration_s > 0.0:
             raise ValueError(f"duration_s must be > 0, got {duration_s}")
         if not 0.0 <= damping < 1.0:
@@ -469,8 +478,14 @@ class Simulation:
         stop_reason = ""
         # 0.1 us per particle-step is a fair first guess; adapt the chunk to the measured speed
         steps_per_call = max(10, int(WALL_SECONDS_PER_CALL / (1e-7 * max(self.scene.n_particles, 1))))
+        if snapshot is not None:
+            snapshot_interval, take_snapshot = float(snapshot[0]), snapshot[1]
+            take_snapshot(0.0)
+            last_snapshot, next_snapshot = 0.0, snapshot_interval
         while stage_time < duration_s - 0.5 * self.dt_s:
             n_want = min(steps_per_call, max(1, int(round((duration_s - stage_time) / self.dt_s))))
+            if snapshot is not None:  # end the call at the next snapshot time
+                n_want = min(n_want, max(1, int(math.ceil((next_snapshot - stage_time) / self.dt_s - 1e-9))))
             if stop is not None:  # ask the stop rule at least every STOP_CHECK_FRACTION of the stage
                 n_want = min(n_want, max(1, int(STOP_CHECK_FRACTION * duration_s / self.dt_s)))
             if self.n_orphans:
@@ -549,8 +564,15 @@ class Simulation:
                 if early:
                     stop_reason = str(early)
                     break
+            if snapshot is not None and stage_time >= next_snapshot - 0.5 * self.dt_s:
+                take_snapshot(stage_time)
+                last_snapshot = stage_time
+                while next_snapshot <= stage_time + 0.5 * self.dt_s:
+                    next_snapshot += snapshot_interval
             if progress is not None:
                 progress(min(stage_time / duration_s, 1.0))
+        if snapshot is not None and stage_time > last_snapshot + 0.5 * self.dt_s:
+            take_snapshot(stage_time)  # the end, unless it was a snapshot time already
         if records.arrays[0][int(records.count[0]) - 1] < stage_time - 1e-12 * max(stage_time, 1.0):
             if int(records.count[0]) >= records.capacity:
                 records.grow()

@@ -45,3 +45,24 @@ def test_every_run_reads_back_and_the_collection_steps_through_srf(quickstart_ru
 def test_folder_without_results_exits_2(tmp_path, capsys):
     assert main([str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith(f"error: {tmp_path}: no result file")
+
+
+def test_snapshots_during_a_stage_end_on_the_final_state(tmp_path):
+    from pathlib import Path
+
+    from workflows.runner import run_study
+    from workflows.study import parse_study
+
+    text = (Path(__file__).resolve().parents[1] / "studies" / "cantilever_beam.toml").read_text()
+    text = text.replace("spacing_m = 0.02", "spacing_m = 0.05").replace("duration_s = 4.0", "duration_s = 1.0")
+    study = parse_study(text + "\n[output]\nsnapshot_interval_s = 0.25\n")
+    run_study(study, tmp_path)
+    collection = ET.parse(tmp_path / "paraview" / "vibration.pvd").getroot().findall("Collection/DataSet")
+    times = [float(entry.get("timestep")) for entry in collection]
+    np.testing.assert_allclose(times, [0.0, 0.25, 0.5, 0.75, 1.0], atol=1e-3)
+    first = read_vtu(tmp_path / "paraview" / collection[0].get("file"))[2]
+    last = read_vtu(tmp_path / "paraview" / collection[-1].get("file"))[2]
+    assert np.all(first["displacement"] == 0.0)
+    with xr.open_dataset(tmp_path / "run.nc") as ds:
+        np.testing.assert_array_equal(last["Points"][:, 1], ds["particle_y"].values)
+        np.testing.assert_array_equal(last["stress"][:, 0], ds["particle_sxx"].values)

@@ -126,7 +126,7 @@ def _read_gravity(path: Path, key: str):
 def gravity_state(study: Study, out_dir: Path, *, force: bool, progress: FosProgress):
     """Run (or reuse) the stages before the strength reduction; (stress, plastic strain, reused, n, wall s)."""
     from spfem_core.simulation import Simulation, UnstableTimeStepError
-    from workflows.runner import prepare_stage, run_stage
+    from workflows.runner import prepare_stage, run_stage, snapshots
     from workflows.results import run_dataset
     from workflows.scene_builder import build_scene, monitor_particles, solver_settings
 
@@ -150,7 +150,8 @@ def gravity_state(study: Study, out_dir: Path, *, force: bool, progress: FosProg
             prepare_stage(sim, study, stage, index)
         except UnstableTimeStepError as error:
             raise StudyError(f"stages[{index}]", str(error)) from None
-        series = run_stage(sim, stage, monitors, lambda fraction, name=stage.name: progress.stage(name, fraction))
+        series = run_stage(sim, stage, monitors, lambda fraction, name=stage.name: progress.stage(name, fraction),
+                           snapshots(study, stage, sim, out_dir))
         if series.converged is False:
             progress.message(f"warning: stage {stage.name!r} reached max_duration_s before converging")
         ds = run_dataset(study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitors)

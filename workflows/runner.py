@@ -45,7 +45,18 @@ def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -
         sim.discard_displacement()
 
 
-def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None):
+def snapshots(study: Study, stage: StageBase, sim: Simulation, out_dir: Path):
+    """The ``snapshot`` argument of a stage run: ParaView files every ``[output]
+    snapshot_interval_s`` into ``out_dir/paraview``, or None when the study asks for none."""
+    interval = study.output.snapshot_interval_s
+    if interval is None:
+        return None
+    from workflows.vtk_export import SnapshotWriter
+
+    return interval, SnapshotWriter(Path(out_dir) / "paraview", stage.name, sim)
+
+
+def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None, snapshot=None):
     """Run one stage on ``sim`` (which continues from its current state); the stage's TimeSeries."""
     match stage:
         case DynamicStage():
@@ -55,6 +66,7 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
                 record_interval_s=stage.record_interval_s,
                 monitor_nodes=monitor_nodes,
                 progress=progress,
+                snapshot=snapshot,
             )
         case RelaxationStage():
             return sim.relax(
@@ -64,6 +76,7 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
                 record_interval_s=stage.record_interval_s,
                 monitor_nodes=monitor_nodes,
                 progress=progress,
+                snapshot=snapshot,
             )
     raise TypeError(f"no runner for a stage of kind {stage.kind!r}")
 
@@ -96,7 +109,7 @@ def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | No
             prepare_stage(sim, study, stage, index)
         except UnstableTimeStepError as error:
             raise StudyError(f"stages[{index}]", str(error)) from None
-        series = run_stage(sim, stage, monitor_nodes, report)
+        series = run_stage(sim, stage, monitor_nodes, report, snapshots(study, stage, sim, out_dir))
         dataset = run_dataset(
             study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitor_nodes
         )

@@ -656,6 +656,11 @@ class Output(Record):
         "draw PNG figures (a strength-reduction study: the SRF-displacement curve and the fields at the "
         "last stable and first failed SRF)", default=True,
     )
+    snapshot_interval_s: float | None = number(
+        "s", "write ParaView snapshots of every stage at this interval (`OUT/paraview/<stage>_<k>.vtu` and "
+        "`<stage>.pvd`); SRF runs are not snapshotted (`python -m workflows.vtk_export OUT` gives their "
+        "final states); default: none", default=None, gt=0.0,
+    )
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -9,6 +9,10 @@ particle positions (points, z = 0) and triangles, with point data ``displacement
 ``plastic_strain``, ``material`` and ``initial_position`` (m).  ``results.pvd`` lists them:
 SRF runs at "timestep" = F, stage files at their stage index, so ParaView's time slider
 steps through the SRF values or the stages.  Data are ASCII: simple to read back and check.
+
+During a run, ``[output] snapshot_interval_s`` makes :class:`SnapshotWriter` write the same
+kind of file every interval of each stage (``OUT/paraview/<stage>_<k>.vtu`` and
+``<stage>.pvd`` with the stage time).
 """
 
 from __future__ import annotations
@@ -30,23 +34,22 @@ def _array(name: str, values: np.ndarray, components: int, vtk_type: str) -> str
             f'format="ascii">{text}</DataArray>')
 
 
-def dataset_to_vtu(ds: xr.Dataset) -> str:
-    """The VTU text of one result dataset (module doc)."""
-    x, y = ds["particle_x"].values, ds["particle_y"].values
-    n = x.size
-    triangles = ds["mesh2d_face_nodes"].values.astype(np.int64)
-    points = np.column_stack([x, y, np.zeros(n)])
-    stress = np.column_stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")])
+def vtu_text(xy, triangles, displacement, velocity, stress, plastic_strain, material, initial_xy) -> str:
+    """The VTU text of a particle state: (n, 2) arrays in m and m/s, stress (n, 4) in Pa."""
+    n = xy.shape[0]
+    triangles = np.asarray(triangles, dtype=np.int64)
+    zeros = np.zeros(n)
+
+    def vector(pair):
+        return np.column_stack([pair[:, 0], pair[:, 1], zeros])
+
     point_data = [
-        _array("displacement", np.column_stack([ds["particle_ux"].values, ds["particle_uy"].values, np.zeros(n)]), 3,
-               "Float64"),
-        _array("velocity", np.column_stack([ds["particle_vx"].values, ds["particle_vy"].values, np.zeros(n)]), 3,
-               "Float64"),
+        _array("displacement", vector(displacement), 3, "Float64"),
+        _array("velocity", vector(velocity), 3, "Float64"),
         _array("stress", stress, 4, "Float64"),
-        _array("plastic_strain", ds["particle_plastic_strain"].values, 1, "Float64"),
-        _array("material", ds["particle_material"].values, 1, "Int64"),
-        _array("initial_position", np.column_stack([ds["particle_x0"].values, ds["particle_y0"].values, np.zeros(n)]),
-               3, "Float64"),
+        _array("plastic_strain", plastic_strain, 1, "Float64"),
+        _array("material", material, 1, "Int64"),
+        _array("initial_position", vector(initial_xy), 3, "Float64"),
     ]
     cells = [
         _array("connectivity", triangles, 1, "Int64"),
@@ -59,10 +62,61 @@ def dataset_to_vtu(ds: xr.Dataset) -> str:
         "<UnstructuredGrid>",
         f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
         '<PointData Scalars="plastic_strain" Vectors="displacement">', *point_data, "</PointData>",
-        "<Points>", _array("Points", points, 3, "Float64"), "</Points>",
+        "<Points>", _array("Points", vector(xy), 3, "Float64"), "</Points>",
         "<Cells>", *cells, "</Cells>",
         "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
     ])
+
+
+def dataset_to_vtu(ds: xr.Dataset) -> str:
+    """The VTU text of one result dataset (module doc)."""
+
+    def pair(a, b):
+        return np.column_stack([ds[a].values, ds[b].values])
+
+    stress = np.column_stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")])
+    return vtu_text(
+        pair("particle_x", "particle_y"), ds["mesh2d_face_nodes"].values, pair("particle_ux", "particle_uy"),
+        pair("particle_vx", "particle_vy"), stress, ds["particle_plastic_strain"].values,
+        ds["particle_material"].values, pair("particle_x0", "particle_y0"),
+    )
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def _pvd_text(entries) -> str:
+    lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="1.0">', "<Collection>"]
+    lines += [f'<DataSet timestep="{step!r}" part="0" file={quoteattr(name)}/>' for step, name in entries]
+    return "\n".join(lines + ["</Collection>", "</VTKFile>", ""])
+
+
+class SnapshotWriter:
+    """Snapshots of a running stage: ``<stage>_<k>.vtu`` in ``folder`` and ``<stage>.pvd`` (time =
+    stage time in s), the collection rewritten after each snapshot so an interrupted run keeps
+    a usable one.  Called by ``Simulation.run(..., snapshot=(interval, writer))``."""
+
+    def __init__(self, folder: str | Path, stage_name: str, sim):
+        self.folder = Path(folder)
+        self.stage_name = stage_name
+        self.sim = sim
+        self.entries: list[tuple[float, str]] = []
+        self.folder.mkdir(parents=True, exist_ok=True)
+        for old in self.folder.glob(f"{stage_name}_*.vtu"):
+            old.unlink()
+
+    def __call__(self, time_s: float) -> None:
+        sim = self.sim
+        name = f"{self.stage_name}_{len(self.entries):04d}.vtu"
+        _write_text(self.folder / name, vtu_text(
+            sim.node_xy_m, sim.mesh.elem_nodes, sim.node_displacement_m, sim.node_velocity_m_s, sim.node_stress_pa,
+            sim.node_plastic_strain, sim.node_material, sim.node_initial_xy_m,
+        ))
+        self.entries.append((float(time_s), name))
+        _write_text(self.folder / f"{self.stage_name}.pvd", _pvd_text(self.entries))
 
 
 def _timestep(ds: xr.Dataset, fallback: int) -> float:
@@ -82,18 +136,13 @@ def export_folder(out_dir: str | Path, to: str | Path | None = None) -> Path:
                 continue  # summary.nc
             to.mkdir(parents=True, exist_ok=True)
             vtu = to / (path.stem + ".vtu")
-            tmp = vtu.with_name(vtu.name + ".tmp")
-            tmp.write_text(dataset_to_vtu(ds))
-            tmp.replace(vtu)
+            _write_text(vtu, dataset_to_vtu(ds))
             entries.append((_timestep(ds, index), vtu.name))
     if not entries:
         raise FileNotFoundError(f"{out_dir}: no result file with a particle mesh")
     entries.sort()
-    lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="1.0">', "<Collection>"]
-    lines += [f'<DataSet timestep="{step!r}" part="0" file={quoteattr(name)}/>' for step, name in entries]
-    lines += ["</Collection>", "</VTKFile>", ""]
     pvd = to / "results.pvd"
-    pvd.write_text("\n".join(lines))
+    _write_text(pvd, _pvd_text(entries))
     return pvd
 
 
