@@ -264,3 +264,23 @@ def test_a_slope_unstable_as_built_is_reported(tmp_path):
     assert outcome.fos < 1.0
     assert "UNSTABLE AS BUILT" in outcome.verdict
     assert xr.open_dataset(tmp_path / "summary.nc")["fos"].attrs["verdict"] == outcome.verdict
+
+
+def test_ctrl_c_keeps_finished_runs_and_says_how_to_resume(tmp_path):
+    study_path = tmp_path / "quickstart.toml"
+    study_path.write_text(QUICKSTART)
+    out = tmp_path / "out"
+    log = tmp_path / "log"
+    with log.open("w") as sink:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out)],
+            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO,
+        )
+    deadline = time.monotonic() + 240
+    while len(list(out.glob("srf_*.nc"))) < 2:
+        assert process.poll() is None and time.monotonic() < deadline, log.read_text()
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    assert process.wait(timeout=120) == 130
+    assert "interrupted: the finished SRF runs are kept" in log.read_text()
+    assert not (out / "summary.nc").exists() and not list(out.glob("*.tmp"))

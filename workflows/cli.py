@@ -8,7 +8,8 @@ A study whose last stage is ``strength_reduction`` computes a factor of safety
 runs its stages in order (:mod:`workflows.runner`).
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
-(missing file, invalid study or option: one line on stderr, nothing written).
+(missing file, invalid study or option: one line on stderr, nothing written), 130
+interrupted (Ctrl-C) during an FOS study: finished runs are kept and a rerun resumes.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from workflows.study import StudyError, load_study
 
 EXIT_DIVERGED = 1
 EXIT_BAD_STUDY = 2
+EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports SIGINT
 
 app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
 
@@ -150,6 +152,11 @@ def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, work
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
         raise _fail(f"error: {study_file}: the gravity stage diverged: {error}", EXIT_DIVERGED) from None
+    except KeyboardInterrupt:
+        raise _fail(
+            f"interrupted: the finished SRF runs are kept in {out_dir}; run the same command again to resume",
+            EXIT_INTERRUPTED,
+        ) from None
     finally:
         if bars:
             progress.stop()
