@@ -347,9 +347,12 @@ def run_fos_study(
     timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
     if reused_runs:
         progress.message(f"{reused_runs} SRF runs reused from {out_dir} (finished by an earlier invocation)")
+    by_reason: dict[str, list[float]] = {}
     for srf, reason in sorted(search.skipped.items()):
         if srf not in runs:
-            progress.message(f"SRF {srf:g} not run: {reason}")
+            by_reason.setdefault(reason, []).append(srf)
+    for reason, values in by_reason.items():
+        progress.message(f"SRF {', '.join(f'{f:g}' for f in values)} not run: {reason}")
 
     ordered = [runs[f] for f in sorted(runs)]
     timings["srf_runs_worker"] = float(sum(r["wall_time_s"] for r in ordered))
