@@ -274,13 +274,18 @@ def test_ctrl_c_keeps_finished_runs_and_says_how_to_resume(tmp_path):
     with log.open("w") as sink:
         process = subprocess.Popen(
             [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out)],
-            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO,
+            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True,
         )
-    deadline = time.monotonic() + 240
-    while len(list(out.glob("srf_*.nc"))) < 2:
-        assert process.poll() is None and time.monotonic() < deadline, log.read_text()
-        time.sleep(0.05)
-    process.send_signal(signal.SIGINT)
-    assert process.wait(timeout=120) == 130
+    try:
+        deadline = time.monotonic() + 240
+        while len(list(out.glob("srf_*.nc"))) < 2:
+            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
+            time.sleep(0.05)
+        process.send_signal(signal.SIGINT)  # the command only, as a terminal's Ctrl-C would reach it first
+        assert process.wait(timeout=120) == 130
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
     assert "interrupted: the finished SRF runs are kept" in log.read_text()
     assert not (out / "summary.nc").exists() and not list(out.glob("*.tmp"))

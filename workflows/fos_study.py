@@ -32,7 +32,7 @@ import numpy as np
 import xarray as xr
 
 from workflows.fos_criterion import DIVERGED, FAILED, STABLE, brackets_agree, status_bracket
-from workflows.results import write_dataset
+from workflows.results import interrupts_deferred, write_dataset
 from workflows.srf_run import SrfRunResult, displacement_floor_m, run_srf
 from workflows.srf_search import RunOutcome, SrfSearch
 from workflows.study import Study, StudyError
@@ -114,7 +114,7 @@ def _gravity_paths(study: Study, out_dir: Path) -> list[Path]:
 def _read_gravity(path: Path, key: str):
     """(stress (n, 4), plastic strain (n,)) from a gravity file with this key, else None."""
     try:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
             if ds.attrs.get("gravity_key") != key:
                 return None
             stress = np.stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")], axis=1)
@@ -172,7 +172,7 @@ def _stored_run(path: Path, key: str) -> dict | None:
     if not path.is_file():
         return None
     try:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
+        with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
             attrs = dict(ds.attrs)
             _ = ds["max_displacement"].values  # a damaged file fails here
     except (OSError, KeyError, ValueError, RuntimeError):
@@ -199,7 +199,7 @@ def _remove_stale_runs(out_dir: Path, gkey: str) -> int:
     removed = 0
     for path in out_dir.glob("srf_*.nc"):
         try:
-            with xr.open_dataset(path, engine="netcdf4") as ds:
+            with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
                 stale = ds.attrs.get("gravity_key") != gkey
         except (OSError, ValueError, RuntimeError):
             stale = True
@@ -244,9 +244,9 @@ def dask_client(workers: int, scheduler: str | None):
     client = Client(cluster)
     try:
         yield client
-    finally:
-        client.close()
-        cluster.close()
+    finally:  # bounded, so that an interrupted study still exits
+        client.close(timeout=10)
+        cluster.close(timeout=10)
 
 
 # ------------------------------------------------------------------------------ the study

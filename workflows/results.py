@@ -17,6 +17,9 @@ from __future__ import annotations
 
 import os
 import re
+import signal
+import threading
+from contextlib import contextmanager
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -240,16 +243,43 @@ def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
     return attrs
 
 
+@contextmanager
+def interrupts_deferred():
+    """Hold Ctrl-C (SIGINT) and SIGTERM back until the block ends (main thread only).
+
+    A KeyboardInterrupt raised inside the netCDF/HDF5 writer while a file is open can leave
+    its lock held and hang the clean-up.  Blocking the signal is not enough: the kernel hands
+    it to another thread (dask's), and Python still raises it in the main thread.  So the
+    handlers are swapped for ones that only note the signal, which is raised at the end."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received: list[int] = []
+    held = (signal.SIGINT, signal.SIGTERM)
+    previous = {signum: signal.signal(signum, lambda signum, frame: received.append(signum)) for signum in held}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if signal.SIGINT in received:
+            raise KeyboardInterrupt
+        if received:
+            signal.raise_signal(received[0])
+
+
 def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write ``ds`` to ``path`` through ``<path>.tmp`` and a rename; no temp file survives an error."""
+    """Write ``ds`` to ``path`` through ``<path>.tmp`` and a rename; no temp file survives an error,
+    and an interrupt waits until the file is complete (or removed)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    try:
-        ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with interrupts_deferred():
+        try:
+            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4")
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
     return path
 
 
