@@ -29,6 +29,34 @@ def cli(*args, **kwargs):
                           cwd=REPO, **kwargs)
 
 
+def start_study(tmp_path, log_name: str, *options):
+    """The command on the quickstart study in its own session (so its dask workers can be
+    killed with it), output to ``tmp_path/out``, log to ``tmp_path/<log_name>``; (process, out, log)."""
+    study_path = tmp_path / "quickstart.toml"
+    study_path.write_text(QUICKSTART)
+    out, log = tmp_path / "out", tmp_path / log_name
+    with log.open("w") as sink:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out), *options],
+            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True,
+        )
+    return process, out, log
+
+
+def wait_for_run_files(process, out, log, count: int, timeout_s: float = 240.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while len(list(out.glob("srf_*.nc"))) < count:
+        assert process.poll() is None, log.read_text()
+        assert time.monotonic() < deadline, "no run finished in time"
+        time.sleep(0.05)
+
+
+def kill_group(process) -> None:
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGKILL)  # the command and its dask workers
+    process.wait()
+
+
 class Messages(FosProgress):
     def __init__(self):
         self.lines = []
@@ -115,29 +143,16 @@ def test_changed_strength_invalidates_the_cached_runs_but_not_the_gravity(quicks
 
 
 def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):
-    study_path = tmp_path / "quickstart.toml"
-    study_path.write_text(QUICKSTART)
-    out = tmp_path / "out"
-    log = tmp_path / "first.log"
-    with log.open("w") as sink:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out), "--workers", "2"],
-            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True,
-        )
-    deadline = time.monotonic() + 240
+    process, out, log = start_study(tmp_path, "first.log", "--workers", "2")
     try:
-        while len(list(out.glob("srf_*.nc"))) < 4:
-            assert process.poll() is None, log.read_text()
-            assert time.monotonic() < deadline, "no run finished in time"
-            time.sleep(0.05)
+        wait_for_run_files(process, out, log, 4)
     finally:
-        os.killpg(process.pid, signal.SIGKILL)  # the CLI and its dask workers
-        process.wait()
+        kill_group(process)
     assert not (out / "summary.nc").exists()
     finished = sorted(p.name for p in out.glob("srf_*.nc"))
     for name in finished:  # every file under a final name is complete
         xr.open_dataset(out / name).close()
-    rerun = cli(study_path, "--out", out, "--workers", "2")
+    rerun = cli(tmp_path / "quickstart.toml", "--out", out, "--workers", "2")
     assert rerun.returncode == 0, rerun.stderr
     reused = [line for line in rerun.stdout.splitlines() + rerun.stderr.splitlines() if "SRF runs reused" in line]
     assert reused and int(reused[0].split()[0]) >= len(finished)
@@ -267,25 +282,12 @@ def test_a_slope_unstable_as_built_is_reported(tmp_path):
 
 
 def test_ctrl_c_keeps_finished_runs_and_says_how_to_resume(tmp_path):
-    study_path = tmp_path / "quickstart.toml"
-    study_path.write_text(QUICKSTART)
-    out = tmp_path / "out"
-    log = tmp_path / "log"
-    with log.open("w") as sink:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "workflows.cli", str(study_path), "--out", str(out)],
-            stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True,
-        )
+    process, out, log = start_study(tmp_path, "log")
     try:
-        deadline = time.monotonic() + 240
-        while len(list(out.glob("srf_*.nc"))) < 2:
-            assert process.poll() is None and time.monotonic() < deadline, log.read_text()
-            time.sleep(0.05)
+        wait_for_run_files(process, out, log, 2)
         process.send_signal(signal.SIGINT)  # the command only, as a terminal's Ctrl-C would reach it first
         assert process.wait(timeout=120) == 130
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+        kill_group(process)
     assert "interrupted: the finished SRF runs are kept" in log.read_text()
     assert not (out / "summary.nc").exists() and not list(out.glob("*.tmp"))

@@ -28,11 +28,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
 import xarray as xr
 
 from workflows.fos_criterion import DIVERGED, FAILED, STABLE, brackets_agree, status_bracket
-from workflows.results import interrupts_deferred, write_dataset
+from workflows.results import interrupts_deferred, particle_stress, write_dataset
 from workflows.srf_run import SrfRunResult, displacement_floor_m, run_srf
 from workflows.srf_search import RunOutcome, SrfSearch
 from workflows.study import Study, StudyError
@@ -117,27 +116,21 @@ def _read_gravity(path: Path, key: str):
         with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
             if ds.attrs.get("gravity_key") != key:
                 return None
-            stress = np.stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")], axis=1)
-            return stress, ds["particle_plastic_strain"].values.copy()
+            return particle_stress(ds), ds["particle_plastic_strain"].values.copy()
     except (OSError, KeyError, ValueError, RuntimeError):
         return None
 
 
 def gravity_state(study: Study, out_dir: Path, *, force: bool, progress: FosProgress):
     """Run (or reuse) the stages before the strength reduction; (stress, plastic strain, reused, n, wall s)."""
-    from spfem_core.simulation import Simulation, UnstableTimeStepError
-    from workflows.runner import prepare_stage, run_stage, snapshots
-    from workflows.results import run_dataset
-    from workflows.scene_builder import build_scene, monitor_particles, solver_settings
+    from workflows.runner import new_simulation, run_and_write_stage
+    from workflows.scene_builder import build_scene, monitor_particles
 
     key = gravity_key(study)
     paths = _gravity_paths(study, out_dir)
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    try:
-        sim = Simulation(scene, solver_settings(study))
-    except UnstableTimeStepError as error:
-        raise StudyError("solver", str(error)) from None
+    sim = new_simulation(study, scene)
     if not force and all(path.is_file() for path in paths):
         state = _read_gravity(paths[-1], key)
         if state is not None and state[0].shape == (scene.n_particles, 4):
@@ -146,17 +139,11 @@ def gravity_state(study: Study, out_dir: Path, *, force: bool, progress: FosProg
     out_dir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     for index, (stage, path) in enumerate(zip(study.stages[:-1], paths)):
-        try:
-            prepare_stage(sim, study, stage, index)
-        except UnstableTimeStepError as error:
-            raise StudyError(f"stages[{index}]", str(error)) from None
-        series = run_stage(sim, stage, monitors, lambda fraction, name=stage.name: progress.stage(name, fraction),
-                           snapshots(study, stage, sim, out_dir))
+        report = lambda fraction, name=stage.name: progress.stage(name, fraction)  # noqa: E731
+        series = run_and_write_stage(study, sim, index, path, monitors, out_dir, progress=report,
+                                     attrs={"gravity_key": key})
         if series.converged is False:
             progress.message(f"warning: stage {stage.name!r} reached max_duration_s before converging")
-        ds = run_dataset(study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitors)
-        ds.attrs["gravity_key"] = key
-        write_dataset(ds, path)
     return sim.node_stress_pa.copy(), sim.node_plastic_strain.copy(), False, scene.n_particles, time.perf_counter() - start
 
 

@@ -96,7 +96,6 @@ def run_dataset(*, study: Study, stage_index: int, series, sim, scene, monitor_p
     positions and material of each particle; ``monitor_particles`` the particle index of
     each ``[[monitors]]`` entry.
     """
-    stage = study.stages[stage_index]
     monitor_particles = np.asarray(monitor_particles, dtype=np.int64)
     ds = xr.Dataset(
         coords={
@@ -202,6 +201,11 @@ def run_dataset(*, study: Study, stage_index: int, series, sim, scene, monitor_p
         ds[variable].attrs["location"] = "node"
     ds.attrs = global_attributes(study, stage_index, series, sim)
     return ds
+
+
+def particle_stress(ds: xr.Dataset) -> np.ndarray:
+    """The final particle stresses of a result dataset as (n, 4) xx, yy, zz, xy in Pa."""
+    return np.stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")], axis=1)
 
 
 def global_attributes(study: Study, stage_index: int, series, sim) -> dict:

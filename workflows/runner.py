@@ -81,6 +81,36 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
     raise TypeError(f"no runner for a stage of kind {stage.kind!r}")
 
 
+def new_simulation(study: Study, scene) -> Simulation:
+    """The study's Simulation; a time step the core refuses is a StudyError naming the solver field."""
+    try:
+        return Simulation(scene, solver_settings(study))
+    except UnstableTimeStepError as error:
+        raise StudyError("solver.dt_s" if study.solver.dt_s is not None else "solver.cfl", str(error)) from None
+
+
+def run_and_write_stage(
+    study: Study, sim: Simulation, index: int, path: Path, monitor_nodes: np.ndarray, out_dir: Path,
+    *, progress=None, attrs: dict | None = None,
+):
+    """Prepare stage ``index``, run it (with the study's snapshots), write its result to ``path``
+    (collapse metrics after the last stage, ``attrs`` added); the stage's TimeSeries."""
+    stage = study.stages[index]
+    try:
+        prepare_stage(sim, study, stage, index)
+    except UnstableTimeStepError as error:
+        raise StudyError(f"stages[{index}]", str(error)) from None
+    series = run_stage(sim, stage, monitor_nodes, progress, snapshots(study, stage, sim, out_dir))
+    dataset = run_dataset(
+        study=study, stage_index=index, series=series, sim=sim, scene=sim.scene, monitor_particles=monitor_nodes
+    )
+    if index == len(study.stages) - 1:
+        dataset = add_metrics(dataset, study.metrics, sim)
+    dataset.attrs.update(attrs or {})
+    write_dataset(dataset, path)
+    return series
+
+
 def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | None = None, force=False) -> StudyRun:
     """Run every stage of ``study`` and write its results under ``out_dir``.
 
@@ -94,10 +124,7 @@ def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | No
 
     scene = build_scene(study)
     monitor_nodes = monitor_particles(study, scene)
-    try:
-        sim = Simulation(scene, solver_settings(study))
-    except UnstableTimeStepError as error:
-        raise StudyError("solver.dt_s", str(error)) from None
+    sim = new_simulation(study, scene)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     for path in paths:  # results of another study text must not outlive a failed rerun
@@ -105,17 +132,7 @@ def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | No
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):
         report = None if progress is None else (lambda fraction, stage=stage: progress(stage, fraction))
-        try:
-            prepare_stage(sim, study, stage, index)
-        except UnstableTimeStepError as error:
-            raise StudyError(f"stages[{index}]", str(error)) from None
-        series = run_stage(sim, stage, monitor_nodes, report, snapshots(study, stage, sim, out_dir))
-        dataset = run_dataset(
-            study=study, stage_index=index, series=series, sim=sim, scene=scene, monitor_particles=monitor_nodes
-        )
-        if index == len(study.stages) - 1:
-            dataset = add_metrics(dataset, study.metrics, sim)
-        write_dataset(dataset, path)
+        series = run_and_write_stage(study, sim, index, path, monitor_nodes, out_dir, progress=report)
         outcome.n_steps += int(series.n_steps)
         outcome.wall_time_s += float(series.wall_time_s)
         if series.converged is False:

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 
 from workflows.fos_criterion import DIVERGED, FAILED, FosPick, pick_fos, refinement_points
 
@@ -124,7 +123,3 @@ class SrfSearch:
                 )
             return []
         return points
-
-    @property
-    def done(self) -> bool:
-        return not self.pending and bool(self.stop_reason)

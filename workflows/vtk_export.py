@@ -74,7 +74,9 @@ def dataset_to_vtu(ds: xr.Dataset) -> str:
     def pair(a, b):
         return np.column_stack([ds[a].values, ds[b].values])
 
-    stress = np.column_stack([ds[f"particle_s{c}"].values for c in ("xx", "yy", "zz", "xy")])
+    from workflows.results import particle_stress
+
+    stress = particle_stress(ds)
     return vtu_text(
         pair("particle_x", "particle_y"), ds["mesh2d_face_nodes"].values, pair("particle_ux", "particle_uy"),
         pair("particle_vx", "particle_vy"), stress, ds["particle_plastic_strain"].values,
