@@ -48,7 +48,12 @@ def run_case(spacing_m: float, fit: str, workers: int, warm: bool, scratch: Path
         raise SystemExit(f"case h={spacing_m} fit={fit} workers={workers} failed:\n{done.stderr}")
     with xr.open_dataset(case / "out" / "summary.nc") as summary:
         fos = summary["fos"]
+        start, end = summary["run_start"].values, summary["run_end"].values
+        span = float(end.max() - start.min())  # first run start to last run end, on the workers
+        timeline = sorted(zip(start, end, summary["srf"].values, summary["status"].values))
         return dict(
+            span=span, busy=float((end - start).sum()) / (workers * span), first_start=float(start.min()),
+            last_end=float(end.max()), timeline=timeline,
             spacing=spacing_m, fit=fit, workers=workers, wall=wall, fos=float(fos), low=fos.attrs["fos_low"],
             high=fos.attrs["fos_high"], runs=summary.sizes["srf"], particles=summary.attrs["n_particles"],
             agree=fos.attrs["criteria_agree"],
@@ -61,6 +66,7 @@ def main() -> None:
     parser.add_argument("--spacing", type=float, nargs="+", default=[0.3])
     parser.add_argument("--fit", choices=sorted(FITS), nargs="+", default=["mc"])
     parser.add_argument("--workers", type=int, nargs="+", default=[2, 1])
+    parser.add_argument("--timeline", action="store_true", help="print when each run started and ended")
     parser.add_argument("--warm", action="store_true", help="reuse the numba cache (no compilation in the time)")
     args = parser.parse_args()
     rows = []
@@ -78,6 +84,14 @@ def main() -> None:
                         f"remeshing {row['remeshing']:.1f} s, I/O {row['io']:.1f} s)",
                         flush=True,
                     )
+                    print(
+                        f"    first run starts at {row['first_start']:.1f} s, last ends at {row['last_end']:.1f} s; "
+                        f"workers busy {100 * row['busy']:.0f}% of that span",
+                        flush=True,
+                    )
+                    if args.timeline:
+                        for start, end, srf, status in row["timeline"]:
+                            print(f"      {start:7.2f} - {end:7.2f} s  SRF {srf:.4f}  {status}")
     by = {(r["spacing"], r["fit"], r["workers"]): r["wall"] for r in rows}
     for (spacing, fit, workers), wall in by.items():
         if workers == 1 and (spacing, fit, 2) in by:

@@ -83,11 +83,37 @@ def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
     # stable runs far below the FOS stopped early at rest, failed ones past the failure displacement
     stop = summary["stop_time"].values
     assert stop[0] < study.strength_reduction.duration_s
+    # each run's start and end on its worker, in s since the command started
+    start, end = summary["run_start"].values, summary["run_end"].values
+    assert np.all(start > 0) and np.all(end - start >= summary["wall_time"].values)
+    assert end.max() <= summary.attrs["time_total_s"]
     for srf in summary["srf"].values:
         assert (out / run_file_name(float(srf))).is_file()
     assert (out / "gravity.nc").is_file() and (out / "srf_curve.png").is_file()
     assert len(list(out.glob("fields_srf_*.png"))) == 2
     assert not list(out.glob("*.tmp"))
+
+
+def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
+    """The client stops a run above the first failure through a dask Event, freeing its worker."""
+    from distributed import Client, Event, LocalCluster
+
+    from workflows.fos_study import _cancel_event_name, _read_gravity
+    from workflows.srf_run import run_srf
+
+    study, out, outcome = quickstart_run
+    stress, plastic = _read_gravity(out / "gravity.nc", gravity_key(study))
+    duration_s = study.strength_reduction.duration_s
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        Event(_cancel_event_name("test"), client=client).set()
+        cancelled = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
+                                  cancel_event=_cancel_event_name("test")).result()
+        free = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
+                             cancel_event=_cancel_event_name("other")).result()
+    assert "cancelled" in cancelled.dataset.attrs["note_early_stop"]
+    assert cancelled.stop_time_s <= 0.05 * duration_s
+    assert free.stop_time_s > 0.3 * duration_s and "at rest" in free.dataset.attrs["note_early_stop"]
 
 
 def test_run_file_holds_the_series_and_the_final_fields(quickstart_run):
@@ -116,6 +142,7 @@ def test_a_second_invocation_reuses_gravity_and_every_run(quickstart_run, tmp_pa
     assert {r["srf"] for r in again.runs} <= {r["srf"] for r in outcome.runs}
     assert any(f"{len(again.runs)} SRF runs reused" in line for line in messages.lines)
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")} == stamps
+    assert all(math.isnan(r["started_s"]) for r in again.runs)  # no run was made by this invocation
 
 
 def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):

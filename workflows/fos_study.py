@@ -167,11 +167,19 @@ def _stored_run(path: Path, key: str) -> dict | None:
         return None
     if attrs.get("run_key") != key:
         return None
-    return {name: attrs[f"run_{name}"] for name in _RESULT_SCALARS} | {"srf": float(attrs["srf"])}
+    # made by an earlier invocation: no start and end in this one
+    return {name: attrs[f"run_{name}"] for name in _RESULT_SCALARS} | {
+        "srf": float(attrs["srf"]), "started_s": math.nan, "finished_s": math.nan,
+    }
 
 
-def _run_scalars(result: SrfRunResult) -> dict:
-    return {name: getattr(result, name) for name in _RESULT_SCALARS} | {"srf": result.srf}
+def _run_scalars(result: SrfRunResult, study_start_unix_s: float) -> dict:
+    """The scalars of a run made now, with its start and end on the worker in s since the study started."""
+    return {name: getattr(result, name) for name in _RESULT_SCALARS} | {
+        "srf": result.srf,
+        "started_s": result.started_unix_s - study_start_unix_s,
+        "finished_s": result.finished_unix_s - study_start_unix_s,
+    }
 
 
 def _write_run(result: SrfRunResult, path: Path, key: str, gkey: str) -> None:
@@ -211,29 +219,66 @@ def connect(scheduler: str):
         raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
 
 
-@contextmanager
-def dask_client(workers: int, scheduler: str | None):
-    """A client on a local cluster of ``workers`` single-thread processes, or on ``scheduler``."""
+def _import_run_modules() -> None:
+    """Import what an SRF run needs (about 1.3 s per process), on a worker, ahead of its first task."""
+    import spfem_core.simulation  # noqa: F401
+    import workflows.results  # noqa: F401
+    import workflows.scene_builder  # noqa: F401
+
+
+def _start_client(workers: int, scheduler: str | None):
+    """A client on ``scheduler``, or on a new local cluster of ``workers`` single-thread
+    processes whose workers have imported the run's modules; (client, cluster or None)."""
     from distributed import Client, LocalCluster
 
     if scheduler:
         client = connect(scheduler)
         try:
             client.wait_for_workers(1, timeout=60)
-            yield client
-        finally:
+        except BaseException:
             client.close()
-        return
+            raise
+        return client, None
     cluster = LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
         silence_logs=logging.ERROR,
     )
     client = Client(cluster)
     try:
-        yield client
-    finally:  # bounded, so that an interrupted study still exits
-        client.close(timeout=10)
+        client.run(_import_run_modules)
+    except BaseException:
+        _close_client(client, cluster)
+        raise
+    return client, cluster
+
+
+def _close_client(client, cluster) -> None:
+    """Bounded, so that an interrupted study still exits."""
+    client.close(timeout=10)
+    if cluster is not None:
         cluster.close(timeout=10)
+
+
+@contextmanager
+def dask_client_in_background(workers: int, scheduler: str | None):
+    """Start the dask client (:func:`_start_client`) in a thread and yield a function that
+    waits for it.  The cluster starts and its workers import while this process runs the
+    gravity stage (one core), instead of after it; the client is closed on the way out,
+    whatever happened meanwhile."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
+    starting = pool.submit(_start_client, workers, scheduler)
+    pool.shutdown(wait=False)
+    try:
+        yield lambda: starting.result()[0]
+    finally:
+        try:
+            client, cluster = starting.result(timeout=120)
+        except BaseException:  # it never started: nothing to close
+            pass
+        else:
+            _close_client(client, cluster)
 
 
 # ------------------------------------------------------------------------------ the study
@@ -249,89 +294,37 @@ def run_fos_study(
     progress: FosProgress | None = None,
 ) -> FosOutcome:
     """Gravity once, SRF runs on dask, the FOS from the knee; everything written to ``out_dir``."""
-    from distributed import wait
-
     if study.strength_reduction is None:
         raise StudyError("stages", "the last stage is not a strength_reduction stage")
     progress = progress or FosProgress()
     out_dir = Path(out_dir)
     wall_start = time.perf_counter()
+    start_unix_s = time.time()
     timings = {"gravity": 0.0, "srf_runs_elapsed": 0.0, "srf_runs_worker": 0.0, "remeshing": 0.0, "io": 0.0}
 
     if scheduler:  # fail before any work when the cluster cannot be reached
         connect(scheduler).close()
-    stress, plastic, reused, n_particles, gravity_wall = gravity_state(study, out_dir, force=force, progress=progress)
-    timings["gravity"] = gravity_wall
-    gkey = gravity_key(study)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    if force:
-        for path in out_dir.glob("srf_*.nc"):
-            path.unlink()
-    removed = _remove_stale_runs(out_dir, gkey)
-    if removed:
-        progress.message(f"removed {removed} run files of another gravity state")
-    if reused:
-        from spfem_core.warmup import warm_up
+    with dask_client_in_background(workers, scheduler) as wait_for_client:
+        stress, plastic, reused, n_particles, timings["gravity"] = gravity_state(
+            study, out_dir, force=force, progress=progress
+        )
+        gkey = gravity_key(study)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        if force:
+            for path in out_dir.glob("srf_*.nc"):
+                path.unlink()
+        removed = _remove_stale_runs(out_dir, gkey)
+        if removed:
+            progress.message(f"removed {removed} run files of another gravity state")
+        if reused:
+            from spfem_core.warmup import warm_up
 
-        warm_up()  # load the compiled loop into the disk cache before the workers start
-
-    stage = study.strength_reduction
-    floor_m = displacement_floor_m(study)
-    runs: dict[float, dict] = {}
-    srf_start = time.perf_counter()
-    with dask_client(workers, scheduler) as client:
-        n_parallel = max(1, sum(client.nthreads().values()))
-        search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, floor_m,
-                           n_parallel=n_parallel, max_runs=stage.max_runs)
-        [study_future] = client.scatter([study.source_text], broadcast=True)
-        [stress_future] = client.scatter([stress], broadcast=True)
-        [plastic_future] = client.scatter([plastic], broadcast=True)
-        in_flight = {}
-        unwritten: list[tuple[SrfRunResult, str]] = []  # finished, written once the next runs are submitted
-        reused_runs = 0
-        while True:
-            planned = search.next_values()
-            for srf in planned:
-                key = run_key(study, srf)
-                stored = _stored_run(out_dir / run_file_name(srf), key)
-                search.started(srf)
-                if stored is not None:
-                    runs[srf] = stored
-                    reused_runs += 1
-                    search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
-                    continue
-                future = client.submit(
-                    run_srf, study_future, stress_future, plastic_future, srf, key=f"srf-{srf:.4f}-{key}", pure=False
-                )
-                in_flight[future] = (srf, key)
-            io_start = time.perf_counter()
-            for result, key in unwritten:  # the workers are busy with the next runs meanwhile
-                _write_run(result, out_dir / run_file_name(result.srf), key, gkey)
-            unwritten.clear()
-            timings["io"] += time.perf_counter() - io_start
-            if not planned and search.stop_reason and in_flight and all(
-                srf > search.lowest_failed for srf, _ in in_flight.values()
-            ):  # the answer is complete: runs above the first failure cannot change it
-                for future, (srf, _) in in_flight.items():
-                    future.cancel()
-                    search.skipped[srf] = f"cancelled: above the failed SRF {search.lowest_failed:g}, cannot move the knee"
-                in_flight.clear()
-            progress.runs(len(runs), len(runs) + len(in_flight))
-            if not in_flight:
-                if planned:
-                    continue  # every planned run was reused from disk: plan again
-                break
-            done, _ = wait(list(in_flight), return_when="FIRST_COMPLETED")
-            for future in done:
-                srf, key = in_flight.pop(future)
-                result: SrfRunResult = future.result()  # a task's exception propagates: the study stops
-                runs[srf] = _run_scalars(result)
-                unwritten.append((result, key))
-                search.finished(RunOutcome(srf, result.max_displacement_m, result.status))
-                if result.status == DIVERGED:
-                    progress.message(f"warning: SRF {srf:g} diverged: {result.status_reason}")
-        progress.runs(len(runs), len(runs))
-    timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
+            warm_up()  # load the compiled loop into the disk cache before the workers start
+        srf_start = time.perf_counter()
+        search, runs, reused_runs = _run_search(
+            study, out_dir, wait_for_client(), (stress, plastic), progress, timings, start_unix_s
+        )
+        timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
     if reused_runs:
         progress.message(f"{reused_runs} SRF runs reused from {out_dir} (finished by an earlier invocation)")
     by_reason: dict[str, list[float]] = {}
@@ -341,6 +334,8 @@ def run_fos_study(
     for reason, values in by_reason.items():
         progress.message(f"SRF {', '.join(f'{f:g}' for f in values)} not run: {reason}")
 
+    stage = study.strength_reduction
+    floor_m = displacement_floor_m(study)
     ordered = [runs[f] for f in sorted(runs)]
     timings["srf_runs_worker"] = float(sum(r["wall_time_s"] for r in ordered))
     timings["remeshing"] = float(sum(r["remesh_wall_s"] for r in ordered))
@@ -368,6 +363,74 @@ def run_fos_study(
 
         outcome.figures = draw_figures(out_dir, summary)
     return outcome
+
+
+def _run_search(study: Study, out_dir: Path, client, gravity, progress: FosProgress, timings: dict,
+                start_unix_s: float) -> tuple[SrfSearch, dict[float, dict], int]:
+    """Make the runs the search asks for on ``client`` (reusing finished files); write each
+    finished run; (search, scalars per SRF, number of runs reused from disk)."""
+    from distributed import Event, wait
+
+    stage = study.strength_reduction
+    gkey = gravity_key(study)
+    n_parallel = max(1, sum(client.nthreads().values()))
+    search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
+                       displacement_floor_m(study), n_parallel=n_parallel, max_runs=stage.max_runs)
+    [study_future] = client.scatter([study.source_text], broadcast=True)
+    [stress_future] = client.scatter([gravity[0]], broadcast=True)
+    [plastic_future] = client.scatter([gravity[1]], broadcast=True)
+    runs: dict[float, dict] = {}
+    in_flight = {}  # future -> (srf, run key)
+    unwritten: list[tuple[SrfRunResult, str]] = []  # finished, written once the next runs are submitted
+    reused_runs = 0
+    while True:
+        planned = search.next_values()
+        for srf in planned:
+            key = run_key(study, srf)
+            stored = _stored_run(out_dir / run_file_name(srf), key)
+            search.started(srf)
+            if stored is not None:
+                runs[srf] = stored
+                reused_runs += 1
+                search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
+                continue
+            future = client.submit(
+                run_srf, study_future, stress_future, plastic_future, srf, cancel_event=_cancel_event_name(key),
+                key=f"srf-{srf:.4f}-{key}", pure=False,
+            )
+            in_flight[future] = (srf, key)
+        io_start = time.perf_counter()
+        for result, key in unwritten:  # the workers are busy with the next runs meanwhile
+            _write_run(result, out_dir / run_file_name(result.srf), key, gkey)
+        unwritten.clear()
+        timings["io"] += time.perf_counter() - io_start
+        for future, (srf, key) in list(in_flight.items()):
+            if srf > search.lowest_failed:  # cannot change the answer: stop it, free its worker
+                Event(_cancel_event_name(key), client=client).set()
+                future.cancel()
+                del in_flight[future]
+                search.cancelled(srf, f"cancelled: above the failed SRF {search.lowest_failed:g}, cannot move the knee")
+        progress.runs(len(runs), len(runs) + len(in_flight))
+        if not in_flight:
+            if planned:
+                continue  # every planned run was reused from disk: plan again
+            break
+        done, _ = wait(list(in_flight), return_when="FIRST_COMPLETED")
+        for future in done:
+            srf, key = in_flight.pop(future)
+            result: SrfRunResult = future.result()  # a task's exception propagates: the study stops
+            runs[srf] = _run_scalars(result, start_unix_s)
+            unwritten.append((result, key))
+            search.finished(RunOutcome(srf, result.max_displacement_m, result.status))
+            if result.status == DIVERGED:
+                progress.message(f"warning: SRF {srf:g} diverged: {result.status_reason}")
+    progress.runs(len(runs), len(runs))
+    return search, runs, reused_runs
+
+
+def _cancel_event_name(run_key_: str) -> str:
+    """Name of the dask Event that tells the run with this key to stop (see ``run_srf``)."""
+    return f"spfem-fos-cancel-{run_key_}"
 
 
 def _verdict(knee, status, agree, runs, stage) -> str:

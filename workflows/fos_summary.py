@@ -3,7 +3,8 @@
 Variables (coordinate ``srf``): ``max_displacement`` (m, largest displacement of any
 particle during the run), ``final_kinetic_energy`` (J m-1), ``status`` (stable / failed /
 diverged), ``status_reason``, ``stop_time`` (s, < the stage duration when a run stopped
-early), ``curvature`` (of the normalised curve, NaN at the ends), ``wall_time`` (s).
+early), ``curvature`` (of the normalised curve, NaN at the ends), ``wall_time`` (s),
+``run_start``/``run_end`` (s since the command started; NaN for runs reused from disk).
 Scalar ``fos`` (NaN without a knee) with attributes ``fos_low``, ``fos_high``, ``knee_srf``,
 ``criterion``, ``second_criterion``, ``status_fos_low``/``status_fos_high`` and
 ``criteria_agree``.
@@ -42,6 +43,10 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
     column("status_reason", [r["status_reason"] for r in runs], "1", "why the run got its verdict", object)
     column("stop_time", [r["stop_time_s"] for r in runs], "s", "simulated time reached (early stop: < duration)")
     column("wall_time", [r["wall_time_s"] for r in runs], "s", "wall time of the run on its worker")
+    column("run_start", [r["started_s"] for r in runs], "s",
+           "wall clock when the run started on its worker, since the command started (NaN: reused run)")
+    column("run_end", [r["finished_s"] for r in runs], "s",
+           "wall clock when the run ended on its worker, since the command started (NaN: reused run)")
     column("n_steps", [r["n_steps"] for r in runs], "1", "explicit steps of the run", np.int64)
     ds["curvature"] = ("srf", kappa, {
         "units": "1", "long_name": "curvature of the SRF-displacement curve (normalised axes, log10 displacement)",

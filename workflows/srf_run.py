@@ -19,6 +19,7 @@ Verdicts (:mod:`workflows.fos_criterion`):
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,6 +110,21 @@ def verdict_for(study: Study) -> Verdict:
     return Verdict(failure_displacement_m(study), displacement_floor_m(study), stage.rest_window_s, stage.rest_growth)
 
 
+def _cancellable(rule, event_name: str):
+    """``rule``, which also stops the run once the dask Event ``event_name`` is set (one round
+    trip to the scheduler per check, about 50 per run)."""
+    from distributed import Event
+
+    event = Event(event_name)
+
+    def checked(time_s, max_u_m, kinetic):
+        if event.is_set():
+            return "cancelled by the client: the run can no longer change the answer"
+        return rule(time_s, max_u_m, kinetic)
+
+    return checked
+
+
 @dataclass
 class SrfRunResult:
     """What a worker sends back for one SRF value."""
@@ -122,12 +138,21 @@ class SrfRunResult:
     wall_time_s: float
     remesh_wall_s: float
     n_steps: int
+    started_unix_s: float  # wall clock on the worker when the task started and ended (time.time())
+    finished_unix_s: float
     dataset: object  # xarray.Dataset of the run (workflows.results.run_dataset)
 
 
-def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float):
-    """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`."""
+def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float,
+            cancel_event: str | None = None):
+    """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
+
+    ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
+    longer change the answer) the run stops at its next stop-rule check, so that its worker is
+    free for a run that can.  Needs ``stage.early_stop`` (the checks come with the stop rule).
+    """
     # imported here: the worker process compiles (or loads from the disk cache) on first use
+    started_unix_s = time.time()
     from spfem_core.simulation import DivergenceError, Simulation
     from workflows.results import run_dataset
     from workflows.scene_builder import build_scene, monitor_particles, solver_settings, supports
@@ -143,10 +168,13 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     sim.set_supports(*supports(study, scene, stage.boundary))
     verdict = verdict_for(study)
     remesh_start = sim.remesh_wall_s
+    stop = verdict.stop_rule() if stage.early_stop else None
+    if stop is not None and cancel_event is not None:
+        stop = _cancellable(stop, cancel_event)
     try:
         series = sim.run(
             stage.duration_s, damping=0.0, record_interval_s=stage.record_interval_s, monitor_nodes=monitors,
-            stop=verdict.stop_rule() if stage.early_stop else None,
+            stop=stop,
         )
         status, reason = verdict.classify(series.time_s, series.max_displacement_m)
     except DivergenceError as error:
@@ -166,5 +194,7 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
         wall_time_s=float(series.wall_time_s),
         remesh_wall_s=float(sim.remesh_wall_s - remesh_start),
         n_steps=int(series.n_steps),
+        started_unix_s=started_unix_s,
+        finished_unix_s=time.time(),
         dataset=ds,
     )

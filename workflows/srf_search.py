@@ -61,6 +61,11 @@ class SrfSearch:
     def started(self, srf: float) -> None:
         self.pending.add(srf)
 
+    def cancelled(self, srf: float, reason: str) -> None:
+        """A started run was stopped before it finished (it will not be in the outcomes)."""
+        self.pending.discard(srf)
+        self.skipped[srf] = reason
+
     def finished(self, outcome: RunOutcome) -> None:
         self.pending.discard(outcome.srf)
         self.outcomes[outcome.srf] = outcome
