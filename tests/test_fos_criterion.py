@@ -111,10 +111,22 @@ def test_status_bracket_and_disagreement():
     assert brackets_agree(fos, status_bracket(srf, statuses(srf, 1.35)), tolerance=0.01)
 
 
-def test_refinement_points_split_just_enough():
-    assert refinement_points(1.3, 1.4, 0.01, n_parallel=2) == [1.3333, 1.3667]
-    assert refinement_points(1.3333, 1.3444, 0.01, n_parallel=2) == [1.3388]  # one run halves it below 0.01
-    assert refinement_points(1.30, 1.305, 0.01, n_parallel=2) == []
+def test_refinement_points_need_no_more_runs_than_bisection():
+    # width 0.1, tolerance 0.01: bisection needs 4 runs; a first round of 2 (3 x 2 x 2 = 12 >= 10) keeps 4
+    assert refinement_points(1.3, 1.4, 0.01, max_points=2) == [1.3333, 1.3667]
+    # width 0.0333: 2 runs by bisection; a round of 2 would divide by 3 only and need a third
+    assert refinement_points(1.3333, 1.3667, 0.01, max_points=2) == [1.35]
+    assert refinement_points(1.3333, 1.3444, 0.01, max_points=2) == [1.3388]  # one run halves it below 0.01
+    assert refinement_points(1.30, 1.305, 0.01, max_points=2) == []
+    assert refinement_points(1.0, 2.0, 0.01, max_points=1) == [1.5]
+    # any bracket: the plan reaches the tolerance in ceil(log2(width / tolerance)) runs
+    for width in (0.011, 0.02, 0.05, 0.1, 0.2, 0.37):
+        low, high, runs = 1.0, 1.0 + width, 0
+        while points := refinement_points(low, high, 0.01, max_points=2):
+            runs += len(points)
+            high = points[0]  # the worst case: the FOS in the first part of the split
+        assert high - low <= 0.01 + 1e-4
+        assert runs == math.ceil(math.log2(width / 0.01)), width
     assert sweep_values(0.8, 1.2, 0.1) == [0.8, 0.9, 1.0, 1.1, 1.2]
 
 

@@ -98,7 +98,7 @@ def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
     """The client stops a run above the first failure through a dask Event, freeing its worker."""
     from distributed import Client, Event, LocalCluster
 
-    from workflows.fos_study import _cancel_event_name, _read_gravity
+    from workflows.fos_study import _read_gravity
     from workflows.srf_run import run_srf
 
     study, out, outcome = quickstart_run
@@ -106,11 +106,11 @@ def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
     duration_s = study.strength_reduction.duration_s
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        Event(_cancel_event_name("test"), client=client).set()
+        Event("spfem-fos-test-cancel", client=client).set()
         cancelled = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
-                                  cancel_event=_cancel_event_name("test")).result()
+                                  cancel_event="spfem-fos-test-cancel").result()
         free = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
-                             cancel_event=_cancel_event_name("other")).result()
+                             cancel_event="spfem-fos-test-other").result()
     assert "cancelled" in cancelled.dataset.attrs["note_early_stop"]
     assert cancelled.stop_time_s <= 0.05 * duration_s
     assert free.stop_time_s > 0.3 * duration_s and "at rest" in free.dataset.attrs["note_early_stop"]

@@ -195,16 +195,24 @@ def brackets_agree(knee: FosPick, status: StatusBracket, tolerance: float) -> bo
     return knee.fos_low <= status.fos_high + tolerance and low <= knee.fos_high + tolerance
 
 
-def refinement_points(low: float, high: float, tolerance: float, n_parallel: int) -> list[float]:
-    """SRF values to run inside (low, high) so that the bracket shrinks towards ``tolerance``.
+def refinement_points(low: float, high: float, tolerance: float, max_points: int) -> list[float]:
+    """SRF values to run inside (low, high) so that the bracket shrinks below ``tolerance``
+    in as few runs as bisection would need.
 
-    At most ``n_parallel`` equally spaced points, and no more than needed to bring the
-    width below the tolerance: n = min(n_parallel, ceil(width / tolerance) - 1).
-    Values are rounded to 1e-4.
+    Bisection needs n = ceil(log2(width / tolerance)) runs.  A round of k equally spaced
+    points divides the width by k + 1; the largest k <= ``max_points`` with
+    (k + 1) 2^(n - k) >= width / tolerance keeps the total at n runs, in fewer rounds
+    (width 0.1, tolerance 0.01: rounds of 2, 1 and 1 points, 4 runs).  Values are rounded to 1e-4.
     """
     width = high - low
-    if not width > tolerance:
+    if not width > tolerance + 1e-9:  # 1e-9: a halved 0.02 is 0.010000000000000009
         return []
-    n = max(1, min(n_parallel, math.ceil(width / tolerance - 1e-9) - 1))
-    points = [round(low + width * (i + 1) / (n + 1), 4) for i in range(n)]
+    ratio = width / tolerance
+    n_runs = max(1, math.ceil(math.log2(ratio) - 1e-9))
+    k = 1
+    for candidate in range(min(max_points, n_runs), 1, -1):
+        if (candidate + 1) * 2.0 ** (n_runs - candidate) >= ratio - 1e-9:
+            k = candidate
+            break
+    points = [round(low + width * (i + 1) / (k + 1), 4) for i in range(k)]
     return sorted({p for p in points if low < p < high})

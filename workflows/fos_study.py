@@ -100,6 +100,7 @@ class FosOutcome:
     gravity_reused: bool = False
     timings_s: dict[str, float] = field(default_factory=dict)
     n_particles: int = 0
+    guesses: tuple[int, int] = (0, 0)  # runs started ahead of the search on idle workers, and used
     figures: list[Path] = field(default_factory=list)
 
 
@@ -321,12 +322,17 @@ def run_fos_study(
 
             warm_up()  # load the compiled loop into the disk cache before the workers start
         srf_start = time.perf_counter()
-        search, runs, reused_runs = _run_search(
+        search, runs, reused_runs, pool = _run_search(
             study, out_dir, wait_for_client(), (stress, plastic), progress, timings, start_unix_s
         )
         timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
     if reused_runs:
         progress.message(f"{reused_runs} SRF runs reused from {out_dir} (finished by an earlier invocation)")
+    if pool.n_guessed:
+        progress.message(
+            f"{pool.n_guessed} runs started ahead of the search on idle workers, {pool.n_guesses_used} of them "
+            "used (the others were stopped or left out of the answer)"
+        )
     by_reason: dict[str, list[float]] = {}
     for srf, reason in sorted(search.skipped.items()):
         if srf not in runs:
@@ -348,7 +354,7 @@ def run_fos_study(
         fos_high=knee.fos_high, criterion=knee.reason, status_low=status.fos_low, status_high=status.fos_high,
         criteria_agree=agree, verdict=verdict, runs=ordered,
         skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=reused,
-        timings_s=timings, n_particles=n_particles,
+        timings_s=timings, n_particles=n_particles, guesses=(pool.n_guessed, pool.n_guesses_used),
     )
     io_start = time.perf_counter()
     from workflows.fos_summary import summary_dataset
@@ -365,72 +371,136 @@ def run_fos_study(
     return outcome
 
 
+@dataclass
+class _Submissions:
+    """The runs on the cluster: the ones the search asked for, and the guesses started on idle
+    workers ahead of it (``srf_search`` module doc, step 3), kept apart until it asks for them.
+    Every submission gets its own dask key and cancel event, so a value cancelled once can be
+    started again."""
+
+    client: object
+    study_futures: tuple
+    asked: dict = field(default_factory=dict)  # future -> (srf, run key, cancel event name)
+    guessed: dict = field(default_factory=dict)  # srf -> (future, run key, cancel event name)
+    guessed_done: dict = field(default_factory=dict)  # srf -> (SrfRunResult, run key)
+    n_submitted: int = 0
+    n_guessed: int = 0
+    n_guesses_used: int = 0
+
+    def submit(self, srf: float, key: str):
+        self.n_submitted += 1
+        event = f"spfem-fos-cancel-{key}-{self.n_submitted}"
+        future = self.client.submit(run_srf, *self.study_futures, srf, cancel_event=event,
+                                    key=f"srf-{srf:.4f}-{key}-{self.n_submitted}", pure=False)
+        return future, event
+
+    def cancel(self, future, event: str) -> None:
+        """Stop a run at its next check (its worker is free then) and forget it."""
+        from distributed import Event
+
+        Event(event, client=self.client).set()
+        future.cancel()
+
+    def futures(self) -> list:
+        return list(self.asked) + [future for future, _, _ in self.guessed.values()]
+
+
 def _run_search(study: Study, out_dir: Path, client, gravity, progress: FosProgress, timings: dict,
-                start_unix_s: float) -> tuple[SrfSearch, dict[float, dict], int]:
-    """Make the runs the search asks for on ``client`` (reusing finished files); write each
-    finished run; (search, scalars per SRF, number of runs reused from disk)."""
-    from distributed import Event, wait
+                start_unix_s: float) -> tuple[SrfSearch, dict[float, dict], int, _Submissions]:
+    """Make the runs the search asks for on ``client`` (reusing finished files), and guesses on
+    idle workers; write each run the search uses; (search, scalars per SRF, number of runs
+    reused from disk, the submissions with their guess counts)."""
+    from distributed import wait
 
     stage = study.strength_reduction
     gkey = gravity_key(study)
     n_parallel = max(1, sum(client.nthreads().values()))
     search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                        displacement_floor_m(study), n_parallel=n_parallel, max_runs=stage.max_runs)
-    [study_future] = client.scatter([study.source_text], broadcast=True)
-    [stress_future] = client.scatter([gravity[0]], broadcast=True)
-    [plastic_future] = client.scatter([gravity[1]], broadcast=True)
+    futures = tuple(client.scatter([item], broadcast=True)[0] for item in (study.source_text, *gravity))
+    pool = _Submissions(client, futures)
     runs: dict[float, dict] = {}
-    in_flight = {}  # future -> (srf, run key)
     unwritten: list[tuple[SrfRunResult, str]] = []  # finished, written once the next runs are submitted
     reused_runs = 0
+
+    def finished(result: SrfRunResult, key: str) -> None:
+        runs[result.srf] = _run_scalars(result, start_unix_s)
+        unwritten.append((result, key))
+        search.finished(RunOutcome(result.srf, result.max_displacement_m, result.status))
+        if result.status == DIVERGED:
+            progress.message(f"warning: SRF {result.srf:g} diverged: {result.status_reason}")
+
     while True:
         planned = search.next_values()
         for srf in planned:
+            search.started(srf)
+            if srf in pool.guessed_done:  # a guess that came true, already finished
+                pool.n_guesses_used += 1
+                finished(*pool.guessed_done.pop(srf))
+                continue
+            if srf in pool.guessed:  # a guess that came true, still running
+                pool.n_guesses_used += 1
+                future, key, event = pool.guessed.pop(srf)
+                pool.asked[future] = (srf, key, event)
+                continue
             key = run_key(study, srf)
             stored = _stored_run(out_dir / run_file_name(srf), key)
-            search.started(srf)
             if stored is not None:
                 runs[srf] = stored
                 reused_runs += 1
                 search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
                 continue
-            future = client.submit(
-                run_srf, study_future, stress_future, plastic_future, srf, cancel_event=_cancel_event_name(key),
-                key=f"srf-{srf:.4f}-{key}", pure=False,
-            )
-            in_flight[future] = (srf, key)
+            future, event = pool.submit(srf, key)
+            pool.asked[future] = (srf, key, event)
+        if planned:  # the decision the guesses were made for is taken: stop the ones not used
+            for srf, (future, _, event) in list(pool.guessed.items()):
+                pool.cancel(future, event)
+                del pool.guessed[srf]
         io_start = time.perf_counter()
         for result, key in unwritten:  # the workers are busy with the next runs meanwhile
             _write_run(result, out_dir / run_file_name(result.srf), key, gkey)
         unwritten.clear()
         timings["io"] += time.perf_counter() - io_start
-        for future, (srf, key) in list(in_flight.items()):
-            if srf > search.lowest_failed:  # cannot change the answer: stop it, free its worker
-                Event(_cancel_event_name(key), client=client).set()
-                future.cancel()
-                del in_flight[future]
-                search.cancelled(srf, f"cancelled: above the failed SRF {search.lowest_failed:g}, cannot move the knee")
-        progress.runs(len(runs), len(runs) + len(in_flight))
-        if not in_flight:
+        ceiling = search.lowest_failed
+        for future, (srf, key, event) in list(pool.asked.items()):
+            if srf > ceiling:  # cannot change the answer: stop it, free its worker
+                pool.cancel(future, event)
+                del pool.asked[future]
+                search.cancelled(srf, f"cancelled: above the failed SRF {ceiling:g}, cannot move the knee")
+        for srf, (future, _, event) in list(pool.guessed.items()):
+            if srf > ceiling:
+                pool.cancel(future, event)
+                del pool.guessed[srf]
+        progress.runs(len(runs), len(runs) + len(pool.asked))
+        if not pool.asked:
             if planned:
-                continue  # every planned run was reused from disk: plan again
+                continue  # every planned run was reused from disk or a finished guess: plan again
             break
-        done, _ = wait(list(in_flight), return_when="FIRST_COMPLETED")
+        idle = n_parallel - len(pool.asked) - len(pool.guessed)
+        known = set(pool.guessed) | set(pool.guessed_done)
+        guesses = [f for f in search.speculative_values(idle + len(known)) if f not in known][:max(0, idle)]
+        for srf in guesses:
+            key = run_key(study, srf)
+            if _stored_run(out_dir / run_file_name(srf), key) is not None:
+                continue  # on disk already: reused when asked for
+            future, event = pool.submit(srf, key)
+            pool.guessed[srf] = (future, key, event)
+            pool.n_guessed += 1
+        done, _ = wait(pool.futures(), return_when="FIRST_COMPLETED")
         for future in done:
-            srf, key = in_flight.pop(future)
-            result: SrfRunResult = future.result()  # a task's exception propagates: the study stops
-            runs[srf] = _run_scalars(result, start_unix_s)
-            unwritten.append((result, key))
-            search.finished(RunOutcome(srf, result.max_displacement_m, result.status))
-            if result.status == DIVERGED:
-                progress.message(f"warning: SRF {srf:g} diverged: {result.status_reason}")
+            if future in pool.asked:
+                srf, key, _ = pool.asked.pop(future)
+                finished(future.result(), key)  # a task's exception propagates: the study stops
+                continue
+            for srf, (guess, key, _) in list(pool.guessed.items()):
+                if guess is future:
+                    del pool.guessed[srf]
+                    pool.guessed_done[srf] = (future.result(), key)
+    for srf, (future, _, event) in pool.guessed.items():
+        pool.cancel(future, event)
+    pool.guessed.clear()
     progress.runs(len(runs), len(runs))
-    return search, runs, reused_runs
-
-
-def _cancel_event_name(run_key_: str) -> str:
-    """Name of the dask Event that tells the run with this key to stop (see ``run_srf``)."""
-    return f"spfem-fos-cancel-{run_key_}"
+    return search, runs, reused_runs, pool
 
 
 def _verdict(knee, status, agree, runs, stage) -> str:

@@ -78,6 +78,8 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
         "srf_not_run": ", ".join(f"{f:g}" for f, _ in skipped),
         "srf_not_run_reason": "; ".join(f"{f:g}: {why}" for f, why in skipped),
         "gravity_reused": int(bool(outcome.gravity_reused)),
+        "runs_started_ahead": int(outcome.guesses[0]),
+        "runs_started_ahead_used": int(outcome.guesses[1]),
         "study": study.source_text,
         "spfem_fos_version": __version__,
         "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),

@@ -8,23 +8,31 @@ maximum displacement and verdict, and says which SRF values to start next.
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
 2. **Refinement**: when the sweep is done, the FOS bracket (the steepest rise after the
    knee, see :mod:`workflows.fos_criterion`) is split by at most ``REFINE_SPLIT`` equally
-   spaced runs, no more than needed to bring it under ``tolerance``; the bracket is picked
+   spaced runs, as many as keep the total at what bisection would need to bring it under
+   ``tolerance`` (:func:`~workflows.fos_criterion.refinement_points`); the bracket is picked
    again from all runs and the step repeats until it is within the tolerance, there is no
    knee, or ``max_runs`` runs have been made.
+3. **Speculation** (:meth:`SrfSearch.speculative_values`): while the search waits for its
+   one undecided run and a worker is idle, it names the values it would ask for next under
+   either outcome of that run.  A caller may start them; it must keep their results out of
+   the answer until :meth:`SrfSearch.next_values` asks for the same value, so the runs used
+   and the FOS stay those of the plan above, whatever the number of workers.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
+from itertools import chain, zip_longest
 
-
-from workflows.fos_criterion import DIVERGED, FAILED, FosPick, pick_fos, refinement_points
+from workflows.fos_criterion import DIVERGED, FAILED, STABLE, FosPick, pick_fos, refinement_points
 
 
 REFINE_SPLIT = 2
-"""Runs per refinement round (the bracket is split in three).  Fixed, not the worker count,
-so that the runs made, and the FOS, do not depend on how many workers there are."""
+"""At most this many runs per refinement round (see ``refinement_points``: never more runs in
+total than bisection).  Fixed, not the worker count, so that the runs made, and the FOS, do
+not depend on how many workers there are."""
 
 
 @dataclass(frozen=True)
@@ -123,8 +131,43 @@ class SrfSearch:
             if not self.stop_reason:
                 self.stop_reason = (
                     f"bracket [{knee.fos_low:g}, {knee.fos_high:g}] within the tolerance {self.tolerance:g}"
-                    if knee.fos_high - knee.fos_low <= self.tolerance + 1e-12
+                    if knee.fos_high - knee.fos_low <= self.tolerance + 1e-9
                     else f"bracket [{knee.fos_low:g}, {knee.fos_high:g}] cannot be split further on the 1e-4 grid"
                 )
             return []
         return points
+
+    def speculative_values(self, n_free: int) -> list[float]:
+        """Up to ``n_free`` values that :meth:`next_values` would ask for once the one run it
+        waits for has finished, for otherwise idle workers (module doc, step 3).
+
+        Only when exactly one run below the first failure is pending (the end of the sweep, a
+        refinement round of one run, or the last run of a round).  Its two outcomes are
+        imagined: failed with the displacement of the lowest failed run, and stable with the
+        displacement of the run below it; the values each branch would start are interleaved,
+        failed branch first.  That branch puts the bracket in the lower part of the split,
+        where it went in every strength-reduction study we ran: above the knee log u rises
+        fastest first.
+        """
+        if n_free <= 0 or self.stop_reason:
+            return []
+        ceiling = self.lowest_failed
+        undecided = [f for f in self.pending if f <= ceiling]
+        usable = sorted((o for o in self.outcomes.values() if o.status != DIVERGED), key=lambda o: o.srf)
+        if len(undecided) != 1 or not math.isfinite(ceiling):
+            return []
+        [srf] = undecided
+        below = [o for o in usable if o.srf < srf]
+        if not below:
+            return []
+        branches = []
+        for outcome in (RunOutcome(srf, self.outcomes[ceiling].max_displacement_m, FAILED),
+                        RunOutcome(srf, below[-1].max_displacement_m, STABLE)):
+            branch = copy.deepcopy(self)
+            branch.finished(outcome)
+            branches.append([f for f in branch.next_values() if f not in self.outcomes and f not in self.pending])
+        values: list[float] = []
+        for f in chain.from_iterable(zip_longest(*branches)):
+            if f is not None and f not in values:
+                values.append(f)
+        return values[:n_free]
