@@ -168,3 +168,41 @@ def test_search_respects_max_runs():
     search = SrfSearch(1.0, 2.0, 0.1, tolerance=1e-4, floor_m=FLOOR_M, n_parallel=2, max_runs=8)
     drive(search, lambda f: slope_response(f), 1.3712)
     assert len(search.outcomes) == 8 and "max_runs" in search.stop_reason
+
+
+def drive_with_guesses(search: SrfSearch, response, f_star):
+    """As ``drive``, but a worker left idle runs ``speculative_values``; a guess counts only
+    once ``next_values`` asks for it.  (guesses started, guesses used)."""
+    queue, guessed, used = [], {}, 0
+    while True:
+        planned = search.next_values()
+        for srf in planned:
+            search.started(srf)
+            if srf in guessed:
+                used += 1
+                search.finished(guessed.pop(srf))
+            else:
+                queue.append(srf)
+        if not queue:
+            if planned:
+                continue  # every value asked for was a finished guess: ask again
+            return len(guessed) + used, used
+        for srf in search.speculative_values(1):
+            u = float(response(srf))
+            guessed.setdefault(srf, RunOutcome(srf, u, FAILED if srf > f_star else STABLE))
+        srf = queue.pop(0)
+        search.finished(RunOutcome(srf, float(response(srf)), FAILED if srf > f_star else STABLE))
+
+
+@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.6789])
+def test_guesses_on_idle_workers_do_not_change_the_runs_used(f_star):
+    def response(f):
+        return slope_response(f, f_star)
+
+    plain = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
+    drive(plain, response, f_star)
+    guessing = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
+    started, used = drive_with_guesses(guessing, response, f_star)
+    assert guessing.outcomes == plain.outcomes
+    assert guessing.knee() == plain.knee()
+    assert started >= 1 and 0 <= used <= started
