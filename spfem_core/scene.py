@@ -197,8 +197,8 @@ class Scene:
 class SolverSettings:
     """Numerical parameters of a run (the physics lives in :class:`Scene`).
 
-    Time step: ``dt_s`` if given, else ``cfl * h_alt_min / c_p_max`` with h_alt_min the
-    smallest triangle altitude and c_p_max the fastest P-wave speed.  A cfl (or a ``dt_s``
+    Time step: ``dt_s`` if given, else ``cfl * min_e sqrt(A_e) / c_p,e`` over the triangles
+    (``spfem_core.timestep``), c_p,e the fastest P-wave speed among an element's particles.  A cfl (or a ``dt_s``
     equivalent to one) above ``simulation.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
 
     ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and

@@ -106,6 +106,17 @@ class UnstableTimeStepError(ValueError):
     """A requested time step above the critical step of the explicit scheme."""
 
 
+def _neighbour_sums(node_xy: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per node, the sum of the positions of its neighbours along ``edges`` (m, 2) and their number
+    (each edge (i, j) given once)."""
+    sums = np.zeros_like(node_xy)
+    degree = np.zeros(node_xy.shape[0])
+    for a, b in ((0, 1), (1, 0)):
+        np.add.at(sums, edges[:, a], node_xy[edges[:, b]])
+        np.add.at(degree, edges[:, a], 1.0)
+    return sums, degree
+
+
 class _MeshCollapse(Exception):
     """Raised by a remesh that would stall the run; turned into DivergenceError by the stage."""
 
@@ -225,7 +236,7 @@ class Simulation:
             if not 0.0 < self.settings.dt_s <= limit:
                 raise UnstableTimeStepError(
                     f"dt_s = {self.settings.dt_s:.4g} s is above the stable time step {limit:.4g} s "
-                    f"(smallest element altitude / P-wave speed {self.speed_limit_m_s:.4g} m/s, "
+                    f"(sqrt of the smallest element area / P-wave speed {self.speed_limit_m_s:.4g} m/s, "
                     f"times {self.max_cfl:.3g} for beta = {self.settings.stabilisation_beta:g}); "
                     f"use dt_s <= {limit:.4g} or set cfl instead"
                 )
@@ -237,6 +248,7 @@ class Simulation:
                     f"beta = {self.settings.stabilisation_beta:g} (limit 1 / (1 + beta))"
                 )
             self.dt_s = self.settings.cfl * self.critical_dt_s
+        self._stage_first_dt_s = self.dt_s  # a stage sets it again when it starts
 
     # ------------------------------------------------------------------ mesh
     def _build_mesh(self) -> Mesh:
@@ -290,39 +302,47 @@ class Simulation:
         self._acc[ACC_ANGLE_BUDGET] = max(min_angle - self._angle_threshold_rad - ANGLE_MARGIN_RAD, 0.0)
 
     def _smooth_crowded_particles(self) -> int:
-        """One Laplacian pass over interior, free particles whose nearest mesh neighbour is closer
-        than crowded_fraction * h: x_k <- mean of its neighbours.  The displacement moves with
-        the position (u += delta x), so u stays x - x0.  Returns the number of particles moved."""
+        """One Laplacian pass over the free particles whose nearest mesh neighbour is closer than
+        crowded_fraction * h: an interior particle moves to the mean of its mesh neighbours, a
+        boundary particle (on an edge of one triangle) to the mean of its neighbours along the
+        boundary, so that it slides along the free surface or a floor instead of leaving it.
+        The displacement moves with the position (u += delta x), so u stays x - x0.  Returns the
+        number of particles moved.
+
+        Boundary particles used to be left alone.  On the granular collapse at h = 1 mm the
+        particles at the flow front, pressed onto the floor, closed up pairwise; the triangles
+        between them cut the critical step threefold in 0.04 s and 500-fold by 0.45 s.
+        """
         mesh = self.mesh
         xy = self.node_xy_m
-        h = self.scene.spacing_m
+        n = self.n_particles
         edges = mesh.edge_nodes
         if edges.shape[0] == 0:
             return 0
         length = np.hypot(*(xy[edges[:, 1]] - xy[edges[:, 0]]).T)
-        nearest = np.full(self.n_particles, np.inf)
+        nearest = np.full(n, np.inf)
         np.minimum.at(nearest, edges[:, 0], length)
         np.minimum.at(nearest, edges[:, 1], length)
-        crowded = nearest < self.settings.crowded_fraction * h
-        if not crowded.any():
+        crowded = nearest < self.settings.crowded_fraction * self.scene.spacing_m
+        movable = crowded & ~self.node_fixed.any(axis=1)
+        if not movable.any():
             return 0
-        # boundary nodes: on an edge that belongs to a single triangle
+        # boundary edges: sides of a single triangle
         tri = mesh.elem_nodes
         side = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-        key = side[:, 0] * self.n_particles + side[:, 1]
-        unique, count = np.unique(key, return_counts=True)
-        boundary_key = unique[count == 1]
-        on_boundary = np.zeros(self.n_particles, dtype=bool)
-        on_boundary[boundary_key // self.n_particles] = True
-        on_boundary[boundary_key % self.n_particles] = True
-        movable = crowded & ~on_boundary & ~self.node_fixed.any(axis=1)
-        nodes = np.flatnonzero(movable)
+        unique, count = np.unique(side[:, 0] * n + side[:, 1], return_counts=True)
+        boundary_edges = np.stack([unique[count == 1] // n, unique[count == 1] % n], axis=1)
+        on_boundary = np.zeros(n, dtype=bool)
+        on_boundary[boundary_edges.ravel()] = True
+        # interior particles average over all their mesh neighbours, boundary ones over their
+        # neighbours along the boundary
+        sums, degree = _neighbour_sums(xy, edges)
+        boundary_sums, boundary_degree = _neighbour_sums(xy, boundary_edges)
+        sums[on_boundary] = boundary_sums[on_boundary]
+        degree[on_boundary] = boundary_degree[on_boundary]
+        nodes = np.flatnonzero(movable & (degree > 0))
         if nodes.size == 0:
             return 0
-        ptr, idx = mesh.node_node_ptr, mesh.node_node_idx
-        degree = np.diff(ptr)
-        sums = np.zeros((self.n_particles, 2))
-        np.add.at(sums, np.repeat(np.arange(self.n_particles), degree), xy[idx])
         target = sums[nodes] / degree[nodes, None]
         delta = target - xy[nodes]
         self.node_xy_m[nodes] = target
