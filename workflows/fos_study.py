@@ -221,19 +221,10 @@ def connect(scheduler: str):
         raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
 
 
-WORKER_NICENESS = 10
-"""Scheduling priority our local workers give up (``os.nice``): while they start, this process
-compiles and runs the gravity stage on one of the two cores, and later writes the run files;
-neither should wait for a worker.  Measured: gravity 10.8 s with the workers at the same
-priority, against 8.7 s with no workers starting."""
-
-
 def _prepare_local_worker() -> None:
-    """On each local worker, ahead of its first task: lower its priority (:data:`WORKER_NICENESS`)
-    and import what an SRF run needs (about 1.3 s per process)."""
-    import os
-
-    os.nice(WORKER_NICENESS)
+    """On each local worker, ahead of its first task: import what an SRF run needs (about 1.3 s
+    per process).  (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but
+    any other program on the machine then starved the workers, up to tenfold.)"""
     import spfem_core.simulation  # noqa: F401
     import workflows.results  # noqa: F401
     import workflows.scene_builder  # noqa: F401
