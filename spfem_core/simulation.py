@@ -49,7 +49,7 @@ WALL_SECONDS_PER_CALL = 0.25
 """Target wall time of one compiled call (sets how often progress is reported)."""
 
 STOP_CHECK_FRACTION = 0.02
-"""With a stop rule, a compiled call covers at most this fraction of the stage's duration."""
+"""With a stop rule, it is asked every this fraction of the stage's duration (simulated time)."""
 
 ANGLE_MARGIN_RAD = math.radians(1.0)
 """Safety margin on the cheap angle bound (it uses the strain rate of the previous step)."""
@@ -502,17 +502,28 @@ class Simulation:
             snapshot_interval, take_snapshot = float(snapshot[0]), snapshot[1]
             take_snapshot(0.0)
             last_snapshot, next_snapshot = 0.0, snapshot_interval
+        # The calls' length follows the wall clock (WALL_SECONDS_PER_CALL), so nothing that changes
+        # the state may happen at an arbitrary call boundary: the stop rule and the landing checks
+        # of detached particles run on schedules of their own (stage time, stage steps), and a
+        # run is the same on a fast or a slow machine.
+        stop_every_s = STOP_CHECK_FRACTION * duration_s
+        next_stop_s = stop_every_s
+        next_landing_check = -1  # stage step of the next landing check (-1: none scheduled)
         while stage_time < duration_s - 0.5 * self.dt_s:
             n_want = min(steps_per_call, max(1, int(round((duration_s - stage_time) / self.dt_s))))
             if snapshot is not None:  # end the call at the next snapshot time
                 n_want = min(n_want, max(1, int(math.ceil((next_snapshot - stage_time) / self.dt_s - 1e-9))))
-            if stop is not None:  # ask the stop rule at least every STOP_CHECK_FRACTION of the stage
-                n_want = min(n_want, max(1, int(STOP_CHECK_FRACTION * duration_s / self.dt_s)))
-            if self.n_orphans:
+            if stop is not None:  # ask the stop rule every STOP_CHECK_FRACTION of the stage
+                n_want = min(n_want, max(1, int(math.ceil((next_stop_s - stage_time) / self.dt_s - 1e-9))))
+            if not self.n_orphans:
+                next_landing_check = -1
+            elif next_landing_check < 0:
                 # a detached particle must be seen before it crosses the mesh: check for landing
-                # at least every half spacing of travel of the fastest particle
+                # after half a spacing of travel of the fastest particle
                 speed = max(float(np.abs(self.node_velocity_m_s).max()), 1e-12)
-                n_want = max(1, min(n_want, int(0.5 * self.scene.spacing_m / (speed * self.dt_s))))
+                next_landing_check = n_steps + max(1, int(0.5 * self.scene.spacing_m / (speed * self.dt_s)))
+            if next_landing_check >= 0:
+                n_want = max(1, min(n_want, next_landing_check - n_steps))
             call_start = time.perf_counter()
             status, done = advance(
                 self.node_xy_m, self.node_displacement_m, self.node_velocity_m_s, self.node_stress_pa,
@@ -565,8 +576,10 @@ class Simulation:
                     self._remesh()
                 elif status == STATUS_MESH_CHECK:
                     self._remesh()
-                elif self.n_orphans and self._orphans_can_rejoin():
-                    self._remesh()
+                elif 0 <= next_landing_check <= n_steps:
+                    next_landing_check = -1  # the next one is scheduled from the state after this one
+                    if self.n_orphans and self._orphans_can_rejoin():
+                        self._remesh()
             except _MeshCollapse as collapse:
                 partial = self._series(records, n_steps, n_remesh_start, n_checks, start_wall, converged, beta)
                 raise DivergenceError(str(collapse), self.n_steps_total, stage_time, partial) from None
@@ -577,7 +590,9 @@ class Simulation:
                 break
             elif status not in (STATUS_DONE, STATUS_MESH_CHECK, STATUS_INVERTED):
                 raise RuntimeError(f"unknown status {status} from the time loop")
-            if stop is not None:
+            if stop is not None and stage_time >= next_stop_s - 0.5 * self.dt_s:
+                while next_stop_s <= stage_time + 0.5 * self.dt_s:
+                    next_stop_s += stop_every_s
                 n_rec = int(records.count[0])
                 arrays = records.arrays
                 early = stop(arrays[0][:n_rec], arrays[5][:n_rec], arrays[4][:n_rec, 0])
