@@ -24,6 +24,7 @@ import logging
 import math
 import threading
 import time
+import uuid
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -407,11 +408,13 @@ def _conclude(study, out_dir, search, runs, reused_runs, pool, gravity_reused, n
 class _Submissions:
     """The runs on the cluster: the ones the search asked for, and the guesses started on idle
     workers ahead of it (``srf_search`` module doc, step 3), kept apart until it asks for them.
-    Every submission gets its own dask key and cancel event, so a value cancelled once can be
-    started again."""
+    Every submission gets its own dask key and cancel event (with a token of this study, so
+    that two studies on one scheduler keep apart), so a value cancelled once can be started
+    again."""
 
     client: object
     study_futures: tuple
+    token: str = field(default_factory=lambda: uuid.uuid4().hex[:12])
     asked: dict = field(default_factory=dict)  # future -> (srf, run key, cancel event name)
     guessed: dict = field(default_factory=dict)  # srf -> (future, run key, cancel event name)
     guessed_done: dict = field(default_factory=dict)  # srf -> (SrfRunResult, run key)
@@ -421,9 +424,10 @@ class _Submissions:
 
     def submit(self, srf: float, key: str):
         self.n_submitted += 1
-        event = f"spfem-fos-cancel-{key}-{self.n_submitted}"
-        future = self.client.submit(run_srf, *self.study_futures, srf, cancel_event=event,
-                                    key=f"srf-{srf:.4f}-{key}-{self.n_submitted}", pure=False)
+        name = f"{key}-{self.token}-{self.n_submitted}"
+        event = f"spfem-fos-cancel-{name}"
+        future = self.client.submit(run_srf, *self.study_futures, srf, cancel_event=event, key=f"srf-{srf:.4f}-{name}",
+                                    pure=False)
         return future, event
 
     def cancel(self, future, event: str) -> None:
