@@ -142,11 +142,10 @@ def test_write_round_trip_leaves_no_temporary_file(tmp_path, beam_text):
 def test_failed_write_leaves_nothing(tmp_path, beam_text, monkeypatch):
     ds, _ = beam_dataset(beam_text)
 
-    def broken_write(self, path, **options):
-        Path(path).write_bytes(b"half a file")
+    def broken_write(self, store, **options):  # the file is open (and exists) by then
         raise OSError("disk full")
 
-    monkeypatch.setattr(xr.Dataset, "to_netcdf", broken_write)
+    monkeypatch.setattr(xr.Dataset, "dump_to_store", broken_write)
     with pytest.raises(OSError, match="disk full"):
         results.write_dataset(ds, tmp_path / "run.nc")
     assert list(tmp_path.iterdir()) == []

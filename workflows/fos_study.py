@@ -246,6 +246,9 @@ def _start_client(workers: int, scheduler: str | None):
         return client, None
     cluster = LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+        # no dashboard, and the scheduler's health routes on a free port, not 8787: a second
+        # study (or anything else on 8787) would otherwise get a warning
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         silence_logs=logging.ERROR,
     )
     client = Client(cluster)
