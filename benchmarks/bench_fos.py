@@ -149,7 +149,7 @@ def main() -> None:
         if workers == 1 and (spacing, fit, 2) in median:
             print(
                 f"h {spacing} m fit {fit}: median wall {median[(spacing, fit, 2)]:.1f} s on 2 workers, {wall:.1f} s on 1 "
-                f"({len(walls[(spacing, fit, 1)])} runs each): 2 workers are {wall / median[(spacing, fit, 2)]:.2f}x "
+                f"({len(walls[(spacing, fit, 1)])} runs each): 2 workers are {wall / median[(spacing, fit, 2)]:.3f}x "
                 "faster than 1"
             )
 
