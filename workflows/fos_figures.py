@@ -1,5 +1,8 @@
 """Figures of a strength-reduction study (PNG, matplotlib without a display).
 
+Fixed margins, not constrained layout: the layout solver took a third of the figures' time,
+which is serial time at the end of every study.
+
 - ``srf_curve.png``: largest displacement against SRF (log scale), each run coloured by its
   verdict, the knee (maximum curvature of the sweep) and the FOS bracket marked;
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
@@ -28,7 +31,8 @@ def _pyplot():
 
 def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.92)
     srf = summary["srf"].values
     u = summary["max_displacement"].values
     status = summary["status"].values.astype(str)
@@ -66,7 +70,12 @@ def run_fields(run_path: Path, path: Path) -> Path:
         u = np.hypot(ds["particle_ux"].values, ds["particle_uy"].values)
         srf, status = float(ds.attrs["srf"]), ds.attrs["status"]
     mesh = mtri.Triangulation(x, y, triangles)
-    fig, axes = plt.subplots(2, 1, figsize=(7.5, 6.0), constrained_layout=True, sharex=True)
+    # panels as tall as the domain's aspect asks (equal axes), within 1-3.5 in each
+    aspect = (np.ptp(y) or 1.0) / (np.ptp(x) or 1.0)
+    panel_in = min(max(5.6 * aspect, 1.0), 3.5)
+    height_in = 2.0 * panel_in + 1.3
+    fig, axes = plt.subplots(2, 1, figsize=(7.5, height_in), sharex=True)
+    fig.subplots_adjust(left=0.09, right=0.97, bottom=0.55 / height_in, top=1.0 - 0.4 / height_in, hspace=0.25)
     for ax, values, label in ((axes[0], plastic, "equivalent plastic strain"), (axes[1], u, "displacement (m)")):
         shading = ax.tripcolor(mesh, values, shading="gouraud", cmap="viridis")
         fig.colorbar(shading, ax=ax, label=label)
