@@ -197,8 +197,9 @@ class Scene:
 class SolverSettings:
     """Numerical parameters of a run (the physics lives in :class:`Scene`).
 
-    Time step: ``dt_s`` if given, else ``cfl * min_e sqrt(A_e) / c_p,e`` over the triangles
-    (``spfem_core.timestep``), c_p,e the fastest P-wave speed among an element's particles.  A cfl (or a ``dt_s``
+    Time step: ``dt_s`` if given, else ``cfl * dt_crit``, dt_crit = 2 / omega_bound with
+    omega_bound a cell-by-cell bound on the highest frequency of the nodally integrated mesh
+    (``spfem_core.timestep``; on a lattice it equals sqrt(h^2 / 2) / c_p).  A cfl (or a ``dt_s``
     equivalent to one) above ``simulation.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
 
     ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and

@@ -236,7 +236,7 @@ class Simulation:
             if not 0.0 < self.settings.dt_s <= limit:
                 raise UnstableTimeStepError(
                     f"dt_s = {self.settings.dt_s:.4g} s is above the stable time step {limit:.4g} s "
-                    f"(sqrt of the smallest element area / P-wave speed {self.speed_limit_m_s:.4g} m/s, "
+                    f"(2 / the bound on the highest frequency of the mesh, spfem_core.timestep, "
                     f"times {self.max_cfl:.3g} for beta = {self.settings.stabilisation_beta:g}); "
                     f"use dt_s <= {limit:.4g} or set cfl instead"
                 )
@@ -260,7 +260,11 @@ class Simulation:
         return mesh
 
     def _critical_dt(self) -> float:
-        return float(critical_time_step(self.node_xy_m, self.mesh.elem_nodes, self._node_wave_speed))
+        mesh = self.mesh
+        return float(critical_time_step(
+            self.node_xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.node_mass_kg,
+            self.node_material, self._mat_lambda, self._mat_shear,
+        ))
 
     def _set_material_arrays(self, materials: MaterialTable):
         self.materials = materials

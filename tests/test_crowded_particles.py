@@ -39,7 +39,6 @@ def test_rebuild_spreads_crowded_particles_and_keeps_the_boundary():
     scene, top, inner, base = block_with_crowded_pairs()
     sim = Simulation(scene, SolverSettings(cfl=0.5))
     start = sim.node_xy_m.copy()
-    crowded_dt = sim.critical_dt_s
     sim._rebuild()  # what a remesh does: rebuild, smooth the crowded particles, rebuild again
 
     xy = sim.node_xy_m
@@ -53,17 +52,16 @@ def test_rebuild_spreads_crowded_particles_and_keeps_the_boundary():
     assert np.array_equal(xy[base], start[base])
     # displacement follows position everywhere
     np.testing.assert_allclose(sim.node_displacement_m, xy - start, atol=1e-15)
-    assert sim.critical_dt_s == crowded_dt  # the fixed pair still sets it
 
 
-def test_spreading_the_crowded_particles_restores_the_time_step():
-    lattice = Simulation(block_with_crowded_pairs(crowd_the_base=False)[0], SolverSettings(cfl=0.5))
+def test_crowded_particles_do_not_set_the_time_step():
+    """Pairs at 0.05 h leave the step within 10% of the uniform block's (the element rule
+    sqrt(A_e) / c_p cut it more than threefold; ``tests/test_timestep.py``)."""
+    crowded = Simulation(block_with_crowded_pairs()[0], SolverSettings(cfl=0.5))
     xy = particles_in_polygon([[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [0.0, 0.5]], H)
     uniform = Simulation(Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.elastic("soil", 2000.0, 5e6, 0.3),
                                H), SolverSettings(cfl=0.5))
-    assert lattice.critical_dt_s < 0.3 * uniform.critical_dt_s  # sqrt(0.05 h x h / 2) against sqrt(h^2 / 2)
-    lattice._rebuild()
-    assert lattice.critical_dt_s > 0.6 * uniform.critical_dt_s
+    assert crowded.critical_dt_s > 0.9 * uniform.critical_dt_s
 
 
 def test_nothing_moves_on_an_uncrowded_lattice():
