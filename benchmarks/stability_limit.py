@@ -3,7 +3,7 @@
     python benchmarks/stability_limit.py
 
 Bisects, for the beam lattice (h = 0.04 m) and the jittered beam (jitter 0.25), the largest
-cfl (time step / critical step sqrt(A_e)/c_p) that runs 0.3 s without a divergence, for
+cfl (time step / critical step, ``spfem_core.timestep``) that runs 0.3 s without a divergence, for
 beta = 0, 0.1, 0.3 and 1.  The refusal rule cfl <= 1/(1 + beta) must sit below every limit.
 """
 

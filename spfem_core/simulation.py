@@ -75,8 +75,8 @@ def max_stable_cfl(beta: float) -> float:
     """Largest accepted cfl for stabilisation ``beta``: 1 / (1 + beta).
 
     The stabilisation is a bond viscosity proportional to beta dt, so it lowers the stable
-    step.  Measured by ``benchmarks/stability_limit.py`` on the beam lattice: limits 1.54,
-    1.48, 1.35, 0.97 for beta = 0, 0.1, 0.3, 1 (jittered cloud: 2.55, 2.41, 2.09, 1.21);
+    step.  Measured by ``benchmarks/stability_limit.py`` on the beam lattice: limits 1.51,
+    1.46, 1.32, 0.94 for beta = 0, 0.1, 0.3, 1 (jittered cloud: 1.68, 1.57, 1.38, 0.80);
     the rule keeps a margin of at least 1.5 on all of them.
     """
     return 1.0 / (1.0 + max(beta, 0.0))
