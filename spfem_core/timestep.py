@@ -62,27 +62,26 @@ def critical_time_step(node_xy, elem_nodes, node_node_ptr, node_node_idx, node_m
     sixth = 1.0 / 6.0
     for e in range(elem_nodes.shape[0]):
         v0, v1, v2 = elem_nodes[e, 0], elem_nodes[e, 1], elem_nodes[e, 2]
-        x0, y0 = node_xy[v0, 0], node_xy[v0, 1]
-        x1, y1 = node_xy[v1, 0], node_xy[v1, 1]
-        x2, y2 = node_xy[v2, 0], node_xy[v2, 1]
-        third_area = ((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)) / 6.0
-        # (A_e / 3) grad N_q^e = edge opposite q, rotated, over 6
-        gx = ((y1 - y2) * sixth, (y2 - y0) * sixth, (y0 - y1) * sixth)
-        gy = ((x2 - x1) * sixth, (x0 - x2) * sixth, (x1 - x0) * sixth)
-        nodes = (v0, v1, v2)
+        third_area = ((node_xy[v1, 0] - node_xy[v0, 0]) * (node_xy[v2, 1] - node_xy[v0, 1])
+                      - (node_xy[v2, 0] - node_xy[v0, 0]) * (node_xy[v1, 1] - node_xy[v0, 1])) * sixth
         for a in range(3):
-            p = nodes[a]
+            p = elem_nodes[e, a]
             cell_area[p] += third_area
             for b in range(3):
-                q = nodes[b]
+                # (A_e / 3) grad N_q^e: the edge opposite vertex b, rotated, over 6
+                q = elem_nodes[e, b]
+                n1 = elem_nodes[e, (b + 1) % 3]
+                n2 = elem_nodes[e, (b + 2) % 3]
+                gx = (node_xy[n1, 1] - node_xy[n2, 1]) * sixth
+                gy = (node_xy[n2, 0] - node_xy[n1, 0]) * sixth
                 if q == p:
-                    g_self[p, 0] += gx[b]
-                    g_self[p, 1] += gy[b]
+                    g_self[p, 0] += gx
+                    g_self[p, 1] += gy
                     continue
                 for slot in range(node_node_ptr[p], node_node_ptr[p + 1]):
                     if node_node_idx[slot] == q:
-                        g_pair[slot, 0] += gx[b]
-                        g_pair[slot, 1] += gy[b]
+                        g_pair[slot, 0] += gx
+                        g_pair[slot, 1] += gy
                         break
     omega_sq_max = 0.0
     for p in range(n):

@@ -8,6 +8,7 @@ The fine-cloud accuracy against the experiment is the slow test below.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +26,7 @@ GRANULAR = Path(__file__).resolve().parents[1] / "studies" / "collapse_granular.
 
 
 def _granular(spacing_m: float, duration_s: float):
-    text = GRANULAR.read_text().replace("spacing_m = 0.002", f"spacing_m = {spacing_m}")
+    text = re.sub(r"^spacing_m = .*$", f"spacing_m = {spacing_m}", GRANULAR.read_text(), count=1, flags=re.M)
     text = text.replace("duration_s = 0.6", f"duration_s = {duration_s}")
     study = parse_study(text)
     sim = Simulation(build_scene(study), solver_settings(study))
@@ -65,9 +66,10 @@ def test_coarse_granular_collapse_conserves_mass_and_energy():
 
 @pytest.mark.slow
 def test_granular_collapse_matches_the_experiment():
-    """h = 2 mm, 0.6 s: the pass bands of collapse_refs.md (wall height, runout at 2 mm,
-    surface RMS error, failure-line angle and base intercept)."""
-    study, sim, _, _ = _granular(0.002, 0.6)
+    """h = 1 mm as in the study file (about 7 minutes), 0.6 s: the pass bands of
+    collapse_refs.md (wall height, runout at 2 mm, surface RMS error, failure-line angle and
+    base intercept).  At h = 2 mm the RMS error sits on the band's edge (5.0-5.6 mm)."""
+    study, sim, _, _ = _granular(0.001, 0.6)
     sim.run(0.6, record_interval_s=0.01)
     values = {k: v[1] for k, v in metrics_variables(study.metrics, sim).items() if v[0] == ()}
     assert GRANULAR_PASS_BANDS.failures(values) == []
@@ -78,7 +80,7 @@ COHESIVE = Path(__file__).resolve().parents[1] / "studies" / "collapse_cohesive.
 
 def test_coarse_cohesive_collapse_conserves_mass_and_energy():
     """The cohesive column at h = 0.1 m for its full 2.5 s: the same checks as the granular one."""
-    study = parse_study(COHESIVE.read_text().replace("spacing_m = 0.04", "spacing_m = 0.1"))
+    study = parse_study(re.sub(r"^spacing_m = .*$", "spacing_m = 0.1", COHESIVE.read_text(), count=1, flags=re.M))
     sim = Simulation(build_scene(study), solver_settings(study))
     mass0 = sim.node_mass_kg.sum()
     prepare_stage(sim, study, study.stages[0], 0)
@@ -105,7 +107,8 @@ def _cohesive_metrics(spacing_m: float, out_dir: Path) -> dict:
 
     from workflows.runner import run_study
 
-    study = parse_study(COHESIVE.read_text().replace("spacing_m = 0.04", f"spacing_m = {spacing_m}"))
+    study = parse_study(re.sub(r"^spacing_m = .*$", f"spacing_m = {spacing_m}", COHESIVE.read_text(), count=1,
+                               flags=re.M))
     run_study(study, out_dir)
     with xr.open_dataset(out_dir / "collapse.nc") as ds:
         return {k: float(ds[k]) for k in ("back_scarp_x_m", "crest_height_m", "toe_x_m", "plastic_zone_area_m2")}

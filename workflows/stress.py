@@ -209,6 +209,12 @@ def case_full_beam(beta: float) -> StressResult:
                         f"balance closed to {100 * closed:.3f}%")
 
 
+def _with_spacing(study_text: str, spacing_m: float) -> str:
+    """The study text with its ``spacing_m`` line set to ``spacing_m`` (whatever it was)."""
+    line = next(row for row in study_text.splitlines() if row.startswith("spacing_m"))
+    return study_text.replace(line, f"spacing_m = {spacing_m}", 1)
+
+
 def case_collapse(kind: str, friction_deg: float | None = None) -> StressResult:
     from spfem_core.simulation import DivergenceError, Simulation
     from workflows.runner import prepare_stage
@@ -216,10 +222,10 @@ def case_collapse(kind: str, friction_deg: float | None = None) -> StressResult:
     from workflows.study import parse_study
 
     if kind == "granular":
-        text = (ROOT / "studies" / "collapse_granular.toml").read_text().replace("spacing_m = 0.002", "spacing_m = 0.005")
+        text = _with_spacing((ROOT / "studies" / "collapse_granular.toml").read_text(), 0.005)
         duration = 0.6
     else:
-        text = (ROOT / "studies" / "collapse_cohesive.toml").read_text().replace("spacing_m = 0.04", "spacing_m = 0.1")
+        text = _with_spacing((ROOT / "studies" / "collapse_cohesive.toml").read_text(), 0.1)
         duration = 2.5
     name = f"{kind} collapse"
     if friction_deg is not None:
