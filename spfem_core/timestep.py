@@ -40,7 +40,7 @@ def _largest_eigenvalue_sym3(s00, s01, s02, s11, s12, s22):
     """Largest eigenvalue of a symmetric 3x3 matrix (trigonometric closed form)."""
     off = s01 * s01 + s02 * s02 + s12 * s12
     q = (s00 + s11 + s22) / 3.0
-    p2 = (s00 - q) ** 2 + (s11 - q) ** 2 + (s22 - q) ** 2 + 2.0 * off
+    p2 = (s00 - q) * (s00 - q) + (s11 - q) * (s11 - q) + (s22 - q) * (s22 - q) + 2.0 * off
     if p2 <= 1e-30 * (q * q + 1e-300):
         return q
     p = math.sqrt(p2 / 6.0)
