@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spfem_core.cloud import particles_in_polygon, points_in_polygon
+from spfem_core.jit import kernel
 from spfem_core.mesh import (
     Mesh,
     count_inverted,
@@ -132,6 +133,51 @@ def test_min_angle_and_inverted_elements():
     moved[2] = (0.5, 0.0)  # collinear: zero area counts as inverted
     assert count_inverted(moved, elem_nodes[:1]) == 1
     assert element_quality_min_angle(node_xy_m, elem_nodes[:0]) == pytest.approx(np.pi)
+
+
+@kernel
+def all_corners_min_angle(node_xy, elem_nodes):
+    """The plain definition: atan2(|u x v|, u . v) at every corner of every triangle, the minimum."""
+    theta_min = np.pi
+    for e in range(elem_nodes.shape[0]):
+        for corner in range(3):
+            i = elem_nodes[e, corner]
+            j = elem_nodes[e, (corner + 1) % 3]
+            k = elem_nodes[e, (corner + 2) % 3]
+            ux = node_xy[j, 0] - node_xy[i, 0]
+            uy = node_xy[j, 1] - node_xy[i, 1]
+            vx = node_xy[k, 0] - node_xy[i, 0]
+            vy = node_xy[k, 1] - node_xy[i, 1]
+            theta = np.arctan2(abs(ux * vy - uy * vx), ux * vx + uy * vy)
+            if theta < theta_min:
+                theta_min = theta
+    return theta_min
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # numba compiling the reference kernel
+@settings(deadline=None, max_examples=60, database=None)
+@given(
+    jitter=st.floats(0.0, 0.29),
+    shear=st.floats(-3.0, 3.0),
+    squash=st.floats(0.05, 1.0),
+    pinch=st.floats(0.0, 1.0),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_min_angle_equals_the_all_corner_minimum_to_the_bit(jitter, shear, squash, pinch, seed):
+    """The single-pass check (sine proxy, atan2 only near the minimum) against the plain
+    definition, on lattices (thousands of equal angles), jittered clouds, then the same
+    meshes sheared and squashed with one particle pulled towards a neighbour (near-degenerate)."""
+    node_xy_m = particles_in_polygon(SLOPE, 1.0, jitter=jitter, seed=seed)
+    elem_nodes = triangulate(node_xy_m, 1.0).elem_nodes
+    for xy in (node_xy_m, node_xy_m @ np.array([[1.0, 0.0], [shear, squash]])):
+        xy = xy.copy()
+        a, b = elem_nodes[seed % len(elem_nodes), :2]
+        xy[a] += pinch * (xy[b] - xy[a])
+        assert element_quality_min_angle(xy, elem_nodes) == all_corners_min_angle(xy, elem_nodes)
+    xy[elem_nodes[0, 0]] = xy[elem_nodes[0, 1]]  # two vertices at one point: angle 0
+    assert element_quality_min_angle(xy, elem_nodes) == all_corners_min_angle(xy, elem_nodes) == 0.0
+    xy[elem_nodes[-1, 2], 1] = np.nan
+    assert np.isnan(element_quality_min_angle(xy, elem_nodes))
 
 
 def test_mesh_is_frozen(beam):
