@@ -29,20 +29,6 @@ def _pyplot():
     return plt
 
 
-def preload() -> None:
-    """Import pyplot and draw a blank figure (backend, fonts): about 1.5 s that a study spends
-    in a background thread while its SRF runs go on, instead of after the last one."""
-    import io
-
-    import matplotlib.tri  # noqa: F401
-
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(1, 1))
-    ax.set_title("preload")
-    fig.savefig(io.BytesIO(), format="png", dpi=10)
-    plt.close(fig)
-
-
 def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))

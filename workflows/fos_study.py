@@ -333,16 +333,9 @@ def run_fos_study(
 
     if scheduler:  # fail before any work when the cluster cannot be reached
         connect(scheduler).close()
-    figures_ready = _FiguresPreload(study.output.figures)
-    report_stage = progress.stage
-
-    def stage_progress(name: str, fraction: float) -> None:
-        figures_ready.start()
-        report_stage(name, fraction)
-
     with dask_session(workers, scheduler) as session:
         stress, plastic, reused, n_particles, timings["gravity"] = gravity_state(
-            study, out_dir, force=force, progress=FosProgress(stage_progress, progress.runs, progress.message)
+            study, out_dir, force=force, progress=progress
         )
         gkey = gravity_key(study)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -356,46 +349,14 @@ def run_fos_study(
             from spfem_core.warmup import warm_up
 
             warm_up()  # load the compiled loop into the disk cache before the workers start
-        figures_ready.start()  # if the gravity stage did not (reused from disk)
         srf_start = time.perf_counter()
         search, runs, reused_runs, pool = _run_search(
             study, out_dir, session.client(), (stress, plastic), progress, timings, start_unix_s
         )
         timings["srf_runs_elapsed"] = time.perf_counter() - srf_start
         session.close(wait=False)  # the workers shut down meanwhile
-        figures_ready.join()
         return _conclude(study, out_dir, search, runs, reused_runs, pool, reused, n_particles, progress, timings,
                          wall_start)
-
-
-class _FiguresPreload:
-    """Loads matplotlib (``fos_figures.preload``, about 1.5 s) in a thread once the gravity
-    stage steps: the compiled loop releases the GIL and the workers are still starting, so
-    that time is free, where after the last SRF run it was serial.  Started at the first
-    progress report of the gravity stage (after compilation, which holds the GIL), or before
-    the SRF runs at the latest; a failure is left for the figures themselves to report."""
-
-    def __init__(self, wanted: bool):
-        self._wanted = wanted
-        self._thread: threading.Thread | None = None
-
-    def start(self) -> None:
-        if self._wanted and self._thread is None:
-            self._thread = threading.Thread(target=self._run, name="figures-preload", daemon=True)
-            self._thread.start()
-
-    def join(self) -> None:
-        if self._thread is not None:
-            self._thread.join()
-
-    @staticmethod
-    def _run() -> None:
-        from workflows.fos_figures import preload
-
-        try:
-            preload()
-        except Exception:  # noqa: BLE001  (drawing the figures raises it again, with context)
-            pass
 
 
 def _conclude(study, out_dir, search, runs, reused_runs, pool, gravity_reused, n_particles, progress, timings,
