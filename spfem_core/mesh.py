@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
 from scipy.spatial import Delaunay
 
 from spfem_core.jit import kernel
@@ -93,77 +94,32 @@ def delaunay_triangles(node_xy_m: np.ndarray) -> np.ndarray:
 def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     """Build the CSR node->element and node->node adjacency of given triangles.
 
-    node->element: a counting sort of the 3 n_elem (node, element) pairs by node, elements
-    ascending within a node; ptr = [0, cumsum(count)].  node->node: for each node, the other
-    two vertices of each of its elements, sorted and made unique (ascending); ``edge_nodes``
-    lists every (i, j) with j > i in that order.  Compiled (``_adjacency``): O(n) with no
-    global sort, where ``np.unique`` over the edge keys was a quarter of a rebuild.
+    Both are sparse-matrix patterns, built by scipy's compressed-row conversion (a counting
+    sort, O(n)): node->element from the 3 n_elem pairs (node, element), node->node from the
+    directed edges (i, j) and (j, i) of every triangle side, duplicates summed away; column
+    indices ascending within a row.  ``edge_nodes`` lists every (i, j) with j > i in row
+    order.  (``np.unique`` over edge keys was a quarter of a rebuild; a compiled kernel was
+    2 ms faster at 20k particles but cost 0.6 s of compilation in every fresh process.)
     """
     elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64).reshape(-1, 3)
-    node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, edge_nodes = _adjacency(elem_nodes, int(n_nodes))
-    return Mesh(elem_nodes, node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, int(n_nodes), edge_nodes)
-
-
-@kernel
-def _adjacency(elem_nodes, n_nodes):
-    """CSR node->element and node->node arrays and the edge list of ``mesh_from_elements``."""
     n_elem = elem_nodes.shape[0]
-    node_elem_ptr = np.zeros(n_nodes + 1, dtype=np.int64)
-    for e in range(n_elem):
-        for a in range(3):
-            node_elem_ptr[elem_nodes[e, a] + 1] += 1
-    for k in range(n_nodes):
-        node_elem_ptr[k + 1] += node_elem_ptr[k]
-    fill = node_elem_ptr[:-1].copy()
-    node_elem_idx = np.empty(3 * n_elem, dtype=np.int64)
-    for e in range(n_elem):
-        for a in range(3):
-            k = elem_nodes[e, a]
-            node_elem_idx[fill[k]] = e
-            fill[k] += 1
+    n_nodes = int(n_nodes)
+    node_elem = _pattern(elem_nodes.ravel(), np.repeat(np.arange(n_elem, dtype=np.int64), 3), n_nodes, n_elem)
+    first = elem_nodes.ravel()
+    second = elem_nodes[:, [1, 2, 0]].ravel()
+    node_node = _pattern(np.concatenate([first, second]), np.concatenate([second, first]), n_nodes, n_nodes)
+    node_node_ptr, node_node_idx = node_node
+    row = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(node_node_ptr))
+    upper = node_node_idx > row
+    edge_nodes = np.ascontiguousarray(np.stack([row[upper], node_node_idx[upper]], axis=1))
+    return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes)
 
-    # candidates: the two other vertices of every element of k (each edge seen once or twice)
-    candidate = np.empty(6 * n_elem, dtype=np.int64)
-    node_node_ptr = np.zeros(n_nodes + 1, dtype=np.int64)
-    for k in range(n_nodes):
-        start = 2 * node_elem_ptr[k]
-        count = 0
-        for slot in range(node_elem_ptr[k], node_elem_ptr[k + 1]):
-            e = node_elem_idx[slot]
-            for a in range(3):
-                j = elem_nodes[e, a]
-                if j == k:
-                    continue
-                # insertion into the sorted run candidate[start:start + count], skipping repeats
-                position = start + count
-                while position > start and candidate[position - 1] > j:
-                    position -= 1
-                if position > start and candidate[position - 1] == j:
-                    continue
-                for move in range(start + count, position, -1):
-                    candidate[move] = candidate[move - 1]
-                candidate[position] = j
-                count += 1
-        node_node_ptr[k + 1] = node_node_ptr[k] + count
-    node_node_idx = np.empty(node_node_ptr[n_nodes], dtype=np.int64)
-    n_edges = 0
-    for k in range(n_nodes):
-        start = 2 * node_elem_ptr[k]
-        for c in range(node_node_ptr[k + 1] - node_node_ptr[k]):
-            j = candidate[start + c]
-            node_node_idx[node_node_ptr[k] + c] = j
-            if j > k:
-                n_edges += 1
-    edge_nodes = np.empty((n_edges, 2), dtype=np.int64)
-    edge = 0
-    for k in range(n_nodes):
-        for slot in range(node_node_ptr[k], node_node_ptr[k + 1]):
-            j = node_node_idx[slot]
-            if j > k:
-                edge_nodes[edge, 0] = k
-                edge_nodes[edge, 1] = j
-                edge += 1
-    return node_elem_ptr, node_elem_idx, node_node_ptr, node_node_idx, edge_nodes
+
+def _pattern(rows: np.ndarray, columns: np.ndarray, n_rows: int, n_columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (ptr, idx) int64 of the set of (row, column) pairs, columns ascending in each row."""
+    matrix = csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, columns)), shape=(n_rows, n_columns))
+    matrix.sum_duplicates()  # also sorts the columns of every row
+    return matrix.indptr.astype(np.int64), matrix.indices.astype(np.int64)
 
 
 def _signed_area_and_circumradius(node_xy_m: np.ndarray, elem_nodes: np.ndarray):
