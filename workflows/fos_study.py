@@ -231,9 +231,29 @@ def _prepare_local_worker() -> None:
     import workflows.scene_builder  # noqa: F401
 
 
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.admin.tick.interval": "1s",
+    "distributed.scheduler.work-stealing": False,
+}
+"""dask settings of the local cluster a study starts (not of a cluster at ``--scheduler``).
+The defaults serve a dashboard this cluster does not have and many small tasks, where SRF
+runs are few long ones started only on idle workers: a stack sample of every worker every
+10 ms (profile), an event-loop tick every 20 ms and a memory check every 100 ms per worker
+and per nanny, work stealing every second.  On 2 cores with both busy, that upkeep ran in
+this process and the workers at the runs' expense: with the defaults the runs of the
+reference slope took 77.9 s of worker time on 2 workers, with these 72.6 s (69.2 s on 1
+worker; ``python benchmarks/bench_fos.py --warm --workers 2``).  The nannies still check
+memory every second."""
+
+
 def _start_client(workers: int, scheduler: str | None):
     """A client on ``scheduler``, or on a new local cluster of ``workers`` single-thread
-    processes, prepared by :func:`_prepare_local_worker`; (client, cluster or None)."""
+    processes (settings :data:`LOCAL_CLUSTER_CONFIG`), prepared by
+    :func:`_prepare_local_worker`; (client, cluster or None)."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -244,13 +264,15 @@ def _start_client(workers: int, scheduler: str | None):
             client.close()
             raise
         return client, None
-    cluster = LocalCluster(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-        # no dashboard, and the scheduler's health routes on a free port, not 8787: a second
-        # study (or anything else on 8787) would otherwise get a warning
-        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-        silence_logs=logging.ERROR,
-    )
+    # the nannies hand the settings to their workers when they start them, here
+    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            # no dashboard, and the scheduler's health routes on a free port, not 8787: a second
+            # study (or anything else on 8787) would otherwise get a warning
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            silence_logs=logging.ERROR,
+        )
     client = Client(cluster)
     try:
         client.run(_prepare_local_worker)
