@@ -206,3 +206,65 @@ def test_guesses_on_idle_workers_do_not_change_the_runs_used(f_star):
     assert guessing.outcomes == plain.outcomes
     assert guessing.knee() == plain.knee()
     assert started >= 1 and 0 <= used <= started
+
+
+# the reference slope's sweep (studies/reference_slope.toml, h = 0.3 m): largest displacement in m
+REFERENCE_SWEEP_M = {1.0: 0.0076, 1.1: 0.0109, 1.2: 0.0191, 1.3: 0.0654, 1.4: 0.980}
+
+
+def reference_search(finished: dict[float, float]) -> SrfSearch:
+    search = SrfSearch(1.0, 2.0, 0.1, tolerance=0.01, floor_m=1.5e-3, n_parallel=2, failure_m=1.5)
+    for srf, u in finished.items():
+        search.started(srf)
+        search.finished(RunOutcome(srf, u, STABLE))
+    return search
+
+
+def test_a_sweep_run_expected_to_fail_holds_back_the_sweep_and_the_idle_worker_guesses_the_refinement():
+    search = reference_search(REFERENCE_SWEEP_M)
+    search.started(1.5)
+    # u(1.5) = 0.98 (0.98 / 0.0654)^1 = 14.7 m >= 1.5 m: 1.6 would be cancelled, so it waits
+    assert search.predicted_failure() == 1.5
+    assert search.next_values() == []
+    guess = search.speculative_values(1)
+    search.finished(RunOutcome(1.5, 1.52, FAILED))
+    refinement = search.next_values()
+    assert len(guess) == 1 and guess[0] in refinement and all(1.3 < f < 1.4 for f in refinement)
+
+
+def test_an_expected_failure_that_comes_out_stable_releases_the_sweep():
+    search = reference_search(REFERENCE_SWEEP_M)
+    search.started(1.5)
+    assert search.next_values() == []
+    search.finished(RunOutcome(1.5, 1.2, STABLE))  # an arrested slide
+    assert search.predicted_failure() == math.inf
+    assert search.next_values() == [1.6, 1.7]
+
+
+def test_no_failure_is_predicted_from_slowly_growing_displacements():
+    search = reference_search({f: u for f, u in REFERENCE_SWEEP_M.items() if f <= 1.2})
+    search.started(1.3)  # u(1.3) = 0.0191 (0.0191 / 0.0109) = 0.033 m: the sweep goes on
+    assert search.predicted_failure() == math.inf
+    assert search.next_values() == [1.4]
+    assert search.speculative_values(1) == []
+
+
+def accelerating_response(srf, f_star):
+    """Largest displacement (m) rising ever faster towards F*, 2 m above it."""
+    srf = np.asarray(srf, dtype=float)
+    return np.where(srf > f_star, 2.0, 0.005 * np.exp(2.0 * (srf - 1.0)) + 0.4 * np.exp(25.0 * (srf - f_star)))
+
+
+@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.45, 1.6789])
+def test_guesses_on_expected_failures_do_not_change_the_runs_used(f_star):
+    def response(f):
+        return accelerating_response(f, f_star)
+
+    plain = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+    drive(plain, response, f_star)
+    guessing = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+    drive_with_guesses(guessing, response, f_star)
+    assert guessing.outcomes == plain.outcomes
+    assert guessing.knee() == plain.knee()
+    fos = plain.knee()
+    assert fos.fos_low <= f_star < fos.fos_high and fos.fos_high - fos.fos_low <= 0.01

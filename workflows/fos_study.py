@@ -34,7 +34,7 @@ import xarray as xr
 
 from workflows.fos_criterion import DIVERGED, FAILED, STABLE, brackets_agree, status_bracket
 from workflows.results import interrupts_deferred, particle_stress, write_dataset
-from workflows.srf_run import SrfRunResult, displacement_floor_m, run_srf
+from workflows.srf_run import SrfRunResult, displacement_floor_m, failure_displacement_m, run_srf
 from workflows.srf_search import RunOutcome, SrfSearch
 from workflows.study import Study, StudyError
 
@@ -477,7 +477,8 @@ def _run_search(study: Study, out_dir: Path, client, gravity, progress: FosProgr
     gkey = gravity_key(study)
     n_parallel = max(1, sum(client.nthreads().values()))
     search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
-                       displacement_floor_m(study), n_parallel=n_parallel, max_runs=stage.max_runs)
+                       displacement_floor_m(study), n_parallel=n_parallel, max_runs=stage.max_runs,
+                       failure_m=failure_displacement_m(study))
     futures = tuple(client.scatter([item], broadcast=True)[0] for item in (study.source_text, *gravity))
     pool = _Submissions(client, futures)
     runs: dict[float, dict] = {}

@@ -17,6 +17,11 @@ maximum displacement and verdict, and says which SRF values to start next.
    either outcome of that run.  A caller may start them; it must keep their results out of
    the answer until :meth:`SrfSearch.next_values` asks for the same value, so the runs used
    and the FOS stay those of the plan above, whatever the number of workers.
+4. **Predicted failure** (:meth:`SrfSearch.predicted_failure`): before any run has failed,
+   a pending sweep run whose displacement, extrapolated log-linearly from the two finished
+   sweep runs below it, reaches ``failure_m`` is expected to fail.  Sweep values above it
+   are held back until it finishes (they would be cancelled if it fails), and an idle worker
+   speculates on its outcome instead, failed branch first.
 """
 
 from __future__ import annotations
@@ -53,11 +58,13 @@ def sweep_values(srf_min: float, srf_max: float, srf_step: float) -> list[float]
 class SrfSearch:
     """The sweep-then-refine plan (module doc)."""
 
-    def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40):
+    def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40,
+                 failure_m=math.inf):
         self.sweep = sweep_values(srf_min, srf_max, srf_step)
         self.sweep_set = set(self.sweep)
         self.tolerance = float(tolerance)
         self.floor_m = float(floor_m)
+        self.failure_m = float(failure_m)  # a run past this displacement fails (module doc, step 4)
         self.n_parallel = max(1, int(n_parallel))
         self.max_runs = int(max_runs)
         self.outcomes: dict[float, RunOutcome] = {}
@@ -82,6 +89,27 @@ class SrfSearch:
     def lowest_failed(self) -> float:
         failed = [o.srf for o in self.outcomes.values() if o.status == FAILED]
         return min(failed) if failed else math.inf
+
+    def predicted_failure(self) -> float:
+        """The lowest pending sweep SRF expected to fail (module doc, step 4); inf if none, or
+        once a run has failed.  From the two finished sweep runs F1 < F2 below a pending F,
+
+            u(F) = u2 (u2 / u1)^((F - F2) / (F2 - F1))  >=  failure_m.
+        """
+        if not math.isfinite(self.failure_m) or math.isfinite(self.lowest_failed):
+            return math.inf
+        finished = sorted((o.srf, o.max_displacement_m) for o in self.outcomes.values()
+                          if o.srf in self.sweep_set and o.status == STABLE)
+        for srf in sorted(f for f in self.pending if f in self.sweep_set):
+            below = [(f, u) for f, u in finished if f < srf]
+            if len(below) < 2:
+                continue
+            (f1, u1), (f2, u2) = below[-2:]
+            if not (u1 > 0.0 and u2 > 0.0 and u2 > u1):
+                continue
+            if u2 * (u2 / u1) ** ((srf - f2) / (f2 - f1)) >= self.failure_m:
+                return srf
+        return math.inf
 
     def knee(self) -> FosPick:
         """The FOS from the runs made so far (diverged runs left out): the knee of the sweep
@@ -110,7 +138,7 @@ class SrfSearch:
         for f in todo:
             if f > ceiling:
                 self.skipped[f] = f"above the failed SRF {ceiling:g}: cannot move the knee"
-        todo = [f for f in todo if f <= ceiling]
+        todo = [f for f in todo if f <= min(ceiling, self.predicted_failure())]  # step 4: held back
         if todo:
             free = self.n_parallel - len(self.pending)
             room = self.max_runs - len(self.outcomes) - len(self.pending)
@@ -142,26 +170,33 @@ class SrfSearch:
         waits for has finished, for otherwise idle workers (module doc, step 3).
 
         Only when exactly one run below the first failure is pending (the end of the sweep, a
-        refinement round of one run, or the last run of a round).  Its two outcomes are
-        imagined: failed with the displacement of the lowest failed run, and stable with the
-        displacement of the run below it; the values each branch would start are interleaved,
-        failed branch first.  That branch puts the bracket in the lower part of the split,
-        where it went in every strength-reduction study we ran: above the knee log u rises
-        fastest first.
+        refinement round of one run, or the last run of a round), and before any failure only
+        when that run is expected to fail (:meth:`predicted_failure`).  Its two outcomes are
+        imagined: failed with the displacement of the lowest failed run (``failure_m`` before
+        any), and stable with the displacement of the run below it; the values each branch
+        would start are interleaved, failed branch first.  That branch puts the bracket in the
+        lower part of the split, where it went in every strength-reduction study we ran: above
+        the knee log u rises fastest first.
         """
         if n_free <= 0 or self.stop_reason:
             return []
         ceiling = self.lowest_failed
         undecided = [f for f in self.pending if f <= ceiling]
         usable = sorted((o for o in self.outcomes.values() if o.status != DIVERGED), key=lambda o: o.srf)
-        if len(undecided) != 1 or not math.isfinite(ceiling):
+        if len(undecided) != 1:
             return []
         [srf] = undecided
+        if math.isfinite(ceiling):
+            failed_u = self.outcomes[ceiling].max_displacement_m
+        elif self.predicted_failure() == srf:
+            failed_u = self.failure_m
+        else:
+            return []
         below = [o for o in usable if o.srf < srf]
         if not below:
             return []
         branches = []
-        for outcome in (RunOutcome(srf, self.outcomes[ceiling].max_displacement_m, FAILED),
+        for outcome in (RunOutcome(srf, failed_u, FAILED),
                         RunOutcome(srf, below[-1].max_displacement_m, STABLE)):
             branch = copy.deepcopy(self)
             branch.finished(outcome)
