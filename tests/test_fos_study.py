@@ -116,6 +116,39 @@ def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
     assert free.stop_time_s > 0.3 * duration_s and "at rest" in free.dataset.attrs["note_early_stop"]
 
 
+def _worker_state(dask_worker):
+    import os
+    import sys
+
+    from workflows.fos_study import WORKER_MODULES
+
+    return os.getppid(), all(name in sys.modules for name in WORKER_MODULES), dask_worker.periodic_callbacks.keys()
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="forkserver start method of Linux")
+def test_local_workers_are_forked_from_one_preloaded_server_without_dashboard_upkeep():
+    """The study's local cluster: both workers come from one server that imported what a run
+    needs (so a second worker adds no import work), and they make no profile samples."""
+    import dask
+    import distributed  # noqa: F401  (registers the distributed.* settings)
+
+    from workflows.fos_study import _close_client, _start_client
+
+    method_before = dask.config.get("distributed.worker.multiprocessing-method")
+    client, cluster = _start_client(2, None)
+    try:
+        states = list(client.run(_worker_state).values())
+        scheduler_callbacks = dict(cluster.scheduler.periodic_callbacks)
+    finally:
+        _close_client(client, cluster)
+    parents = {parent for parent, _, _ in states}
+    assert len(states) == 2 and len(parents) == 1 and os.getpid() not in parents
+    assert all(imported for _, imported, _ in states)
+    assert not any("profile" in names for _, _, names in states)
+    assert "stealing" not in scheduler_callbacks and scheduler_callbacks["tick"].callback_time == 1000
+    assert dask.config.get("distributed.worker.multiprocessing-method") == method_before  # not left set
+
+
 def test_run_file_holds_the_series_and_the_final_fields(quickstart_run):
     study, out, outcome = quickstart_run
     failed = [r for r in outcome.runs if r["status"] == "failed"][-1]  # far above the FOS: stopped early

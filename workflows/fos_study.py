@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import importlib
 import json
 import logging
 import math
@@ -222,13 +223,41 @@ def connect(scheduler: str):
         raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
 
 
+WORKER_MODULES = ("spfem_core.simulation", "workflows.results", "workflows.scene_builder", "workflows.srf_run")
+"""What an SRF run imports (about 1.1 s of CPU per process on top of ``distributed``)."""
+
+
 def _prepare_local_worker() -> None:
-    """On each local worker, ahead of its first task: import what an SRF run needs (about 1.3 s
-    per process).  (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but
-    any other program on the machine then starved the workers, up to tenfold.)"""
-    import spfem_core.simulation  # noqa: F401
-    import workflows.results  # noqa: F401
-    import workflows.scene_builder  # noqa: F401
+    """On each local worker, ahead of its first task: import :data:`WORKER_MODULES` (already
+    done where the worker was forked from a preloaded server, see :func:`_worker_start_method`).
+    (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but any other
+    program on the machine then starved the workers, up to tenfold.)"""
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+
+
+def _worker_start_method() -> dict:
+    """dask settings that start local workers by forking a server that has imported
+    ``distributed`` and :data:`WORKER_MODULES` once (``forkserver``), where the platform
+    has it; else {} (each worker is a fresh interpreter that imports them itself, ``spawn``).
+
+    The workers start while this process compiles and runs the gravity stage, on the same
+    cores.  Spawned, every worker imports everything (about 1.6 s of CPU each), so a second
+    worker cost the gravity stage about 0.9 s of wall time on 2 cores, and started the
+    runs that much later than one worker did.  Forked from the server, the imports are made
+    once whatever the number of workers."""
+    import multiprocessing
+
+    import dask
+    from distributed.utils import get_mp_context
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return {}
+    settings = {"distributed.worker.multiprocessing-method": "forkserver"}
+    with dask.config.set(settings):
+        context = get_mp_context()  # distributed sets its own preload list here, once per process
+    context.set_forkserver_preload(["distributed", *WORKER_MODULES])
+    return settings
 
 
 LOCAL_CLUSTER_CONFIG = {
@@ -265,7 +294,7 @@ def _start_client(workers: int, scheduler: str | None):
             raise
         return client, None
     # the nannies hand the settings to their workers when they start them, here
-    with dask.config.set(LOCAL_CLUSTER_CONFIG):
+    with dask.config.set({**LOCAL_CLUSTER_CONFIG, **_worker_start_method()}):
         cluster = LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
             # no dashboard, and the scheduler's health routes on a free port, not 8787: a second
