@@ -12,7 +12,7 @@ velocity gradient L over a step dt:
 
 from __future__ import annotations
 
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update
 from spfem_core.scene import MODEL_DRUCKER_PRAGER, MODEL_ELASTIC
 
@@ -39,7 +39,7 @@ def elastic_increment(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus):
     stress[k, 3] += 2.0 * shear_modulus * dxy
 
 
-@kernel
+@inner_kernel
 def update_stress(
     node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt
 ):
@@ -82,7 +82,7 @@ def update_stress(
     return plastic_work
 
 
-@kernel
+@inner_kernel
 def elastic_energy_density(sxx, syy, szz, sxy, youngs_modulus, poisson_ratio):
     """Complementary energy per volume of an isotropic elastic state (J/m^3).
 

@@ -14,10 +14,10 @@ Particle masses m are fixed at the start and never recomputed.
 from __future__ import annotations
 
 from spfem_core.contact import wall_contact_velocity
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 
 
-@kernel
+@inner_kernel
 def sign0(value):
     """sign with sign(0) = 0 (ESPFEM2D's +1 for zero over-amplifies the first step)."""
     if value > 0.0:

@@ -9,6 +9,11 @@ Policy (see STYLE.md):
   per-division checks are compiled into the hot loop; divergence checks catch NaN.
 - a fastmath *subset*: contraction, reassociation and reciprocal approximations are allowed;
   ``nnan``/``ninf`` are not, because divergence detection must see NaN and inf.
+- ``no_cfunc_wrapper=True``: no C-callable wrapper per kernel (it serves kernels passed as
+  first-class function values, which the core never does), and :func:`inner_kernel` for
+  kernels only other kernels call: no Python entry point either.  The machine code of the
+  loop is the same (bit-identical runs); a fresh process compiles about 0.6 s less
+  (``warm_up`` 6.55 -> 5.94 s, median of 3 alternated runs on an empty cache each).
 
 Set ``SPFEM_CACHE_DIR`` to choose the cache root (default ``~/.cache/spfem-fos/numba``).
 Import this module before any other ``spfem_core`` module compiles (the package's
@@ -51,9 +56,14 @@ numba.config.CACHE_DIR = str(_CACHE_DIR)
 FASTMATH_FLAGS = frozenset({"contract", "reassoc", "arcp", "nsz"})
 """Allowed fastmath flags: never ``nnan`` or ``ninf`` (NaN checks must keep working)."""
 
-JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", fastmath=set(FASTMATH_FLAGS))
+JIT_OPTIONS = dict(cache=True, nogil=True, error_model="numpy", fastmath=set(FASTMATH_FLAGS), no_cfunc_wrapper=True)
 
 
 def kernel(function):
     """Compile ``function`` with the project policy: ``@kernel`` on a module-level function."""
     return numba.njit(**JIT_OPTIONS)(function)
+
+
+def inner_kernel(function):
+    """``@kernel`` for a function only other kernels call: no Python entry point is compiled."""
+    return numba.njit(**JIT_OPTIONS, no_cpython_wrapper=True)(function)

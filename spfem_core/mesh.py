@@ -15,7 +15,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.spatial import Delaunay
 
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 
 QHULL_OPTIONS = "Qbb Qc Qz Q12"
 """scipy's 2D default.  No 'QJ': joggling perturbs the input and can drop particles that
@@ -180,7 +180,7 @@ def element_quality_min_angle(node_xy, elem_nodes):
     return theta_min
 
 
-@kernel
+@inner_kernel
 def _smallest_angle_sine_sq(node_xy, elem_nodes, e):
     """sin^2 of the smallest angle of triangle e: (2A)^2 / (b^2 c^2), b, c its two longest sides."""
     i = elem_nodes[e, 0]

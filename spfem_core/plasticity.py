@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 
 YIELD_RTOL = 1e-12
 """Relative tolerance of the yield check: f <= YIELD_RTOL * scale counts as elastic."""
@@ -133,7 +133,7 @@ def default_dp_fit(dilation_deg: float, friction_deg: float | None = None) -> st
 # ----------------------------------------------------------------------------------------
 
 
-@kernel
+@inner_kernel
 def _plastic_measures(dsxx, dsyy, dszz, dsxy, nxx, nyy, nzz, nxy, bulk_modulus, shear_modulus):
     """From dsigma = sigma_tr - sigma_new (coaxial or not) and sigma_new:
 
@@ -152,7 +152,7 @@ def _plastic_measures(dsxx, dsyy, dszz, dsxy, nxx, nyy, nzz, nxy, bulk_modulus, 
     return math.sqrt(2.0 / 3.0 * norm2), work
 
 
-@kernel
+@inner_kernel
 def elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus):
     """Trial stress sigma + lambda tr(d) I + 2 G d of row ``k_row`` (plane strain, d_zz = 0),
     returned as (xx, yy, zz, xy) without writing it."""

@@ -26,10 +26,10 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 
 
-@kernel
+@inner_kernel
 def add_stabilisation_force(
     node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, min_bond_sq, node_force
 ):

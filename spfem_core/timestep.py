@@ -32,10 +32,10 @@ import math
 
 import numpy as np
 
-from spfem_core.jit import kernel
+from spfem_core.jit import inner_kernel, kernel
 
 
-@kernel
+@inner_kernel
 def _largest_eigenvalue_sym3(s00, s01, s02, s11, s12, s22):
     """Largest eigenvalue of a symmetric 3x3 matrix (trigonometric closed form)."""
     off = s01 * s01 + s02 * s02 + s12 * s12
