@@ -48,6 +48,10 @@ def cache_dir() -> Path:
 # dispatcher enables caching; set both so this process and the workers it starts agree.
 _CACHE_DIR = cache_dir()
 os.environ["NUMBA_CACHE_DIR"] = str(_CACHE_DIR)
+# numba colours the message of every overload it tries and rejects while typing a kernel
+# (thousands per compile, each through colorama): 0.25 s of a fresh process's compile time.
+# Set NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING="" to have coloured numba errors back.
+os.environ.setdefault("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "1")
 
 import numba  # noqa: E402  (must follow the environment set-up above)
 
