@@ -265,17 +265,23 @@ LOCAL_CLUSTER_CONFIG = {
     "distributed.worker.memory.monitor-interval": "1s",
     "distributed.admin.system-monitor.interval": "5s",
     "distributed.admin.tick.interval": "1s",
-    "distributed.scheduler.work-stealing": False,
+    "distributed.scheduler.active-memory-manager.start": False,
 }
 """dask settings of the local cluster a study starts (not of a cluster at ``--scheduler``).
+
 The defaults serve a dashboard this cluster does not have and many small tasks, where SRF
 runs are few long ones started only on idle workers: a stack sample of every worker every
 10 ms (profile), an event-loop tick every 20 ms and a memory check every 100 ms per worker
-and per nanny, work stealing every second.  On 2 cores with both busy, that upkeep ran in
-this process and the workers at the runs' expense: with the defaults the runs of the
-reference slope took 77.9 s of worker time on 2 workers, with these 72.6 s (69.2 s on 1
-worker; ``python benchmarks/bench_fos.py --warm --workers 2``).  The nannies still check
-memory every second."""
+and per nanny.  On 2 cores with both busy, that upkeep ran in this process and the workers
+at the runs' expense: with the defaults the runs of the reference slope took 77.9 s of
+worker time on 2 workers, with these 72.6 s (69.2 s on 1 worker; ``python
+benchmarks/bench_fos.py --warm --workers 2``).  The nannies still check memory every second.
+
+The active memory manager is off: every 2 s it drops all but one copy of data held by
+several workers, such as the study and gravity state every run needs, which are scattered
+to every worker.  Runs then went to the worker that kept the copy even while it was busy,
+and queued there while the other worker idled (6.4 s of one study).  Work stealing stays
+on as the remedy for any such placement."""
 
 
 def _start_client(workers: int, scheduler: str | None):
