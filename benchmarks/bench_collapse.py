@@ -1,7 +1,7 @@
 """Throughput with plasticity and remeshing: the two collapse scenes.
 
-    python benchmarks/bench_collapse.py                    # granular h = 4 mm, cohesive h = 0.04 m
-    python benchmarks/bench_collapse.py --granular-h 0.002 --cohesive-h 0.02
+    python -m benchmarks.bench_collapse                    # granular h = 4 mm, cohesive h = 0.04 m
+    python -m benchmarks.bench_collapse --granular-h 0.002 --cohesive-h 0.02
 
 For the collapse stage of each study (after its gravity stage): particle-steps per second,
 number of mesh rebuilds, and the share of the stage's wall time spent rebuilding meshes
@@ -11,17 +11,15 @@ number of mesh rebuilds, and the share of the stage's wall time spent rebuilding
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from spfem_core.simulation import Simulation  # noqa: E402
-from workflows.runner import prepare_stage  # noqa: E402
-from workflows.scene_builder import build_scene, solver_settings  # noqa: E402
-from workflows.study import parse_study  # noqa: E402
+from spfem_core.simulation import Simulation
+from workflows.scene import build_scene, solver_settings
+from workflows.stages import prepare_stage
+from workflows.study import parse_study
 
 
 def collapse_stage(study_file: str, spacing_m: float) -> dict:
@@ -33,14 +31,14 @@ def collapse_stage(study_file: str, spacing_m: float) -> dict:
     sim.relax(damping=study.stages[0].damping, tolerance=study.stages[0].tolerance,
               max_duration_s=study.stages[0].max_duration_s)
     prepare_stage(sim, study, study.stages[1], 1)
-    remesh_before = sim.remesh_wall_s
+    remesh_before = sim.counters.remesh_wall_s
     start = time.perf_counter()
     series = sim.run(study.stages[1].duration_s, record_interval_s=study.stages[1].record_interval_s)
     wall = time.perf_counter() - start
     return dict(
         study=study_file, spacing_m=spacing_m, particles=sim.n_particles, steps=series.n_steps,
         rebuilds=series.n_remesh, wall_s=wall, mps=sim.n_particles * series.n_steps / wall / 1e6,
-        remesh_share=(sim.remesh_wall_s - remesh_before) / wall,
+        remesh_share=(sim.counters.remesh_wall_s - remesh_before) / wall,
     )
 
 

@@ -1,90 +1,129 @@
 """Core throughput: particle-steps per second of the elastic beam, and compile/start-up times.
 
-    python benchmarks/bench_core.py            # 1k, 10k and 40k particles, beta = 0.1 and 0
-    python benchmarks/bench_core.py --quick    # fewer repeats
+    python -m benchmarks.bench_core                          # 1k, 10k and 40k particles, beta = 0.1 and 0
+    python -m benchmarks.bench_core --quick                  # one repeat per size
+    python -m benchmarks.bench_core --compare ../other-tree  # this tree against another checkout, alternated
 
-Single process, warm numba cache, gradients recomputed every step.  Each size runs a fixed
-number of steps (about a second of wall time) three times after a warm-up; medians are quoted.
-Cold compile: a fresh process with an empty cache dir (import, mesh, one compiled call).
-Warm start: the same in a fresh process with that cache filled.
+Every measurement runs in a fresh process with the tree's own sources on the path and a warm
+numba cache: the beam lattice (verification.scenes, built here from core calls that every
+version has), one warm-up call, then a fixed number of steps (about a second) timed ``repeats``
+times; the median is quoted.  With ``--compare`` the two trees alternate measurement by
+measurement, so that a machine whose speed drifts treats both alike, and the ratio is printed.
+Cold compile: a fresh process with an empty cache (import, mesh, one compiled call).  Warm
+start: the same with that cache filled.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+SPACINGS_M = {"1k": 0.02, "10k": 0.02 / 10**0.5, "40k": 0.02 / 40**0.5}
 
-STARTUP_SNIPPET = """
-import time
-t0 = time.perf_counter()
-import sys; sys.path.insert(0, {tests!r}); sys.path.insert(0, {root!r})
-from conftest import beam_scene
-from spfem_core.scene import SolverSettings
+BEAM = """
+import numpy as np
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
-sim = Simulation(beam_scene(0.05), SolverSettings(cfl=0.5, stabilisation_beta=0.1))
+
+def beam(h, beta):
+    xy = particles_in_polygon([[0.0, 0.0], [2.0, 0.0], [2.0, 0.2], [0.0, 0.2]], h)
+    scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.elastic("beam", 1850.0, 80e6, 0.25), h,
+                  gravity_m_s2=[0.0, -9.8])
+    scene.fix(scene.select_box(x_max=0.0), vx_m_s=0.0, vy_m_s=0.0)
+    return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=beta))
+"""
+
+THROUGHPUT = BEAM + """
+import json, time
+sim = beam({h!r}, {beta!r})
+n = sim.n_particles
+steps = max(200, int(1.5e7 / n))  # about 1 s at 15 M particle-steps/s
+sim.run(20 * sim.dt_s)  # compiled code loaded, caches hot
+rates = []
+for _ in range({repeats}):
+    start = time.perf_counter()
+    series = sim.run(steps * sim.dt_s, record_interval_s=steps * sim.dt_s)
+    rates.append(n * series.n_steps / (time.perf_counter() - start))
+print(json.dumps({{"n": n, "rates": rates}}))
+"""
+
+STARTUP = """
+import time
+start = time.perf_counter()
+""" + BEAM + """
+sim = beam(0.05, 0.1)
 sim.run(20 * sim.dt_s)
-print(time.perf_counter() - t0)
+print(time.perf_counter() - start)
 """
 
 
-def startup_seconds(cache_dir: str) -> float:
-    env = dict(os.environ, SPFEM_CACHE_DIR=cache_dir)
-    code = STARTUP_SNIPPET.format(tests=str(ROOT / "tests"), root=str(ROOT))
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    return float(out.stdout.strip().splitlines()[-1])
+def _python(tree: Path, code: str, cache_dir: str | None = None) -> str:
+    """Run ``code`` in a fresh interpreter on ``tree``'s sources; its standard output."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    if cache_dir is not None:
+        env["SPFEM_CACHE_DIR"] = cache_dir
+    done = subprocess.run([sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"{tree}: measurement failed:\n{done.stderr}")
+    return done.stdout.strip().splitlines()[-1]
 
 
-def throughput(spacing_m: float, beta: float, repeats: int) -> tuple[int, float]:
-    from conftest import beam_scene
-
-    from spfem_core.scene import SolverSettings
-    from spfem_core.simulation import Simulation
-
-    sim = Simulation(beam_scene(spacing_m), SolverSettings(cfl=0.5, stabilisation_beta=beta))
-    n = sim.n_particles
-    steps = max(200, int(1.5e7 / n))  # ~1 s at 15 M particle-steps/s
-    sim.run(20 * sim.dt_s)  # warm-up (compiled code loaded, caches hot)
-    rates = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        series = sim.run(steps * sim.dt_s, record_interval_s=steps * sim.dt_s)
-        elapsed = time.perf_counter() - start
-        rates.append(n * series.n_steps / elapsed)
-    return n, statistics.median(rates)
+def throughput(tree: Path, spacing_m: float, beta: float, repeats: int) -> tuple[int, float]:
+    """(particles, median particle-steps per second) of the beam on ``tree``."""
+    result = json.loads(_python(tree, THROUGHPUT.format(h=spacing_m, beta=beta, repeats=repeats)))
+    return result["n"], statistics.median(result["rates"])
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="one repeat per size")
-    args = parser.parse_args()
-    repeats = 1 if args.quick else 3
-
+def startup_seconds(tree: Path) -> tuple[float, float]:
+    """(cold compile + first call, median warm start of 3) in fresh processes."""
     with tempfile.TemporaryDirectory() as cache:
-        cold = startup_seconds(cache)
-        warm = statistics.median(startup_seconds(cache) for _ in range(3))
-    print(f"numba cold compile + first call: {cold:6.2f} s   warm start (cache filled): {warm:5.2f} s")
+        cold = float(_python(tree, STARTUP, cache))
+        warm = statistics.median(float(_python(tree, STARTUP, cache)) for _ in range(3))
+    return cold, warm
 
-    print(f"{'particles':>9} {'beta':>5} {'Mparticle-steps/s':>18} {'ns/particle-step':>17} {'cost vs 1k':>10}")
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_core", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one repeat per size")
+    parser.add_argument("--compare", type=Path, help="another checkout of spfem-fos to measure alongside this one")
+    args = parser.parse_args(argv)
+    repeats = 1 if args.quick else 3
+    trees = {"this": ROOT} | ({"other": args.compare.resolve()} if args.compare else {})
+
+    for label, tree in trees.items():
+        _python(tree, THROUGHPUT.format(h=0.05, beta=0.1, repeats=1))  # fill the tree's numba cache
+        cold, warm = startup_seconds(tree)
+        print(f"{label} ({tree}): numba cold compile + first call {cold:.2f} s, warm start {warm:.2f} s")
+
+    header = f"{'particles':>9} {'beta':>5}" + "".join(f" {label + ' M/s':>12} {'ns/step':>8}" for label in trees)
+    print(header + f" {'cost vs 1k':>10}" + (f" {'this/other':>10}" if len(trees) == 2 else "")
+          + "   (M particle-steps/s, medians)")
     for beta in (0.1, 0.0):
-        base = None
-        for spacing in (0.02, 0.02 / np.sqrt(10.0), 0.01):
-            n, rate = throughput(spacing if spacing != 0.01 else 0.02 / np.sqrt(40.0), beta, repeats)
-            cost_ns = 1e9 / rate
-            base = base or cost_ns
-            print(f"{n:9d} {beta:5.2f} {rate / 1e6:18.2f} {cost_ns:17.1f} {cost_ns / base:10.2f}")
+        first_ns = None
+        for spacing in SPACINGS_M.values():
+            rates: dict[str, list[float]] = {label: [] for label in trees}
+            n = 0
+            for _ in range(repeats):  # alternate the trees run by run
+                for label, tree in trees.items():
+                    n, rate = throughput(tree, spacing, beta, 1)
+                    rates[label].append(rate)
+            medians = {label: statistics.median(values) for label, values in rates.items()}
+            row = f"{n:9d} {beta:5.2f}" + "".join(f" {m / 1e6:12.2f} {1e9 / m:8.1f}" for m in medians.values())
+            first_ns = first_ns or 1e9 / medians["this"]
+            row += f" {1e9 / medians['this'] / first_ns:10.2f}"
+            if len(trees) == 2:
+                row += f" {medians['this'] / medians['other']:10.3f}"
+            print(row, flush=True)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,10 +1,10 @@
 """The factor-of-safety workflow end to end: wall time, its shares, and the FOS.
 
-    python benchmarks/bench_fos.py                       # reference slope, h = 0.3 m, 2 then 1 worker
-    python benchmarks/bench_fos.py --spacing 1.0 0.5 0.3 --workers 2
-    python benchmarks/bench_fos.py --spacing 0.3 --fit inner --workers 2
-    python benchmarks/bench_fos.py --repeat 3 --timeline # 2 and 1 workers three times, medians
-    python benchmarks/bench_fos.py --ceiling             # the machine's own 2-process speed-up
+    python -m benchmarks.bench_fos                       # reference slope, h = 0.3 m, 2 then 1 worker
+    python -m benchmarks.bench_fos --spacing 1.0 0.5 0.3 --workers 2
+    python -m benchmarks.bench_fos --spacing 0.3 --fit inner --workers 2
+    python -m benchmarks.bench_fos --repeat 3 --timeline # 2 and 1 workers three times, medians
+    python -m benchmarks.bench_fos --ceiling             # the machine's own 2-process speed-up
 
 Each case runs ``spfem-fos`` in a fresh process on a fresh output folder and, unless
 ``--warm`` is given, a fresh numba cache (so the time includes compilation), then reads the
@@ -15,14 +15,22 @@ worker time), remeshing inside the runs, and file writing.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import xarray as xr
+
+from spfem_core.warmup import warm_up
+from workflows.fos.gravity import gravity_state
+from workflows.fos.orchestration import FosProgress
+from workflows.fos.task import run_srf
+from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "reference_slope.toml"
@@ -37,7 +45,7 @@ def run_case(spacing_m: float, fit: str, workers: int, warm: bool, scratch: Path
     case.mkdir(parents=True)
     study = case / "study.toml"
     study.write_text(text)
-    env = dict(__import__("os").environ)
+    env = dict(os.environ)
     if not warm:
         env["SPFEM_CACHE_DIR"] = str(case / "numba-cache")
     start = time.perf_counter()
@@ -66,9 +74,6 @@ def run_case(spacing_m: float, fit: str, workers: int, warm: bool, scratch: Path
 
 def _timed_run(args) -> float:
     """Wall seconds of one SRF run in this (pool) process, after loading the compiled kernels."""
-    from spfem_core.warmup import warm_up
-    from workflows.srf_run import run_srf
-
     study_text, stress, plastic, srf = args
     warm_up()
     start = time.perf_counter()
@@ -79,11 +84,6 @@ def _timed_run(args) -> float:
 def machine_ceiling(spacing_m: float, srf: float, repeats: int) -> None:
     """How much faster two independent processes finish two identical SRF runs than one process
     finishes them one after the other: the best any 2-worker study can do on this machine."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from workflows.fos_study import FosProgress, gravity_state
-    from workflows.study import parse_study
-
     text = STUDY.read_text().replace("spacing_m = 0.3", f"spacing_m = {spacing_m}")
     study = parse_study(text)
     with tempfile.TemporaryDirectory() as scratch:

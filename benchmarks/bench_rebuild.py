@@ -1,31 +1,28 @@
 """What a mesh rebuild and the in-loop quality check cost, piece by piece.
 
-    python benchmarks/bench_rebuild.py
+    python -m benchmarks.bench_rebuild
 
 Clouds: the granular column (0.2 x 0.1 m) at h = 4 mm and 1 mm, jittered by 0.25 h and
 sheared by 0.5 (x += 0.5 y) so that the triangles are as uneven as in a flow.  For each:
 median wall time of Qhull's Delaunay, the whole ``triangulate`` (Delaunay + alpha shape +
 adjacency), the adjacency alone, and ``np.unique`` over edge keys (the adjacency's earlier
 method); then the exact smallest-angle check against the plain all-corner atan2 definition
-(``tests/test_mesh.py``, so this needs the test extras), and whether the two agree to the bit.
+(``verification.probes.all_corners_min_angle``), and whether the two agree to the bit.
 """
 
 from __future__ import annotations
 
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
 
-from spfem_core.cloud import particles_in_polygon  # noqa: E402
-from spfem_core.mesh import delaunay_triangles, element_quality_min_angle, mesh_from_elements, triangulate  # noqa: E402
-from test_mesh import all_corners_min_angle  # noqa: E402
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.mesh import delaunay_triangles, element_quality_min_angle, mesh_from_elements, triangulate
+from verification.probes import all_corners_min_angle
 
 COLUMN = [(0.0, 0.0), (0.2, 0.0), (0.2, 0.1), (0.0, 0.1)]
 

@@ -1,6 +1,6 @@
 """Measured stability limit of the explicit step against the stabilisation beta.
 
-    python benchmarks/stability_limit.py
+    python -m benchmarks.stability_limit
 
 Bisects, for the beam lattice (h = 0.04 m) and the jittered beam (jitter 0.25), the largest
 cfl (time step / critical step, ``spfem_core.timestep``) that runs 0.3 s without a divergence, for
@@ -9,17 +9,15 @@ beta = 0, 0.1, 0.3 and 1.  The refusal rule cfl <= 1/(1 + beta) must sit below e
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
 
-from conftest import beam_scene  # noqa: E402
-
-from spfem_core.scene import SolverSettings  # noqa: E402
-from spfem_core.simulation import DivergenceError, Simulation, max_stable_cfl  # noqa: E402
+from spfem_core.divergence import DivergenceError
+from spfem_core.scene import SolverSettings
+from spfem_core.simulation import Simulation
+from spfem_core.timestep import max_stable_cfl
+from verification.scenes import beam_scene
 
 
 def stable(make_scene, cfl: float, beta: float, duration_s: float) -> bool:

@@ -35,8 +35,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from spfem_core.jit import kernel
 
 
@@ -85,40 +83,3 @@ def wall_contact_velocity(px, py, vx, vy, dt, wall_xy, wall_friction, reach):
         dvn_total += dvn
     return vx, vy, dvn_total
 
-
-@kernel
-def apply_walls_recording(node_xy, node_v, node_fixed, dt, wall_xy, wall_friction, reach, node_contact, node_dvn):
-    """``apply_walls`` that also writes each particle's normal velocity change dv_n (m/s; the
-    wall's normal force on it is m dv_n / dt, 0 where no wall acted) into ``node_dvn``."""
-    n = node_xy.shape[0]
-    if wall_xy.shape[0] == 0:
-        return 0
-    n_contact = 0
-    for k in range(n):
-        node_contact[k] = 0
-        node_dvn[k] = 0.0
-        if node_fixed[k, 0] or node_fixed[k, 1]:
-            continue
-        vx, vy, dvn = wall_contact_velocity(
-            node_xy[k, 0], node_xy[k, 1], node_v[k, 0], node_v[k, 1], dt, wall_xy, wall_friction, reach
-        )
-        if vx != node_v[k, 0] or vy != node_v[k, 1] or dvn != 0.0:
-            node_v[k, 0] = vx
-            node_v[k, 1] = vy
-            node_dvn[k] = dvn
-            node_contact[k] = 1
-            n_contact += 1
-    return n_contact
-
-
-@kernel
-def apply_walls(node_xy, node_v, node_fixed, dt, wall_xy, wall_friction, reach, node_contact):
-    """Correct the predicted velocities ``node_v`` of every particle with no fixed direction for
-    the walls (``wall_contact_velocity``); node_contact[k] = 1 where a wall acted, else 0.
-    Returns the number of particles in contact; returns 0 at once (nothing touched) when there
-    are no walls."""
-    if wall_xy.shape[0] == 0:
-        return 0
-    return apply_walls_recording(
-        node_xy, node_v, node_fixed, dt, wall_xy, wall_friction, reach, node_contact, np.empty(node_xy.shape[0])
-    )

@@ -10,6 +10,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from spfem_core.plasticity import default_dp_fit, dp_constants
+
 MODEL_ELASTIC = 0
 MODEL_DRUCKER_PRAGER = 1
 MODEL_MOHR_COULOMB = 2
@@ -93,8 +95,6 @@ class MaterialTable:
 
     def model_params(self) -> np.ndarray:
         """(n_mat, N_MODEL_PARAMS) constants the compiled update reads (see N_MODEL_PARAMS)."""
-        from spfem_core.plasticity import default_dp_fit, dp_constants
-
         params = np.zeros((self.n_materials, N_MODEL_PARAMS))
         for m in range(self.n_materials):
             c, phi, psi = self.cohesion_pa[m], self.friction_deg[m], self.dilation_deg[m]
@@ -200,7 +200,7 @@ class SolverSettings:
     Time step: ``dt_s`` if given, else ``cfl * dt_crit``, dt_crit = 2 / omega_bound with
     omega_bound a cell-by-cell bound on the highest frequency of the nodally integrated mesh
     (``spfem_core.timestep``; on a lattice it equals sqrt(h^2 / 2) / c_p).  A cfl (or a ``dt_s``
-    equivalent to one) above ``simulation.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
+    equivalent to one) above ``timestep.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
 
     ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and
     its work is skipped).  The correction force is proportional to the incremental

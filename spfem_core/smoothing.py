@@ -16,20 +16,16 @@ Velocity gradients are stored as (xx, xy, yx, yy) with L_ab = d v_a / d x_b.
 
 from __future__ import annotations
 
-import numpy as np
-
 from spfem_core.jit import kernel
-
-ELEM_GEOM_WIDTH = 7
-"""Columns of ``elem_geom``: dN/dx of the 3 vertices, dN/dy of the 3 vertices, area (m^2)."""
 
 
 @kernel
 def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_geom, node_L, node_area):
     """Element geometry and the smoothed velocity gradient of every node.
 
-    Fills ``elem_geom`` (b_I = dN_I/dx, c_I = dN_I/dy, A_e) from the current coordinates,
-    ``node_area`` with A_k and ``node_L`` with L_k (zero for a particle in no triangle).
+    Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN_I/dx, c_I = dN_I/dy
+    and A_e from the current coordinates, ``node_area`` with A_k and ``node_L`` with L_k (zero
+    for a particle in no triangle).
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
     """
@@ -114,19 +110,3 @@ def add_internal_force(elem_nodes, elem_geom, node_stress, node_force):
             c = elem_geom[e, 3 + local] * area
             node_force[n, 0] -= b * sxx + c * sxy
             node_force[n, 1] -= b * sxy + c * syy
-
-
-def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes: np.ndarray):
-    """Smoothed gradient of a nodal vector field (n, 2): returns (L (n, 4) as xx, xy, yx, yy; A_k).
-
-    Convenience wrapper for tests and post-processing; the time loop calls the kernel directly.
-    """
-    node_xy_m = np.ascontiguousarray(node_xy_m, dtype=np.float64)
-    node_values = np.ascontiguousarray(node_values, dtype=np.float64)
-    elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64)
-    n = node_xy_m.shape[0]
-    elem_geom = np.empty((elem_nodes.shape[0], ELEM_GEOM_WIDTH))
-    node_L = np.empty((n, 4))
-    node_area = np.empty(n)
-    smooth_velocity_gradient(node_xy_m, node_values, elem_nodes, elem_geom, node_L, node_area)
-    return node_L, node_area

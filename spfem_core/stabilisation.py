@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import inner_kernel, kernel
+from spfem_core.jit import inner_kernel
 
 
 @inner_kernel

@@ -24,6 +24,11 @@ with a triple at 0.001 h, and granular flows raised "the mesh degenerated" on su
 Dense eigenvalues of the same clouds (``tests/test_timestep.py``) give true step / this
 bound = 1.47 on the lattice (the element rule: 1.48, so runs on lattices keep their step)
 and 1.47-1.67 on jittered, sheared, compressed and crowded clouds (the element rule: 1.34-1500).
+
+Which step a stage takes (:class:`TimeStepPolicy`): ``dt_s`` when the settings give one,
+else cfl * dt_crit; anything above max_stable_cfl(beta) * dt_crit is refused.  A relaxation
+steps at that largest accepted step whatever the settings (only its end state counts).
+After a mesh rebuild the step follows the new dt_crit.
 """
 
 from __future__ import annotations
@@ -33,6 +38,68 @@ import math
 import numpy as np
 
 from spfem_core.jit import inner_kernel, kernel
+
+DT_COLLAPSE_FACTOR = 1e-3
+"""Divergence when a rebuilt mesh would cut the time step below this fraction of the stage's
+first time step: the mesh has degenerated (particles piling onto each other)."""
+
+
+class UnstableTimeStepError(ValueError):
+    """A requested time step above the critical step of the explicit scheme."""
+
+
+def max_stable_cfl(beta: float) -> float:
+    """Largest accepted cfl for stabilisation ``beta``: 1 / (1 + beta).
+
+    The stabilisation is a bond viscosity proportional to beta dt, so it lowers the stable
+    step.  Measured by ``python -m benchmarks.stability_limit`` on the beam lattice: limits
+    1.51, 1.46, 1.32, 0.94 for beta = 0, 0.1, 0.3, 1 (jittered cloud: 1.68, 1.57, 1.38, 0.80);
+    the rule keeps a margin of at least 1.5 on all of them.
+    """
+    return 1.0 / (1.0 + max(beta, 0.0))
+
+
+class TimeStepPolicy:
+    """The time step of a run from its ``scene.SolverSettings`` and the mesh's dt_crit (module doc)."""
+
+    def __init__(self, settings):
+        self.settings = settings
+        self.max_cfl = max_stable_cfl(settings.stabilisation_beta)
+
+    def dynamic(self, critical_dt_s: float) -> float:
+        """The step of a dynamic stage on a mesh with ``critical_dt_s``; UnstableTimeStepError if
+        the settings ask for more than the stable limit."""
+        settings = self.settings
+        beta = settings.stabilisation_beta
+        if settings.dt_s is not None:
+            limit = self.max_cfl * critical_dt_s
+            if not 0.0 < settings.dt_s <= limit:
+                raise UnstableTimeStepError(
+                    f"dt_s = {settings.dt_s:.4g} s is above the stable time step {limit:.4g} s "
+                    f"(2 / the bound on the highest frequency of the mesh, spfem_core.timestep, "
+                    f"times {self.max_cfl:.3g} for beta = {beta:g}); use dt_s <= {limit:.4g} or set cfl instead"
+                )
+            return float(settings.dt_s)
+        if not 0.0 < settings.cfl <= self.max_cfl:
+            raise UnstableTimeStepError(
+                f"cfl = {settings.cfl:g} is outside (0, {self.max_cfl:.3g}], the stable range for "
+                f"beta = {beta:g} (limit 1 / (1 + beta))"
+            )
+        return settings.cfl * critical_dt_s
+
+    def relaxation(self, critical_dt_s: float) -> float:
+        """The step of a relaxation: the largest accepted one, max_stable_cfl(beta) dt_crit."""
+        return self.max_cfl * critical_dt_s
+
+    def after_rebuild(self, critical_dt_s: float, relaxing: bool) -> float:
+        """The step on a rebuilt mesh: a fixed ``dt_s`` is kept while it is stable, a cfl is
+        applied to the new dt_crit (a relaxation keeps its largest accepted cfl)."""
+        if relaxing:
+            return self.relaxation(critical_dt_s)
+        dt_s = self.settings.dt_s
+        if dt_s is not None and dt_s <= self.max_cfl * critical_dt_s:
+            return float(dt_s)
+        return min(self.settings.cfl, self.max_cfl) * critical_dt_s
 
 
 @inner_kernel

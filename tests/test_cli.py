@@ -11,6 +11,7 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
+from spfem_core import simulation
 from workflows.cli import app
 
 REPO = Path(__file__).resolve().parents[1]
@@ -119,8 +120,6 @@ def test_boundary_box_without_particles_exits_2(tmp_path):
 
 
 def test_divergence_exits_1_without_result(tmp_path, monkeypatch):
-    from spfem_core import simulation
-
     def diverge(self, *args, **kwargs):
         raise simulation.DivergenceError("velocity is not finite", step=7, time_s=0.0007)
 

@@ -13,13 +13,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import xarray as xr
 
 from spfem_core.mesh import count_inverted
 from spfem_core.simulation import Simulation
-from workflows.collapse_reference import GRANULAR_PASS_BANDS
-from workflows.metrics_output import metrics_variables
-from workflows.runner import prepare_stage
-from workflows.scene_builder import build_scene, solver_settings
+from verification.collapse_references import GRANULAR_PASS_BANDS
+from workflows.output.metrics import metrics_variables
+from workflows.scene import build_scene, solver_settings
+from workflows.stages import prepare_stage, run_study
 from workflows.study import parse_study
 
 GRANULAR = Path(__file__).resolve().parents[1] / "studies" / "collapse_granular.toml"
@@ -30,7 +31,7 @@ def _granular(spacing_m: float, duration_s: float):
     text = text.replace("duration_s = 0.6", f"duration_s = {duration_s}")
     study = parse_study(text)
     sim = Simulation(build_scene(study), solver_settings(study))
-    mass0 = sim.node_mass_kg.sum()
+    mass0 = sim.nodes.mass_kg.sum()
     prepare_stage(sim, study, study.stages[0], 0)
     gravity = sim.relax(damping=0.7, tolerance=1e-4, max_duration_s=2.0)
     prepare_stage(sim, study, study.stages[1], 1)
@@ -44,24 +45,23 @@ def test_coarse_granular_collapse_conserves_mass_and_energy():
     series_parts = []
     for _ in range(6):  # 6 x 0.1 s, checking the mesh between parts
         series_parts.append(sim.run(0.1, record_interval_s=0.005))
-        inverted_after_step.append(count_inverted(sim.node_xy_m, sim.mesh.elem_nodes))
+        inverted_after_step.append(count_inverted(sim.nodes.xy_m, sim.mesh.elem_nodes))
     assert sum(s.n_remesh for s in series_parts) >= 10  # it really is a large-deformation run
     assert inverted_after_step == [0] * 6
-    assert np.all(np.isfinite(sim.node_xy_m)) and np.all(np.isfinite(sim.node_stress_pa))
-    assert sim.node_xy_m.shape[0] == sim.n_particles
-    assert np.all(sim.node_xy_m[:, 1] > -1e-6) and np.all(sim.node_xy_m[:, 0] > -1e-6)  # walls hold
-    assert sim.node_mass_kg.sum() == mass0  # fixed at the start, never recomputed
+    assert np.all(np.isfinite(sim.nodes.xy_m)) and np.all(np.isfinite(sim.nodes.stress_pa))
+    assert sim.nodes.xy_m.shape[0] == sim.n_particles
+    assert np.all(sim.nodes.xy_m[:, 1] > -1e-6) and np.all(sim.nodes.xy_m[:, 0] > -1e-6)  # walls hold
+    assert sim.nodes.mass_kg.sum() == mass0  # fixed at the start, never recomputed
     # energy: each part starts its own dissipation counters at the part's start
     drift = 0.0
     released = 0.0
     for part in series_parts:
-        energy = part.energy_j_per_m
-        total = energy.sum(axis=1)
+        total = part.energy_total_j_per_m
         drift += total[-1] - total[0]
-        released += -(energy[-1, 2] - energy[0, 2])
+        released += -(part.energy("gravity_potential")[-1] - part.energy("gravity_potential")[0])
     assert released > 5.0  # J/m: the column really fell
     assert abs(drift) < 0.03 * released
-    assert series_parts[-1].energy_j_per_m[-1, 0] < 0.05 * released  # come (nearly) to rest
+    assert series_parts[-1].energy("kinetic")[-1] < 0.05 * released  # come (nearly) to rest
 
 
 @pytest.mark.slow
@@ -82,31 +82,27 @@ def test_coarse_cohesive_collapse_conserves_mass_and_energy():
     """The cohesive column at h = 0.1 m for its full 2.5 s: the same checks as the granular one."""
     study = parse_study(re.sub(r"^spacing_m = .*$", "spacing_m = 0.1", COHESIVE.read_text(), count=1, flags=re.M))
     sim = Simulation(build_scene(study), solver_settings(study))
-    mass0 = sim.node_mass_kg.sum()
+    mass0 = sim.nodes.mass_kg.sum()
     prepare_stage(sim, study, study.stages[0], 0)
     assert sim.relax(damping=0.7, tolerance=1e-4, max_duration_s=5.0).converged
     prepare_stage(sim, study, study.stages[1], 1)
     parts, inverted = [], []
     for _ in range(5):  # 5 x 0.5 s
         parts.append(sim.run(0.5, record_interval_s=0.01))
-        inverted.append(count_inverted(sim.node_xy_m, sim.mesh.elem_nodes))
+        inverted.append(count_inverted(sim.nodes.xy_m, sim.mesh.elem_nodes))
     assert sum(p.n_remesh for p in parts) >= 5
     assert inverted == [0] * 5
-    assert np.all(np.isfinite(sim.node_xy_m)) and np.all(np.isfinite(sim.node_stress_pa))
-    assert sim.node_mass_kg.sum() == mass0
-    drift = sum(p.energy_j_per_m[-1].sum() - p.energy_j_per_m[0].sum() for p in parts)
-    released = sum(-(p.energy_j_per_m[-1, 2] - p.energy_j_per_m[0, 2]) for p in parts)
+    assert np.all(np.isfinite(sim.nodes.xy_m)) and np.all(np.isfinite(sim.nodes.stress_pa))
+    assert sim.nodes.mass_kg.sum() == mass0
+    drift = sum(p.energy_total_j_per_m[-1] - p.energy_total_j_per_m[0] for p in parts)
+    released = sum(-(p.energy("gravity_potential")[-1] - p.energy("gravity_potential")[0]) for p in parts)
     assert released > 1e3  # J/m: the face really failed
     assert abs(drift) < 0.03 * released, (drift, released)
-    assert np.max(sim.node_plastic_strain) > 0.1
+    assert np.max(sim.nodes.plastic_strain) > 0.1
 
 
 def _cohesive_metrics(spacing_m: float, out_dir: Path) -> dict:
     """The cohesive collapse study at ``spacing_m`` run as the command runs it; its scalar metrics."""
-    import xarray as xr
-
-    from workflows.runner import run_study
-
     study = parse_study(re.sub(r"^spacing_m = .*$", f"spacing_m = {spacing_m}", COHESIVE.read_text(), count=1,
                                flags=re.M))
     run_study(study, out_dir)

@@ -1,6 +1,7 @@
 """Rigid segment walls with Coulomb friction (spfem_core.contact).
 
-Single particles are driven by the leapfrog of a free body: v += g dt; walls; x += v dt.
+Single particles are driven by the time loop's own leapfrog (``integration.leapfrog``) with no
+internal force: v += g dt; walls; x += v dt.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spfem_core.contact import apply_walls, apply_walls_recording, wall_contact_velocity
+from spfem_core.contact import wall_contact_velocity
+from spfem_core.integration import leapfrog
+from spfem_core.state import LEAPFROG_OUT_WIDTH
 
 G = 9.81
 DT = 1e-3
@@ -24,32 +27,40 @@ def walls(*rows, mu=0.0):
     return wall_xy, np.full(wall_xy.shape[0], mu, dtype=np.float64)
 
 
+def step(xy, v, wall_xy, wall_friction, fixed=None, gravity=(0.0, -G), dt=DT, reach=REACH):
+    """One leapfrog step of free particles (unit mass, no internal force, no damping) in place;
+    returns (contact flags, particles touching).  Fixed directions keep their velocity."""
+    n = xy.shape[0]
+    fixed = np.zeros((n, 2), dtype=bool) if fixed is None else fixed
+    contact = np.zeros(n, dtype=np.int64)
+    out = np.zeros(LEAPFROG_OUT_WIDTH)
+    leapfrog(xy, np.zeros((n, 2)), v, np.zeros((n, 2)), np.ones(n), fixed, v.copy(), np.array(gravity, dtype=float),
+             0.0, dt, wall_xy, wall_friction, reach, contact, out)
+    return contact, int(out[5])
+
+
 def drop(xy, v, wall_xy, wall_friction, n_steps, gravity=(0.0, -G), dt=DT, reach=REACH):
     """Free flight under gravity with walls; returns the position and velocity histories, the
-    contact flags and the normal velocity change of every step (all (n_steps, n, ...))."""
+    contact flags and the velocity change the walls made in every step (all (n_steps, n, ...))."""
     xy = np.array(xy, dtype=np.float64).reshape(-1, 2)
     v = np.array(v, dtype=np.float64).reshape(-1, 2)
-    n = xy.shape[0]
-    fixed = np.zeros((n, 2), dtype=bool)
-    contact = np.zeros(n, dtype=np.int64)
-    dvn = np.zeros(n)
     g = np.array(gravity)
-    xs, vs, flags, dvns = [], [], [], []
+    xs, vs, flags, wall_dvs = [], [], [], []
     for _ in range(n_steps):
-        v += g * dt
-        apply_walls_recording(xy, v, fixed, dt, wall_xy, wall_friction, reach, contact, dvn)
-        xy += v * dt
+        free_flight = v + g * dt
+        contact, _ = step(xy, v, wall_xy, wall_friction, gravity=gravity, dt=dt, reach=reach)
         xs.append(xy.copy())
         vs.append(v.copy())
-        flags.append(contact.copy())
-        dvns.append(dvn.copy())
-    return np.array(xs), np.array(vs), np.array(flags), np.array(dvns)
+        flags.append(contact)
+        wall_dvs.append(v - free_flight)
+    return np.array(xs), np.array(vs), np.array(flags), np.array(wall_dvs)
 
 
 def test_dropped_particle_lands_without_bounce_and_rests_on_the_floor():
     floor, mu = walls((-10.0, 0.0, 10.0, 0.0), mu=0.3)
     n_steps = 2000  # 2 s; lands at t = sqrt(2 h / g) = 0.319 s
-    xs, vs, flags, dvns = drop([0.0, 0.5], [0.0, 0.0], floor, mu, n_steps)
+    xs, vs, flags, wall_dvs = drop([0.0, 0.5], [0.0, 0.0], floor, mu, n_steps)
+    dvns = wall_dvs[:, :, 1]  # the floor's normal is +y
     y = xs[:, 0, 1]
     assert y.min() >= -1e-12  # never below the floor
     landed = int(np.argmax(flags[:, 0]))
@@ -113,8 +124,7 @@ def test_particle_moving_parallel_to_the_wall_is_untouched():
     for y in (0.1, 0.0):  # above the floor, and sliding on it with no normal velocity
         xy = np.array([[0.0, y]])
         v = np.array([[3.0, 0.0]])
-        contact = np.full(1, 7, dtype=np.int64)
-        n = apply_walls(xy, v, np.zeros((1, 2), dtype=bool), DT, floor, mu, REACH, contact)
+        contact, n = step(xy, v, floor, mu, gravity=(0.0, 0.0))
         assert n == 0 and contact[0] == 0
         assert v[0, 0] == 3.0 and v[0, 1] == 0.0
 
@@ -161,12 +171,11 @@ def test_corner_of_a_container_holds_a_particle_thrown_into_it():
 def test_no_walls_returns_zero_and_changes_nothing():
     xy = np.array([[0.0, -1.0], [0.3, 0.2]])
     v = np.array([[1.0, -2.0], [0.0, 5.0]])
-    contact = np.array([3, 4], dtype=np.int64)
     wall_xy, mu = np.zeros((0, 4)), np.zeros(0)
-    n = apply_walls(xy, v, np.zeros((2, 2), dtype=bool), DT, wall_xy, mu, REACH, contact)
+    contact, n = step(xy, v, wall_xy, mu, gravity=(0.0, 0.0))
     assert n == 0
     np.testing.assert_array_equal(v, [[1.0, -2.0], [0.0, 5.0]])
-    np.testing.assert_array_equal(contact, [3, 4])
+    np.testing.assert_array_equal(contact, [0, 0])
     assert wall_contact_velocity(0.0, -0.01, 1.0, -2.0, DT, wall_xy, mu, REACH) == (1.0, -2.0, 0.0)
 
 
@@ -175,29 +184,11 @@ def test_particles_with_a_fixed_direction_are_untouched():
     xy = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
     v = np.array([[1.0, -2.0], [1.0, -2.0], [1.0, -2.0], [1.0, -2.0]])
     fixed = np.array([[True, False], [False, True], [True, True], [False, False]])
-    contact = np.zeros(4, dtype=np.int64)
-    n = apply_walls(xy, v, fixed, DT, floor, mu, REACH, contact)
+    contact, n = step(xy, v, floor, mu, fixed=fixed, gravity=(0.0, 0.0))
     assert n == 1
     np.testing.assert_array_equal(contact, [0, 0, 0, 1])
     np.testing.assert_array_equal(v[:3], [[1.0, -2.0]] * 3)
     assert v[3, 1] == 0.0 and v[3, 0] == 0.0  # dv_n = 2 and mu dv_n = 1 >= |v_t|: sticks
-
-
-def test_recording_variant_matches_apply_walls():
-    rng = np.random.default_rng(3)
-    wall_xy, mu = walls((-1.0, 0.0, 1.0, 0.0), (1.0, 0.0, 1.0, 1.0), (-1.0, 1.0, -1.0, 0.0), mu=0.3)
-    xy = rng.uniform([-1.2, -0.05], [1.2, 1.0], size=(200, 2))
-    v = rng.normal(0.0, 5.0, size=(200, 2))
-    fixed = rng.random((200, 2)) < 0.05
-    v1, v2 = v.copy(), v.copy()
-    c1, c2 = np.zeros(200, dtype=np.int8), np.zeros(200, dtype=np.int8)
-    dvn = np.full(200, np.nan)
-    n1 = apply_walls(xy, v1, fixed, DT, wall_xy, mu, REACH, c1)
-    n2 = apply_walls_recording(xy, v2, fixed, DT, wall_xy, mu, REACH, c2, dvn)
-    assert n1 == n2 == int(c1.sum()) > 0
-    np.testing.assert_array_equal(v1, v2)
-    np.testing.assert_array_equal(c1, c2)
-    assert np.all(dvn[c1 == 1] > 0.0) and np.all(dvn[c1 == 0] == 0.0)
 
 
 # warm up the compiled kernel before hypothesis times anything

@@ -38,11 +38,11 @@ def nearest_distance(xy, k):
 def test_rebuild_spreads_crowded_particles_and_keeps_the_boundary():
     scene, top, inner, base = block_with_crowded_pairs()
     sim = Simulation(scene, SolverSettings(cfl=0.5))
-    start = sim.node_xy_m.copy()
-    sim._rebuild()  # what a remesh does: rebuild, smooth the crowded particles, rebuild again
+    start = sim.nodes.xy_m.copy()
+    sim.rebuild_mesh()  # what a remesh does: rebuild, smooth the crowded particles, rebuild again
 
-    xy = sim.node_xy_m
-    assert sim.n_smoothed_total >= 2
+    xy = sim.nodes.xy_m
+    assert sim.counters.smoothed >= 2
     # the surface particle slid along the surface: still on it, now about h/2 from each neighbour
     assert xy[top, 1] == 0.5
     assert nearest_distance(xy, top) > 0.4 * H
@@ -51,7 +51,7 @@ def test_rebuild_spreads_crowded_particles_and_keeps_the_boundary():
     # a fixed particle stays where it is, crowded or not
     assert np.array_equal(xy[base], start[base])
     # displacement follows position everywhere
-    np.testing.assert_allclose(sim.node_displacement_m, xy - start, atol=1e-15)
+    np.testing.assert_allclose(sim.nodes.displacement_m, xy - start, atol=1e-15)
 
 
 def test_crowded_particles_do_not_set_the_time_step():
@@ -68,5 +68,5 @@ def test_nothing_moves_on_an_uncrowded_lattice():
     xy = particles_in_polygon([[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [0.0, 0.5]], H)
     scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.elastic("soil", 2000.0, 5e6, 0.3), H)
     sim = Simulation(scene, SolverSettings(cfl=0.5))
-    sim._rebuild()
-    assert sim.n_smoothed_total == 0 and np.array_equal(sim.node_xy_m, xy)
+    sim.rebuild_mesh()
+    assert sim.counters.smoothed == 0 and np.array_equal(sim.nodes.xy_m, xy)

@@ -19,15 +19,15 @@ def test_detached_particle_falls_lands_and_rejoins_the_mesh():
     sim = Simulation(scene, SolverSettings(cfl=0.5), allow_detached=True)
     flyer = len(xy) - 1
     assert sim.n_orphans == 1 and flyer in sim.mesh.orphan_nodes
-    mass = sim.node_mass_kg.sum()
+    mass = sim.nodes.mass_kg.sum()
 
     flight = sim.run(0.2, damping=0.0)
     assert "1 at the end" in flight.notes["particles_outside_mesh"]
-    drop = 1.2 - sim.node_xy_m[flyer, 1]
+    drop = 1.2 - sim.nodes.xy_m[flyer, 1]
     assert abs(drop - 0.5 * 9.81 * 0.2**2) < 0.01 * drop  # free fall while detached
 
     sim.run(1.0, damping=0.3)
     assert sim.n_orphans == 0 and flyer not in sim.mesh.orphan_nodes  # it has joined the mesh
-    assert sim.node_xy_m[flyer, 1] > 0.4  # it rests on the block, not inside or through it
-    assert np.all(np.isfinite(sim.node_xy_m))
-    assert sim.node_mass_kg.sum() == mass
+    assert sim.nodes.xy_m[flyer, 1] > 0.4  # it rests on the block, not inside or through it
+    assert np.all(np.isfinite(sim.nodes.xy_m))
+    assert sim.nodes.mass_kg.sum() == mass

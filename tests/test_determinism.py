@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import spfem_core.simulation as simulation
+import spfem_core.schedule as schedule
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
@@ -26,7 +26,7 @@ def falling_particle_on_a_plastic_block():
 
 
 def run(wall_seconds_per_call, monkeypatch):
-    monkeypatch.setattr(simulation, "WALL_SECONDS_PER_CALL", wall_seconds_per_call)
+    monkeypatch.setattr(schedule, "WALL_SECONDS_PER_CALL", wall_seconds_per_call)
     sim = falling_particle_on_a_plastic_block()
     asked = []
 
@@ -42,8 +42,8 @@ def test_a_run_is_the_same_whatever_the_length_of_the_compiled_calls(monkeypatch
     long_sim, long_series, long_asked = run(0.25, monkeypatch)
     short_sim, short_series, short_asked = run(1e-6, monkeypatch)  # calls of 10 steps
     assert "moved" in long_series.notes["early_stop"]  # the stop rule fired, after the particle landed
-    assert long_sim.n_remesh_total >= 1 and long_sim.n_orphans == 0
-    assert short_sim.n_steps_total == long_sim.n_steps_total
-    assert np.array_equal(short_sim.node_xy_m, long_sim.node_xy_m)
-    assert np.array_equal(short_sim.node_stress_pa, long_sim.node_stress_pa)
+    assert long_sim.counters.rebuilds >= 1 and long_sim.n_orphans == 0
+    assert short_sim.counters.steps == long_sim.counters.steps
+    assert np.array_equal(short_sim.nodes.xy_m, long_sim.nodes.xy_m)
+    assert np.array_equal(short_sim.nodes.stress_pa, long_sim.nodes.stress_pa)
     assert short_asked == pytest.approx(long_asked, abs=1e-12)  # asked at the same times

@@ -11,9 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from workflows.fos_criterion import (
-    FAILED,
-    STABLE,
+from workflows.fos.criterion import (
     brackets_agree,
     curvature,
     pick_fos,
@@ -21,7 +19,8 @@ from workflows.fos_criterion import (
     refinement_points,
     status_bracket,
 )
-from workflows.srf_search import RunOutcome, SrfSearch, sweep_values
+from workflows.fos.search import RunOutcome, SrfSearch, sweep_values
+from workflows.fos.verdict import FAILED, STABLE
 
 FLOOR_M = 1e-3
 

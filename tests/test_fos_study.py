@@ -13,11 +13,18 @@ import sys
 import time
 from pathlib import Path
 
+import dask
 import numpy as np
 import pytest
 import xarray as xr
+from distributed import Client, Event, LocalCluster
 
-from workflows.fos_study import FosProgress, gravity_key, gravity_state, run_file_name, run_fos_study
+from workflows.fos.cluster import WORKER_MODULES, close_client, start_client
+from workflows.fos.gravity import gravity_state, read_gravity
+from workflows.fos.keys import gravity_key, run_key
+from workflows.fos.orchestration import FosProgress, run_fos_study
+from workflows.fos.run_store import run_file_name
+from workflows.fos.task import run_srf
 from workflows.study import parse_study
 
 REPO = Path(__file__).resolve().parents[1]
@@ -96,13 +103,8 @@ def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
 
 def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
     """The client stops a run above the first failure through a dask Event, freeing its worker."""
-    from distributed import Client, Event, LocalCluster
-
-    from workflows.fos_study import _read_gravity
-    from workflows.srf_run import run_srf
-
     study, out, outcome = quickstart_run
-    stress, plastic = _read_gravity(out / "gravity.nc", gravity_key(study))
+    stress, plastic = read_gravity(out / "gravity.nc", gravity_key(study))
     duration_s = study.strength_reduction.duration_s
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
@@ -117,11 +119,8 @@ def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
 
 
 def _worker_state(dask_worker):
-    import os
-    import sys
-
-    from workflows.fos_study import WORKER_MODULES
-
+    """Run on a worker by ``client.run``: its parent process, whether it has the run's modules,
+    and its periodic upkeep."""
     return os.getppid(), all(name in sys.modules for name in WORKER_MODULES), dask_worker.periodic_callbacks.keys()
 
 
@@ -130,18 +129,13 @@ def test_local_workers_are_forked_from_one_preloaded_server_without_dashboard_up
     """The study's local cluster: both workers come from one server that imported what a run
     needs (so a second worker adds no import work), they make no profile samples, and the
     scheduler keeps the copies of the scattered study on every worker."""
-    import dask
-    import distributed  # noqa: F401  (registers the distributed.* settings)
-
-    from workflows.fos_study import _close_client, _start_client
-
     method_before = dask.config.get("distributed.worker.multiprocessing-method")
-    client, cluster = _start_client(2, None)
+    client, cluster = start_client(2, None)
     try:
         states = list(client.run(_worker_state).values())
         scheduler_callbacks = dict(cluster.scheduler.periodic_callbacks)
     finally:
-        _close_client(client, cluster)
+        close_client(client, cluster)
     parents = {parent for parent, _, _ in states}
     assert len(states) == 2 and len(parents) == 1 and os.getpid() not in parents
     assert all(imported for _, imported, _ in states)
@@ -196,12 +190,19 @@ def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
     assert xr.open_dataset(damaged).attrs["status"] == outcome.runs[1]["status"]
 
 
-def test_changed_strength_invalidates_the_cached_runs_but_not_the_gravity(quickstart_run, tmp_path):
+def test_keys_change_with_what_shapes_a_state_and_not_with_the_search_settings(quickstart_run):
+    """The gravity key covers every input of the stages before the reduction, the strength too
+    (an elastic gravity stage ignores it; the key is conservative, not minimal), so a changed
+    strength recomputes gravity and every run.  The search settings choose which runs to make,
+    not what a run does: a finer tolerance keeps both keys, and every run is reused."""
     study, _, _ = quickstart_run
-    other = parse_study(QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 12e3"))
-    # strength does not shape an elastic gravity stage ... but it is part of the study, so the key changes
-    assert gravity_key(other) != gravity_key(study)
-    assert gravity_key(parse_study(QUICKSTART.replace("fos_tolerance = 0.01", "fos_tolerance = 0.02"))) == gravity_key(study)
+    stronger = parse_study(QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 12e3"))
+    assert gravity_key(stronger) != gravity_key(study)
+    assert run_key(stronger, 1.2) != run_key(study, 1.2)
+    finer = parse_study(QUICKSTART.replace("fos_tolerance = 0.01", "fos_tolerance = 0.005"))
+    assert gravity_key(finer) == gravity_key(study)
+    assert run_key(finer, 1.2) == run_key(study, 1.2)
+    assert run_key(study, 1.2) != run_key(study, 1.3)
 
 
 def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):

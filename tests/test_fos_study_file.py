@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from workflows.cli import app
+from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 
 REPO = Path(__file__).resolve().parents[1]
@@ -71,8 +72,6 @@ MALFORMED = {
 
 def check_message(text: str) -> str:
     """The one-line error of a study text, from the loader or from building its scene."""
-    from workflows.scene_builder import build_scene
-
     try:
         build_scene(parse_study(text))
     except StudyError as error:

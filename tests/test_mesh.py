@@ -8,7 +8,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spfem_core.cloud import particles_in_polygon, points_in_polygon
-from spfem_core.jit import kernel
 from spfem_core.mesh import (
     Mesh,
     count_inverted,
@@ -17,6 +16,7 @@ from spfem_core.mesh import (
     mesh_from_elements,
     triangulate,
 )
+from verification.probes import all_corners_min_angle
 
 pytestmark = pytest.mark.filterwarnings("error")
 
@@ -133,25 +133,6 @@ def test_min_angle_and_inverted_elements():
     moved[2] = (0.5, 0.0)  # collinear: zero area counts as inverted
     assert count_inverted(moved, elem_nodes[:1]) == 1
     assert element_quality_min_angle(node_xy_m, elem_nodes[:0]) == pytest.approx(np.pi)
-
-
-@kernel
-def all_corners_min_angle(node_xy, elem_nodes):
-    """The plain definition: atan2(|u x v|, u . v) at every corner of every triangle, the minimum."""
-    theta_min = np.pi
-    for e in range(elem_nodes.shape[0]):
-        for corner in range(3):
-            i = elem_nodes[e, corner]
-            j = elem_nodes[e, (corner + 1) % 3]
-            k = elem_nodes[e, (corner + 2) % 3]
-            ux = node_xy[j, 0] - node_xy[i, 0]
-            uy = node_xy[j, 1] - node_xy[i, 1]
-            vx = node_xy[k, 0] - node_xy[i, 0]
-            vy = node_xy[k, 1] - node_xy[i, 1]
-            theta = np.arctan2(abs(ux * vy - uy * vx), ux * vx + uy * vy)
-            if theta < theta_min:
-                theta_min = theta
-    return theta_min
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # numba compiling the reference kernel

@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from spfem_core.records import ENERGY_COLUMNS
 from spfem_core.scene import MaterialTable, Scene
-from workflows import results
+from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
+from workflows.output.writing import write_dataset
 from workflows.study import parse_study
 
 REPO = Path(__file__).resolve().parents[1]
@@ -37,7 +39,6 @@ class FakeTimeSeries:
     wall_time_s: float = 0.25
     converged: bool | None = None
     unbalanced_force_ratio: float = 3e-6
-    energy_columns = ("kinetic", "strain", "gravity_potential", "damping_dissipated", "stabilisation_dissipated")
     notes: dict = field(default_factory=lambda: {"stabilisation": "off (beta = 0)", "remesh": "2 rebuilds"})
 
     def __post_init__(self):
@@ -47,8 +48,7 @@ class FakeTimeSeries:
         self.monitor_displacement_m = np.stack([ramp, -ramp], axis=-1)
         self.monitor_velocity_m_s = np.stack([2 * ramp, -2 * ramp], axis=-1)
         self.monitor_stress_pa = np.stack([ramp + k for k in range(4)], axis=-1)
-        self.energy_j_per_m = np.column_stack([np.linspace(0.0, k + 1.0, self.n_rec) for k in range(5)])
-        self.kinetic_energy_j_per_m = self.energy_j_per_m[:, 0]
+        self.energy_j_per_m = np.column_stack([np.linspace(0.0, k + 1.0, self.n_rec) for k in range(len(ENERGY_COLUMNS))])
         self.max_displacement_m = np.linspace(0.0, 0.1, self.n_rec)
 
 
@@ -60,18 +60,22 @@ def fake_run(study_text: str, n_rec: int = 6, **series_options):
     n = node_xy_m.shape[0]
     materials = MaterialTable(tuple(m.name for m in study.materials), [0], [1850.0], [80e6], [0.25])
     scene = Scene(node_xy_m=node_xy_m, node_material=np.zeros(n, dtype=np.int64), materials=materials, spacing_m=0.5)
+    nodes = SimpleNamespace(
+        xy_m=node_xy_m + 0.01,
+        displacement_m=np.full((n, 2), 0.01),
+        velocity_m_s=np.zeros((n, 2)),
+        stress_pa=np.tile([-1.0, -2.0, -3.0, 0.5], (n, 1)),
+        plastic_strain=np.zeros(n),
+        mass_kg=np.full(n, 1850.0 * 0.25),
+    )
     sim = SimpleNamespace(
         n_particles=n,
         dt_s=1e-4,
         critical_dt_s=2e-4,
-        node_xy_m=node_xy_m + 0.01,
-        node_displacement_m=np.full((n, 2), 0.01),
-        node_velocity_m_s=np.zeros((n, 2)),
-        node_stress_pa=np.tile([-1.0, -2.0, -3.0, 0.5], (n, 1)),
-        node_initial_xy_m=node_xy_m,
-        node_plastic_strain=np.zeros(n),
+        nodes=nodes,
+        scene=scene,
+        initial_xy_m=node_xy_m,
         node_area_m2=np.full(n, 0.5 * 0.5),
-        node_mass_kg=np.full(n, 1850.0 * 0.25),
         mesh=SimpleNamespace(elem_nodes=np.array([[0, 1, 5], [0, 5, 4]], dtype=np.int32)),
     )
     monitors = np.array([scene.nearest_particle(m.x_m, m.y_m) for m in study.monitors], dtype=np.int64)
@@ -86,9 +90,7 @@ def beam_text():
 
 def beam_dataset(beam_text, **series_options):
     study, scene, sim, series, monitors = fake_run(beam_text, **series_options)
-    ds = results.run_dataset(
-        study=study, stage_index=0, series=series, sim=sim, scene=scene, monitor_particles=monitors
-    )
+    ds = stage_dataset(study=study, stage_index=0, series=series, sim=sim, monitor_particles=monitors)
     return ds, series
 
 
@@ -128,7 +130,7 @@ def test_mesh_follows_ugrid(beam_text):
 
 def test_write_round_trip_leaves_no_temporary_file(tmp_path, beam_text):
     ds, _ = beam_dataset(beam_text, converged=True)
-    path = results.write_dataset(ds, tmp_path / "run.nc")
+    path = write_dataset(ds, tmp_path / "run.nc")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.nc"]
     with xr.open_dataset(path) as back:
         assert list(back.monitor.values) == ["tip"]
@@ -147,33 +149,31 @@ def test_failed_write_leaves_nothing(tmp_path, beam_text, monkeypatch):
 
     monkeypatch.setattr(xr.Dataset, "dump_to_store", broken_write)
     with pytest.raises(OSError, match="disk full"):
-        results.write_dataset(ds, tmp_path / "run.nc")
+        write_dataset(ds, tmp_path / "run.nc")
     assert list(tmp_path.iterdir()) == []
 
 
 def test_a_study_without_monitors_still_writes(tmp_path, beam_text):
     text = beam_text[: beam_text.index("[[monitors]]")]
     study, scene, sim, series, monitors = fake_run(text)
-    ds = results.run_dataset(
-        study=study, stage_index=0, series=series, sim=sim, scene=scene, monitor_particles=monitors
-    )
-    results.write_dataset(ds, tmp_path / "run.nc")
+    ds = stage_dataset(study=study, stage_index=0, series=series, sim=sim, monitor_particles=monitors)
+    write_dataset(ds, tmp_path / "run.nc")
     with xr.open_dataset(tmp_path / "run.nc") as back:
         assert back.sizes["monitor"] == 0 and back.sizes["time"] == 6
 
 
 def test_result_paths_and_up_to_date(tmp_path, beam_text):
     study = parse_study(beam_text)
-    assert results.result_paths(study, tmp_path) == [tmp_path / "run.nc"]
+    assert result_paths(study, tmp_path) == [tmp_path / "run.nc"]
     rest = '[[stages]]\nname = "rest"\nkind = "relaxation"\nmax_duration_s = 1.0\nrecord_interval_s = 0.01\n'
     two_stages = beam_text + "\n" + rest
-    assert results.result_paths(parse_study(two_stages), tmp_path) == [tmp_path / "vibration.nc", tmp_path / "rest.nc"]
+    assert result_paths(parse_study(two_stages), tmp_path) == [tmp_path / "vibration.nc", tmp_path / "rest.nc"]
 
-    assert not results.is_up_to_date(tmp_path / "run.nc", study)
+    assert not is_up_to_date(tmp_path / "run.nc", study)
     ds, _ = beam_dataset(beam_text)
-    results.write_dataset(ds, tmp_path / "run.nc")
-    assert results.is_up_to_date(tmp_path / "run.nc", study)
+    write_dataset(ds, tmp_path / "run.nc")
+    assert is_up_to_date(tmp_path / "run.nc", study)
     edited = parse_study(beam_text.replace("duration_s = 4.0", "duration_s = 2.0"))
-    assert not results.is_up_to_date(tmp_path / "run.nc", edited)
+    assert not is_up_to_date(tmp_path / "run.nc", edited)
     (tmp_path / "junk.nc").write_text("not netCDF")
-    assert not results.is_up_to_date(tmp_path / "junk.nc", study)
+    assert not is_up_to_date(tmp_path / "junk.nc", study)

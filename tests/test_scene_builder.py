@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from workflows.scene_builder import build_scene, monitor_particles, solver_settings
+from workflows.scene import build_scene, monitor_particles, solver_settings
 from workflows.study import StudyError, load_study, parse_study
 
 REPO = Path(__file__).resolve().parents[1]

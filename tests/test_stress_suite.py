@@ -1,4 +1,4 @@
-"""The numerical stability stress suite (workflows/stress.py): every case must end as expected.
+"""The numerical stability stress suite (verification/stress_suite.py): every case must end as expected.
 
 The full suite (21 cases, a few minutes) is slow; the CFL cases run by default: accepted
 steps are stable, steps past the limit are refused, and steps forced past it are stopped by
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from workflows.stress import case_cfl, run_suite
+from verification.stress_suite import case_cfl, run_suite
 
 
 @pytest.mark.parametrize(

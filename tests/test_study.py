@@ -16,18 +16,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from workflows import schema_docs
-from workflows.study import (
-    DynamicStage,
-    ElasticMaterial,
-    RelaxationStage,
-    Study,
-    StudyError,
-    load_study,
-    parse_study,
-    point_in_polygon,
-    specs,
-)
+from workflows.study import StudyError, load_study, parse_study, reference
+from workflows.study.fields import point_in_polygon, specs
+from workflows.study.tables import DynamicStage, ElasticMaterial, RelaxationStage, Study
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED_STUDIES = sorted((REPO / "studies").glob("*.toml"))
@@ -303,7 +294,7 @@ def schema_at(schema: dict, path: str) -> list[dict]:
 
 def test_json_schema_is_valid_and_lists_every_field():
     output = subprocess.run(
-        [sys.executable, "-m", "workflows.study", "--json-schema"], capture_output=True, text=True, check=True, cwd=REPO
+        [sys.executable, "-m", "workflows.study.reference", "--json-schema"], capture_output=True, text=True, check=True, cwd=REPO
     ).stdout
     schema = json.loads(output)
     jsonschema.Draft202012Validator.check_schema(schema)
@@ -315,33 +306,25 @@ def test_json_schema_is_valid_and_lists_every_field():
 
 @pytest.mark.parametrize("path", SHIPPED_STUDIES, ids=lambda p: p.name)
 def test_shipped_studies_satisfy_the_json_schema(path):
-    jsonschema.validate(tomllib.loads(path.read_text()), schema_docs.json_schema(), cls=jsonschema.Draft202012Validator)
+    jsonschema.validate(tomllib.loads(path.read_text()), reference.json_schema(), cls=jsonschema.Draft202012Validator)
 
 
 def test_json_schema_rejects_what_the_loader_rejects():
-    schema = schema_docs.json_schema()
+    schema = reference.json_schema()
     for case in ("unknown nested key", "bool for a number", "unknown stage kind", "cfl 1.5", "nu = 0.5"):
         with pytest.raises(jsonschema.ValidationError):
             jsonschema.validate(tomllib.loads(MALFORMED[case][0]), schema, cls=jsonschema.Draft202012Validator)
 
 
-def test_markdown_table_mentions_every_field():
+def test_reference_page_mentions_every_field():
     output = subprocess.run(
-        [sys.executable, "-m", "workflows.study", "--markdown"], capture_output=True, text=True, check=True, cwd=REPO
+        [sys.executable, "-m", "workflows.study.reference"], capture_output=True, text=True, check=True, cwd=REPO
     ).stdout
-    assert output == schema_docs.markdown_table()
+    assert output == reference.page()
     for path, _, _ in field_paths():
         assert f"`{path}`" in output, path
 
 
-def test_readme_reference_block_is_up_to_date():
-    readme = (REPO / "README.md").read_text()
-    assert schema_docs.readme_block() in readme, "run: python -m workflows.study --markdown --update-readme"
-
-
-def test_update_readme_rewrites_only_the_block(tmp_path):
-    readme = tmp_path / "README.md"
-    readme.write_text(f"intro\n\n{schema_docs.README_START}\nstale\n{schema_docs.README_END}\n\noutro\n")
-    assert schema_docs.update_readme(readme)
-    assert readme.read_text() == f"intro\n\n{schema_docs.readme_block()}\n\noutro\n"
-    assert not schema_docs.update_readme(readme)
+def test_study_file_reference_in_docs_is_up_to_date():
+    page = (REPO / "docs" / "study-file.md").read_text(encoding="utf-8")
+    assert page == reference.page(), f"docs/study-file.md is stale: run {reference.REGENERATE}"

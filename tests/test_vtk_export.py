@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
-from workflows.vtk_export import export_folder, main
+from workflows.output.paraview import export_folder, main
+from workflows.stages import run_study
+from workflows.study import parse_study
 
 
 def read_vtu(path):
@@ -48,11 +51,6 @@ def test_folder_without_results_exits_2(tmp_path, capsys):
 
 
 def test_snapshots_during_a_stage_end_on_the_final_state(tmp_path):
-    from pathlib import Path
-
-    from workflows.runner import run_study
-    from workflows.study import parse_study
-
     text = (Path(__file__).resolve().parents[1] / "studies" / "cantilever_beam.toml").read_text()
     text = text.replace("spacing_m = 0.02", "spacing_m = 0.05").replace("duration_s = 4.0", "duration_s = 1.0")
     study = parse_study(text + "\n[output]\nsnapshot_interval_s = 0.25\n")

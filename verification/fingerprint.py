@@ -12,8 +12,10 @@ only what a user sees and works on any version of the code:
   velocity and stress, energies, largest displacement).
 
 Each array is stored as the SHA-256 of its float64 bytes (the bit-for-bit check, ``--check``)
-and as up to 50 of its values (the tolerance check of :func:`compare`, which the test suite
-uses so that a machine whose compiler contracts differently does not fail it).  Timestamps and
+and as up to 50 of its values (the tolerance check of :func:`compare`, which
+``tests/test_fingerprint.py`` uses so that a machine whose compiler contracts differently
+does not fail it).  A change that is meant to change the numbers stores a new fingerprint
+with ``--update`` and says so in its commit message.  Timestamps and
 wall times are left out.  The record times (``time``) are compared to 1e-12 relative even by
 ``--check``: the stage clock adds up the steps of each compiled call, whose length follows the
 wall clock, so two runs of the same code can differ there in the last bits.
@@ -24,7 +26,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import math
 import subprocess
 import sys
 import tempfile
@@ -65,24 +66,36 @@ def _run(study: str, out: Path) -> None:
         raise SystemExit(f"{study} failed (exit {done.returncode}):\n{done.stderr}")
 
 
-def measure(scratch: Path) -> dict:
-    """Run both studies into ``scratch`` and fingerprint their results."""
-    prints: dict[str, dict] = {}
-    _run(STUDIES["quickstart"], scratch / "quickstart")
-    with xr.open_dataset(scratch / "quickstart" / "summary.nc") as summary:
-        quick = {name: _entry(summary[name].values) for name in SUMMARY_VARIABLES}
-        quick["fos"] = _entry([float(summary["fos"])] + [float(summary["fos"].attrs[a]) for a in FOS_ATTRIBUTES])
-    with xr.open_dataset(scratch / "quickstart" / "gravity.nc") as gravity:
+def quickstart_prints(out_dir: Path) -> dict:
+    """The fingerprint of a quickstart result folder (``summary.nc`` and ``gravity.nc``)."""
+    with xr.open_dataset(out_dir / "summary.nc") as summary:
+        prints = {name: _entry(summary[name].values) for name in SUMMARY_VARIABLES}
+        prints["fos"] = _entry([float(summary["fos"])] + [float(summary["fos"].attrs[a]) for a in FOS_ATTRIBUTES])
+    with xr.open_dataset(out_dir / "gravity.nc") as gravity:
         for component in ("xx", "yy", "zz", "xy"):
-            quick[f"gravity_particle_s{component}"] = _entry(gravity[f"particle_s{component}"].values)
-    prints["quickstart"] = quick
-    _run(STUDIES["cantilever_beam"], scratch / "beam")
-    with xr.open_dataset(scratch / "beam" / "run.nc") as run:
-        prints["cantilever_beam"] = {
+            prints[f"gravity_particle_s{component}"] = _entry(gravity[f"particle_s{component}"].values)
+    return prints
+
+
+def beam_prints(out_dir: Path) -> dict:
+    """The fingerprint of a cantilever-beam result folder (``run.nc``)."""
+    with xr.open_dataset(out_dir / "run.nc") as run:
+        return {
             name: _entry(run[name].values) for name in sorted(run.data_vars)
             if "time" in run[name].dims and name not in BEAM_SKIP
         } | {"time": _entry(run["time"].values)}
-    return prints
+
+
+def measure(scratch: Path) -> dict:
+    """Run both studies into ``scratch`` and fingerprint their results."""
+    _run(STUDIES["quickstart"], scratch / "quickstart")
+    _run(STUDIES["cantilever_beam"], scratch / "beam")
+    return {"quickstart": quickstart_prints(scratch / "quickstart"), "cantilever_beam": beam_prints(scratch / "beam")}
+
+
+def stored() -> dict:
+    """The fingerprint stored in ``fingerprint.json``."""
+    return json.loads(FINGERPRINT_PATH.read_text())
 
 
 def compare(measured: dict, stored: dict, rtol: float = 0.0, atol: float = 0.0) -> list[str]:
@@ -123,7 +136,7 @@ def main(argv=None) -> int:
         FINGERPRINT_PATH.write_text(json.dumps(measured, indent=1) + "\n")
         print(f"wrote {FINGERPRINT_PATH}")
         return 0
-    problems = compare(measured, json.loads(FINGERPRINT_PATH.read_text()))
+    problems = compare(measured, stored())
     for line in problems:
         print(line)
     n = sum(len(arrays) for arrays in measured.values())

@@ -4,8 +4,8 @@
     python -m workflows.cli STUDY.toml ...
 
 A study whose last stage is ``strength_reduction`` computes a factor of safety
-(:mod:`workflows.fos_study`: SRF runs on dask, report and ``summary.nc``); any other study
-runs its stages in order (:mod:`workflows.runner`).
+(:mod:`workflows.fos`: SRF runs on dask, report and ``summary.nc``); any other study runs its
+stages in order (:mod:`workflows.stages`).
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing file, invalid study or option: one line on stderr, nothing written), 130
@@ -76,9 +76,10 @@ def main(
 
     if workers < 1:
         raise _fail(f"error: --workers: must be >= 1, got {workers}", EXIT_BAD_STUDY)
-    # Imported here so that checking a study and --help stay fast: the core compiles with numba.
-    from spfem_core.simulation import DivergenceError
-    from workflows.runner import run_study
+    # Imported only once the study is valid, so that --help and a bad study file answer at once:
+    # the core imports numba, the FOS workflow dask (about 1 s together).
+    from spfem_core.divergence import DivergenceError
+    from workflows.stages import run_study
 
     out_dir = Path(out) if out is not None else Path.cwd() / study.name
     console = Console(stderr=True, quiet=quiet)
@@ -113,9 +114,11 @@ def main(
 
 
 def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler) -> None:
-    from spfem_core.simulation import DivergenceError
-    from workflows.fos_study import FosProgress, connect, run_fos_study
-    from workflows.fos_summary import report_lines
+    # deferred until the study is valid, see main()
+    from spfem_core.divergence import DivergenceError
+    from workflows.fos.cluster import connect
+    from workflows.fos.orchestration import FosProgress, run_fos_study
+    from workflows.fos.report import report_lines
 
     if scheduler:  # before any output: an unreachable cluster is one line and exit 2
         try:

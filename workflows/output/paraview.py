@@ -1,11 +1,11 @@
 """ParaView files from result files: one ``.vtu`` per result, a ``.pvd`` collection per folder.
 
-    python -m workflows.vtk_export OUT_DIR [--to DIR]
+    python -m workflows.output.paraview OUT_DIR [--to DIR]
 
 Every result file of ``OUT_DIR`` holding a particle mesh (``gravity.nc``, ``srf_<F>.nc``,
 ``run.nc``, ``<stage>.nc``) becomes ``<name>.vtu``: an XML UnstructuredGrid of the final
 particle positions (points, z = 0) and triangles, with point data ``displacement`` (m),
-``velocity`` (m/s), ``stress`` (Pa, 4 components xx, yy, zz, xy, tension positive),
+``velocity`` (m s-1), ``stress`` (Pa, 4 components xx, yy, zz, xy, tension positive),
 ``plastic_strain``, ``material`` and ``initial_position`` (m).  ``results.pvd`` lists them:
 SRF runs at "timestep" = F, stage files at their stage index, so ParaView's time slider
 steps through the SRF values or the stages.  Data are ASCII: simple to read back and check.
@@ -24,6 +24,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import xarray as xr
+
+from workflows.output.stage_file import particle_stress
 
 VTK_TRIANGLE = 5
 
@@ -74,8 +76,6 @@ def dataset_to_vtu(ds: xr.Dataset) -> str:
     def pair(a, b):
         return np.column_stack([ds[a].values, ds[b].values])
 
-    from workflows.results import particle_stress
-
     stress = particle_stress(ds)
     return vtu_text(
         pair("particle_x", "particle_y"), ds["mesh2d_face_nodes"].values, pair("particle_ux", "particle_uy"),
@@ -114,8 +114,8 @@ class SnapshotWriter:
         sim = self.sim
         name = f"{self.stage_name}_{len(self.entries):04d}.vtu"
         _write_text(self.folder / name, vtu_text(
-            sim.node_xy_m, sim.mesh.elem_nodes, sim.node_displacement_m, sim.node_velocity_m_s, sim.node_stress_pa,
-            sim.node_plastic_strain, sim.node_material, sim.node_initial_xy_m,
+            sim.nodes.xy_m, sim.mesh.elem_nodes, sim.nodes.displacement_m, sim.nodes.velocity_m_s, sim.nodes.stress_pa,
+            sim.nodes.plastic_strain, sim.nodes.material, sim.initial_xy_m,
         ))
         self.entries.append((float(time_s), name))
         _write_text(self.folder / f"{self.stage_name}.pvd", _pvd_text(self.entries))
@@ -149,7 +149,7 @@ def export_folder(out_dir: str | Path, to: str | Path | None = None) -> Path:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m workflows.vtk_export", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m workflows.output.paraview", description=__doc__.splitlines()[0])
     parser.add_argument("out_dir", help="a study's output folder")
     parser.add_argument("--to", help="where to write (default: OUT_DIR/paraview)")
     args = parser.parse_args(argv)

@@ -40,8 +40,9 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+from scipy.spatial import KDTree
 
-from workflows.collapse_reference import GRANULAR_SURFACE_XY_M
+from workflows.collapse.experiment import GRANULAR_SURFACE_XY_M
 
 GAP_SPACINGS = 2.0
 """A gap in x of more than this many spacings ends the main deposit."""
@@ -109,8 +110,6 @@ def _deposit_height(node_xy_m: np.ndarray, spacing_m: float, x_query_m: np.ndarr
 
 def estimate_spacing_m(node_xy_m) -> float:
     """Median nearest-neighbour distance of the particles (the nominal spacing of a lattice-like cloud)."""
-    from scipy.spatial import KDTree
-
     node_xy_m = _xy(node_xy_m, "node_xy_m")
     if node_xy_m.shape[0] < 2:
         raise ValueError("node_xy_m: need at least two particles to estimate a spacing")

@@ -1,6 +1,6 @@
 """Numerical stability stress suite: try to break the numerics, and say what happened.
 
-    python -m workflows.stress [--out stress.nc]
+    python -m verification.stress_suite [--out stress.nc]
 
 Every case has an expected outcome, and the suite measures whether it got it:
 
@@ -28,6 +28,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
+
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.divergence import DivergenceError
+from spfem_core.mesh import count_inverted
+from spfem_core.scene import SolverSettings
+from spfem_core.simulation import Simulation
+from spfem_core.timestep import UnstableTimeStepError, max_stable_cfl
+from verification.oscillation import period_and_mean
+from verification.scenes import beam_scene, column_scene
+from workflows.output.writing import write_dataset
+from workflows.scene import build_scene, solver_settings
+from workflows.stages import prepare_stage
+from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -49,48 +63,38 @@ class StressResult:
 
 
 def _beam(spacing_m=0.05, jitter=0.0, nu=0.25):
-    from spfem_core.cloud import particles_in_polygon
-    from spfem_core.scene import MaterialTable, Scene
-
-    xy = particles_in_polygon([[0, 0], [2, 0], [2, 0.2], [0, 0.2]], spacing_m, jitter=jitter, seed=1)
-    scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.elastic("beam", 1850.0, 80e6, nu), spacing_m,
-                  gravity_m_s2=[0.0, -9.8])
-    scene.fix(scene.select_box(x_max=0.0), vx_m_s=0.0, vy_m_s=0.0)
-    return scene
+    return beam_scene(spacing_m, jitter=jitter, seed=1, poisson_ratio=nu)
 
 
 def _column(node_xy_m, spacing_m, nu):
-    from spfem_core.scene import MaterialTable, Scene
-
-    scene = Scene(node_xy_m, np.zeros(len(node_xy_m), dtype=np.int64), MaterialTable.elastic("soil", 2000.0, 1e8, nu),
-                  spacing_m, gravity_m_s2=[0.0, -10.0])
-    scene.fix(scene.select_box(x_max=0.0), vx_m_s=0.0)
-    scene.fix(scene.select_box(x_min=2.0), vx_m_s=0.0)
-    scene.fix(scene.select_box(y_max=0.0), vx_m_s=0.0, vy_m_s=0.0)
-    return scene
+    return column_scene(spacing_m, nu=nu, node_xy_m=node_xy_m)
 
 
 def _checked_run(sim, duration_s, parts=4, damping=0.0):
     """Run in parts, checking after each: finite state, no inverted element.  (series list, note)."""
-    from spfem_core.mesh import count_inverted
 
-    mass0 = sim.node_mass_kg.sum()
+    mass0 = sim.nodes.mass_kg.sum()
     series = []
     for _ in range(parts):
         series.append(sim.run(duration_s / parts, damping=damping, record_interval_s=duration_s / parts / 50))
-        if not (np.all(np.isfinite(sim.node_xy_m)) and np.all(np.isfinite(sim.node_stress_pa))):
+        if not (np.all(np.isfinite(sim.nodes.xy_m)) and np.all(np.isfinite(sim.nodes.stress_pa))):
             return series, "non-finite state"
-        if count_inverted(sim.node_xy_m, sim.mesh.elem_nodes):
+        if count_inverted(sim.nodes.xy_m, sim.mesh.elem_nodes):
             return series, "inverted element after a step"
-    if sim.node_mass_kg.sum() != mass0:
+    if sim.nodes.mass_kg.sum() != mass0:
         return series, "mass changed"
     return series, ""
 
 
+def _mechanical_terms(series) -> np.ndarray:
+    """(n_rec, 3) kinetic, strain and gravity potential energy (J/m)."""
+    return np.column_stack([series.energy(name) for name in ("kinetic", "strain", "gravity_potential")])
+
+
 def _energy_drift(series) -> tuple[float, float]:
     """(|kinetic + strain + gravity + dissipated change| summed over parts, largest |energy term|)."""
-    drift = sum(abs(s.energy_j_per_m[-1].sum() - s.energy_j_per_m[0].sum()) for s in series)
-    scale = max(float(np.abs(s.energy_j_per_m[:, :3]).max()) for s in series)
+    drift = sum(abs(s.energy_total_j_per_m[-1] - s.energy_total_j_per_m[0]) for s in series)
+    scale = max(float(np.abs(_mechanical_terms(s)).max()) for s in series)
     return drift, scale
 
 
@@ -99,8 +103,6 @@ def _energy_drift(series) -> tuple[float, float]:
 
 def case_cfl(cfl: float, beta: float = 0.1, force: bool = False) -> StressResult:
     """The beam at h = 0.05 m for 1 s at this cfl; ``force`` sets dt past the refusal."""
-    from spfem_core.scene import SolverSettings
-    from spfem_core.simulation import DivergenceError, Simulation, UnstableTimeStepError, max_stable_cfl
 
     limit = max_stable_cfl(beta)
     name = f"beam cfl {cfl:g} (beta {beta:g}, accepted <= {limit:.3g})" + (", forced" if force else "")
@@ -122,15 +124,13 @@ def case_cfl(cfl: float, beta: float = 0.1, force: bool = False) -> StressResult
 
 
 def case_beta(beta: float) -> StressResult:
-    from spfem_core.scene import SolverSettings
-    from spfem_core.simulation import DivergenceError, Simulation
 
     sim = Simulation(_beam(), SolverSettings(cfl=0.5 * 1.0 / (1.0 + beta), stabilisation_beta=beta))
     try:
         series, problem = _checked_run(sim, 1.0)
     except DivergenceError as error:
         return StressResult(f"beam beta {beta:g}", "stable", "diverged", error.reason[:80])
-    removed = sum(s.energy_j_per_m[-1, 4] for s in series)
+    removed = sum(s.energy("stabilisation_dissipated")[-1] for s in series)
     _, scale = _energy_drift(series)
     outcome = "garbage" if problem else "stable"
     return StressResult(f"beam beta {beta:g}", "stable", outcome,
@@ -139,8 +139,6 @@ def case_beta(beta: float) -> StressResult:
 
 def case_column(nu: float, spacings=(0.25,)) -> StressResult:
     """Elastic column relaxed under gravity: sigma_yy against -rho g (H - y) at 0.1H-0.8H."""
-    from spfem_core.cloud import particles_in_polygon
-    from spfem_core.simulation import DivergenceError, Simulation
 
     if len(spacings) == 1:
         xy = particles_in_polygon([[0, 0], [2, 0], [2, 10], [0, 10]], spacings[0])
@@ -151,26 +149,22 @@ def case_column(nu: float, spacings=(0.25,)) -> StressResult:
         fine = fine[fine[:, 1] > 5.0 + 1e-9]
         xy = np.concatenate([coarse, fine])
         name = f"column, two spacings {spacings[0]:g} / {spacings[1]:g} m"
-    from spfem_core.scene import SolverSettings
 
     sim = Simulation(_column(xy, max(spacings), nu), SolverSettings(cfl=0.5, stabilisation_beta=0.1))
     try:
         series = sim.relax(damping=0.7, tolerance=1e-5, max_duration_s=40.0)
     except DivergenceError as error:
         return StressResult(name, "stable", "diverged", error.reason[:80])
-    y0 = sim.node_initial_xy_m[:, 1]
+    y0 = sim.initial_xy_m[:, 1]
     band = (y0 >= 1.0) & (y0 <= 8.0)
-    error = np.max(np.abs(sim.node_stress_pa[band, 1] / (-2000.0 * 10.0 * (10.0 - y0[band])) - 1.0))
-    finite = np.all(np.isfinite(sim.node_stress_pa))
+    error = np.max(np.abs(sim.nodes.stress_pa[band, 1] / (-2000.0 * 10.0 * (10.0 - y0[band])) - 1.0))
+    finite = np.all(np.isfinite(sim.nodes.stress_pa))
     outcome = "stable" if finite and series.converged else ("garbage" if not finite else "not converged")
     return StressResult(name, "stable", outcome, f"sigma_yy within {100 * error:.2f}% of rho g (H - y), "
                         f"{sim.n_particles} particles, {series.n_steps} steps")
 
 
 def case_jitter() -> StressResult:
-    from spfem_core.scene import SolverSettings
-    from spfem_core.simulation import DivergenceError, Simulation
-    from workflows.oscillation import period_and_mean
 
     scene = _beam(0.04, jitter=0.25)
     tip = scene.nearest_particle(2.0, 0.2)
@@ -185,8 +179,6 @@ def case_jitter() -> StressResult:
 
 
 def case_full_beam(beta: float) -> StressResult:
-    from spfem_core.scene import SolverSettings
-    from spfem_core.simulation import DivergenceError, Simulation
 
     sim = Simulation(_beam(0.04), SolverSettings(cfl=0.5, stabilisation_beta=beta))
     name = f"beam 4 s, beta {beta:g}"
@@ -194,16 +186,15 @@ def case_full_beam(beta: float) -> StressResult:
         series = sim.run(4.0, record_interval_s=2e-3)
     except DivergenceError as error:
         return StressResult(name, "stable", "diverged", error.reason[:80])
-    energy = series.energy_j_per_m
-    mechanical = energy[:, 0] + energy[:, 1] + energy[:, 2]
-    scale = float(np.abs(energy[:, 1]).max())
+    mechanical = _mechanical_terms(series).sum(axis=1)
+    scale = float(np.abs(series.energy("strain")).max())
     if beta == 0.0:
         change = float(np.abs(mechanical - mechanical[0]).max()) / scale
         outcome = "stable" if change < 0.01 else "energy drift"
         return StressResult(name, "stable", outcome, f"kinetic + strain + gravity within {100 * change:.3f}% "
                             "of the peak strain energy over 4 s")
-    removed = float(energy[-1, 4])
-    closed = abs(energy[-1].sum() - energy[0].sum()) / scale
+    removed = float(series.energy("stabilisation_dissipated")[-1])
+    closed = abs(series.energy_total_j_per_m[-1] - series.energy_total_j_per_m[0]) / scale
     return StressResult(name, "stable", "stable" if closed < 0.01 else "energy drift",
                         f"stabilisation removed {100 * removed / scale:.2f}% of the peak strain energy; "
                         f"balance closed to {100 * closed:.3f}%")
@@ -216,10 +207,6 @@ def _with_spacing(study_text: str, spacing_m: float) -> str:
 
 
 def case_collapse(kind: str, friction_deg: float | None = None) -> StressResult:
-    from spfem_core.simulation import DivergenceError, Simulation
-    from workflows.runner import prepare_stage
-    from workflows.scene_builder import build_scene, solver_settings
-    from workflows.study import parse_study
 
     if kind == "granular":
         text = _with_spacing((ROOT / "studies" / "collapse_granular.toml").read_text(), 0.005)
@@ -240,8 +227,8 @@ def case_collapse(kind: str, friction_deg: float | None = None) -> StressResult:
         series, problem = _checked_run(sim, duration, parts=6)
     except DivergenceError as error:
         return StressResult(name, "stable", "diverged", error.reason[:80])
-    drift = sum(s.energy_j_per_m[-1].sum() - s.energy_j_per_m[0].sum() for s in series)
-    released = sum(-(s.energy_j_per_m[-1, 2] - s.energy_j_per_m[0, 2]) for s in series)
+    drift = sum(s.energy_total_j_per_m[-1] - s.energy_total_j_per_m[0] for s in series)
+    released = sum(-(s.energy("gravity_potential")[-1] - s.energy("gravity_potential")[0]) for s in series)
     rebuilds = sum(s.n_remesh for s in series)
     closed = abs(drift) / max(released, 1e-30)
     outcome = "garbage" if problem else ("stable" if closed < 0.03 else "energy drift")
@@ -276,14 +263,12 @@ def run_suite(progress=print) -> list[StressResult]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m workflows.stress", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m verification.stress_suite", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=None, help="also write the table as netCDF here")
     args = parser.parse_args(argv)
     results = run_suite(lambda line: print(line, flush=True))
     if args.out is not None:
-        import xarray as xr
 
-        from workflows.results import write_dataset
 
         ds = xr.Dataset(coords={"case": ("case", np.array([r.case for r in results], dtype=object))})
         for name in ("expected", "outcome", "measured"):

@@ -7,9 +7,9 @@ maximum displacement and verdict, and says which SRF values to start next.
    run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
 2. **Refinement**: when the sweep is done, the FOS bracket (the steepest rise after the
-   knee, see :mod:`workflows.fos_criterion`) is split by at most ``REFINE_SPLIT`` equally
+   knee, see :mod:`workflows.fos.criterion`) is split by at most ``REFINE_SPLIT`` equally
    spaced runs, as many as keep the total at what bisection would need to bring it under
-   ``tolerance`` (:func:`~workflows.fos_criterion.refinement_points`); the bracket is picked
+   ``tolerance`` (:func:`~workflows.fos.criterion.refinement_points`); the bracket is picked
    again from all runs and the step repeats until it is within the tolerance, there is no
    knee, or ``max_runs`` runs have been made.
 3. **Speculation** (:meth:`SrfSearch.speculative_values`): while the search waits for its
@@ -31,8 +31,8 @@ import math
 from dataclasses import dataclass
 from itertools import chain, zip_longest
 
-from workflows.fos_criterion import DIVERGED, FAILED, STABLE, FosPick, pick_fos, refinement_points
-
+from workflows.fos.criterion import FosPick, pick_fos, refinement_points
+from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 REFINE_SPLIT = 2
 """At most this many runs per refinement round (see ``refinement_points``: never more runs in

@@ -39,9 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-STABLE = "stable"
-FAILED = "failed"
-DIVERGED = "diverged"
+from workflows.fos.verdict import FAILED, STABLE
 
 
 @dataclass(frozen=True)
@@ -51,7 +49,6 @@ class KneePick:
     fos: float  # middle of [fos_low, fos_high]; NaN without a knee
     fos_low: float  # the knee sample
     fos_high: float  # the sample after it
-    knee_index: int  # into the sorted samples; -1 without a knee
     curvature: np.ndarray  # (n,) kappa at each sorted sample, NaN at the ends
     reason: str  # one line: how the knee was found, or why there is none
 
@@ -120,14 +117,14 @@ def pick_knee(srf, displacement_m, floor_m: float) -> KneePick:
     kappa = curvature(srf, displacement_m, floor_m)
     nan = math.nan
     if srf.size < 3:
-        return KneePick(nan, nan, nan, -1, kappa, f"no knee: {srf.size} runs, at least 3 are needed")
+        return KneePick(nan, nan, nan, kappa, f"no knee: {srf.size} runs, at least 3 are needed")
     convex = np.where(kappa > 0, kappa, -np.inf)
     if not np.isfinite(convex).any():
-        return KneePick(nan, nan, nan, -1, kappa, "no knee: the curve has no convex upturn")
+        return KneePick(nan, nan, nan, kappa, "no knee: the curve has no convex upturn")
     knee = int(np.argmax(convex))
     low, high = float(srf[knee]), float(srf[knee + 1])
     return KneePick(
-        0.5 * (low + high), low, high, knee, kappa,
+        0.5 * (low + high), low, high, kappa,
         f"maximum curvature {kappa[knee]:.3g} at SRF {low:g} (normalised axes, log10 displacement "
         f"floored at {floor_m:g} m); the upturn follows it",
     )

@@ -13,10 +13,13 @@ from typing import Callable
 
 import numpy as np
 
-from spfem_core.simulation import Simulation, UnstableTimeStepError
-from workflows.metrics_output import add_metrics
-from workflows.results import is_up_to_date, result_paths, run_dataset, write_dataset
-from workflows.scene_builder import build_scene, monitor_particles, solver_settings, supports
+from spfem_core.simulation import Simulation
+from spfem_core.timestep import UnstableTimeStepError
+from workflows.output.metrics import add_metrics
+from workflows.output.paraview import SnapshotWriter
+from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
+from workflows.output.writing import write_dataset
+from workflows.scene import build_scene, monitor_particles, solver_settings, supports
 from workflows.study import DynamicStage, RelaxationStage, StageBase, Study, StudyError
 
 StageProgress = Callable[[StageBase, float], None]
@@ -51,8 +54,6 @@ def snapshots(study: Study, stage: StageBase, sim: Simulation, out_dir: Path):
     interval = study.output.snapshot_interval_s
     if interval is None:
         return None
-    from workflows.vtk_export import SnapshotWriter
-
     return interval, SnapshotWriter(Path(out_dir) / "paraview", stage.name, sim)
 
 
@@ -101,9 +102,7 @@ def run_and_write_stage(
     except UnstableTimeStepError as error:
         raise StudyError(f"stages[{index}]", str(error)) from None
     series = run_stage(sim, stage, monitor_nodes, progress, snapshots(study, stage, sim, out_dir))
-    dataset = run_dataset(
-        study=study, stage_index=index, series=series, sim=sim, scene=sim.scene, monitor_particles=monitor_nodes
-    )
+    dataset = stage_dataset(study=study, stage_index=index, series=series, sim=sim, monitor_particles=monitor_nodes)
     if index == len(study.stages) - 1:
         dataset = add_metrics(dataset, study.metrics, sim)
     dataset.attrs.update(attrs or {})

@@ -1,7 +1,7 @@
 """Run time against error: the benchmark behind the README's Pareto fronts.
 
-    python -m workflows.bench beam  [--out bench_results/beam]  [--quick]
-    python -m workflows.bench slope [--out bench_results/slope] [--quick]
+    python -m benchmarks.error_vs_time beam  [--out bench_results/beam]  [--quick]
+    python -m benchmarks.error_vs_time slope [--out bench_results/slope] [--quick]
 
 **beam** (``studies/cantilever_beam.toml``, 4 s): particle spacing 0.05, 0.04, 0.02, 0.01 m
 times CFL factor 0.25, 0.5, 0.9.  Error: the larger of the relative errors of the first
@@ -31,8 +31,17 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import matplotlib
+import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
+
+from spfem_core.simulation import Simulation
+from verification.oscillation import period_and_mean
+from workflows.fos.orchestration import run_fos_study
+from workflows.output.writing import write_dataset
+from workflows.scene import build_scene, monitor_particles, solver_settings
+from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 FOS_REFERENCE = 1.37
@@ -62,10 +71,6 @@ def pareto_front(wall_s: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 
 def _beam_case(spacing_m: float, cfl: float) -> Case:
-    from spfem_core.simulation import Simulation
-    from workflows.oscillation import period_and_mean
-    from workflows.scene_builder import build_scene, monitor_particles, solver_settings
-    from workflows.study import parse_study
 
     text = (ROOT / "studies" / "cantilever_beam.toml").read_text()
     text = text.replace("spacing_m = 0.02", f"spacing_m = {spacing_m}").replace("cfl = 0.5", f"cfl = {cfl}")
@@ -119,8 +124,6 @@ def bench_beam(quick: bool) -> tuple[list[Case], dict]:
 
 
 def _slope_case(label: str, settings: dict, scratch: Path) -> Case:
-    from workflows.fos_study import run_fos_study
-    from workflows.study import parse_study
 
     text = (ROOT / "studies" / "quickstart.toml").read_text()
     text = text.replace("spacing_m = 1.0", f"spacing_m = {settings['spacing_m']}")
@@ -178,11 +181,7 @@ def table(cases: list[Case], attrs: dict) -> xr.Dataset:
 
 
 def plot(ds: xr.Dataset, path: Path, title: str) -> None:
-    import matplotlib
-
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     fig, ax = plt.subplots(figsize=(6.4, 4.4), constrained_layout=True)
     wall, error = ds["wall_time"].values, np.maximum(ds["error"].values, 1e-5)
     front = ds["pareto"].values.astype(bool)
@@ -198,7 +197,7 @@ def plot(ds: xr.Dataset, path: Path, title: str) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m workflows.bench", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.error_vs_time", description=__doc__.splitlines()[0])
     parser.add_argument("which", choices=("beam", "slope"))
     parser.add_argument("--out", type=Path, default=None, help="output folder (default bench_results/<which>)")
     parser.add_argument("--quick", action="store_true", help="a subset of the cases")
@@ -208,7 +207,6 @@ def main(argv=None) -> int:
     print(f"{args.which}:", flush=True)
     cases, attrs = (bench_beam if args.which == "beam" else bench_slope)(args.quick)
     ds = table(cases, attrs)
-    from workflows.results import write_dataset
 
     write_dataset(ds, out / f"{args.which}.nc")
     plot(ds, out / f"{args.which}_pareto.png", f"{args.which}: error against wall time")

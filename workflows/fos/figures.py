@@ -17,10 +17,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from workflows.fos.run_store import run_file_name
+
 COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
 
 
 def _pyplot():
+    """matplotlib's pyplot on the Agg backend.  Imported on first use, not with this module:
+    it costs about 0.5 s, which a study with ``figures = false`` never pays."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -61,7 +65,7 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
 
 def run_fields(run_path: Path, path: Path) -> Path:
     plt = _pyplot()
-    import matplotlib.tri as mtri
+    import matplotlib.tri as mtri  # with pyplot, see _pyplot
 
     with xr.open_dataset(run_path, engine="netcdf4") as ds:
         x, y = ds["particle_x"].values, ds["particle_y"].values
@@ -90,8 +94,6 @@ def run_fields(run_path: Path, path: Path) -> Path:
 
 def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
     """The SRF curve and the fields at the last stable and first failed SRF (module doc)."""
-    from workflows.fos_study import run_file_name
-
     paths = [srf_curve(summary, out_dir / "srf_curve.png")]
     srf = summary["srf"].values
     status = summary["status"].values.astype(str)

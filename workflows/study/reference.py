@@ -1,8 +1,9 @@
-"""The study-file reference, generated from the declarations in :mod:`workflows.study`.
+"""The study-file reference, generated from the declarations in :mod:`workflows.study.tables`.
 
-    python -m workflows.study --json-schema               # JSON schema (draft 2020-12)
-    python -m workflows.study --markdown                  # Markdown reference table
-    python -m workflows.study --markdown --update-readme  # rewrite the README block
+    python -m workflows.study.reference > docs/study-file.md     # the reference page
+    python -m workflows.study.reference --json-schema            # JSON schema (draft 2020-12)
+
+The test suite fails when ``docs/study-file.md`` differs from :func:`page`.
 """
 
 from __future__ import annotations
@@ -10,13 +11,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
-from workflows.study import NAME_PATTERN, REQUIRED, Spec, Study, field_default, specs
+from workflows.study.fields import NAME_PATTERN, REQUIRED, Spec, field_default, specs
+from workflows.study.tables import Study
 
-README_PATH = Path(__file__).resolve().parents[1] / "README.md"
-README_START = "<!-- study-reference:start -->"
-README_END = "<!-- study-reference:end -->"
+REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
 
 _JSON_TYPES = {"number": "number", "integer": "integer", "text": "string", "boolean": "boolean"}
 _BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
@@ -174,37 +173,29 @@ def markdown_table() -> str:
     return intro + "\n\n" + "\n".join(lines) + "\n"
 
 
-def readme_block() -> str:
-    """The README block between the markers, markers included."""
-    return f"{README_START}\n{markdown_table()}{README_END}"
+PAGE_INTRO = """\
+# Study-file reference
+
+A study file is a TOML file with the tables `[study]`, `[geometry]`, `[[materials]]`, `[loads]`,
+`[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]` and `[output]`.
+Stages run in order, each continuing from the state the previous one left; a study whose last
+stage is a `strength_reduction` stage computes a factor of safety.  Every field is checked before
+anything runs: a bad value is one line `error: <file>: <field>: <problem>` and exit code 2.
+Units are UDUNITS strings, as in the result files (`docs/result-files.md`).
+"""
 
 
-def update_readme(path: Path = README_PATH) -> bool:
-    """Rewrite the reference block of the README; True if the file changed."""
-    old = path.read_text(encoding="utf-8")
-    start, end = old.find(README_START), old.find(README_END)
-    if start < 0 or end < start:
-        raise SystemExit(f"error: {path}: markers {README_START} ... {README_END} not found")
-    new = old[:start] + readme_block() + old[end + len(README_END) :]
-    if new != old:
-        path.write_text(new, encoding="utf-8")
-    return new != old
+def page() -> str:
+    """The whole reference page (``docs/study-file.md``)."""
+    note = f"<!-- generated from workflows/study/tables.py by `{REGENERATE}`; do not edit -->"
+    return f"{note}\n{PAGE_INTRO}\n{markdown_table()}"
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="python -m workflows.study", description=__doc__.splitlines()[0])
-    what = parser.add_mutually_exclusive_group(required=True)
-    what.add_argument("--json-schema", action="store_true", help="print the JSON schema of a study file")
-    what.add_argument("--markdown", action="store_true", help="print the Markdown reference table")
-    parser.add_argument("--update-readme", action="store_true", help="with --markdown: rewrite the README block")
+    parser = argparse.ArgumentParser(prog="python -m workflows.study.reference", description=__doc__.splitlines()[0])
+    parser.add_argument("--json-schema", action="store_true", help="print the JSON schema instead of the page")
     args = parser.parse_args(argv)
-    if args.json_schema:
-        print(json.dumps(json_schema(), indent=2))
-    elif args.update_readme:
-        changed = update_readme()
-        print(f"{README_PATH}: {'updated' if changed else 'already up to date'}", file=sys.stderr)
-    else:
-        sys.stdout.write(markdown_table())
+    sys.stdout.write(json.dumps(json_schema(), indent=2) + "\n" if args.json_schema else page())
 
 
 if __name__ == "__main__":

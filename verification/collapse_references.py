@@ -1,75 +1,20 @@
-"""Reference data of the two column-collapse scenes (``shared/reference/collapse_refs.md``).
+"""Reference values of the two column collapses, and the pass bands the verification uses.
 
-Coordinates: wall at x = 0, base at y = 0, the column occupies 0 <= x <= L0, 0 <= y <= H0.
+Coordinates: wall at x = 0, base at y = 0, the column occupies 0 <= x <= L0, 0 <= y <= H0
+(``shared/reference/collapse_refs.md``).
 
-Granular (aluminium-rod) column, L0 = 0.2 m, H0 = 0.1 m (Bui, Fukagawa, Sako & Ohno 2008):
-the digitised final free surface (+-2 mm), the digitised failure line, the metrics derived
-from them and the pass bands the verification uses.
+Granular column, L0 = 0.2 m, H0 = 0.1 m (Bui et al. 2008): metrics derived from the digitised
+experiment (``workflows.collapse.experiment``) and the bands of the verification.
 
-Cohesive column, L0 = 4 m, H0 = 2 m (Bui et al. 2008, Chalk et al. 2020): no published
-final profile; the anchors are closed-form (Rankine / Culmann) functions of the cohesion c,
-the friction angle phi and the unit weight gamma = rho g.
+Cohesive column, L0 = 4 m, H0 = 2 m (Bui et al. 2008, Chalk et al. 2020): no published final
+profile; the anchors are closed-form (Rankine / Culmann) functions of the cohesion c, the
+friction angle phi and the unit weight gamma = rho g.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-import numpy as np
-
-# --------------------------------------------------------------------------------------
-# Granular column
-# --------------------------------------------------------------------------------------
-
-GRANULAR_COLUMN_WIDTH_M = 0.2
-GRANULAR_COLUMN_HEIGHT_M = 0.1
-
-GRANULAR_SURFACE_XY_M = np.array(
-    [
-        [0.00012, 0.09923],
-        [0.01960, 0.09928],
-        [0.03984, 0.09587],
-        [0.06004, 0.08900],
-        [0.08027, 0.08444],
-        [0.10008, 0.07756],
-        [0.12030, 0.07223],
-        [0.14013, 0.06651],
-        [0.16035, 0.06157],
-        [0.18016, 0.05392],
-        [0.19998, 0.04744],
-        [0.22020, 0.04249],
-        [0.24079, 0.03485],
-        [0.26219, 0.03067],
-        [0.28202, 0.02649],
-        [0.30224, 0.02154],
-        [0.32209, 0.01890],
-        [0.34231, 0.01357],
-        [0.36216, 0.01093],
-        [0.38240, 0.00790],
-        [0.40224, 0.00372],
-        [0.42209, 0.00224],
-        [0.44235, 0.00152],
-    ]
-)
-"""Experimental final free surface (x, y) in m, sorted by x, digitised to +-2 mm (23 points)."""
-GRANULAR_SURFACE_XY_M.setflags(write=False)
-
-GRANULAR_FAILURE_LINE_XY_M = np.array(
-    [
-        [0.02116, 0.09890],
-        [0.03979, 0.09010],
-        [0.05997, 0.08015],
-        [0.07973, 0.06521],
-        [0.09990, 0.05449],
-        [0.11964, 0.03685],
-        [0.13942, 0.02574],
-        [0.15956, 0.01041],
-        [0.17935, 0.00046],
-    ]
-)
-"""Experimental failure line (x, y) in m in the initial column: the boundary of the material that moved."""
-GRANULAR_FAILURE_LINE_XY_M.setflags(write=False)
 
 GRANULAR_WALL_HEIGHT_M = 0.0992
 """Derived: final surface height at the wall (the top-left corner does not move)."""
@@ -86,7 +31,7 @@ class GranularPassBands:
     """Pass bands of the granular column against the experiment (collapse_refs.md).
 
     Each band is an inclusive (low, high) interval of the summary key of the same name
-    (see :func:`workflows.collapse_metrics.granular_summary`).
+    (see :func:`workflows.collapse.metrics.granular_summary`).
     """
 
     final_wall_height_m: tuple[float, float] = (0.095, 0.100)
@@ -118,13 +63,11 @@ GRANULAR_PASS_BANDS = GranularPassBands()
 COHESIVE_COLUMN_WIDTH_M = 4.0
 COHESIVE_COLUMN_HEIGHT_M = 2.0
 COHESIVE_DENSITY_KG_M3 = 1850.0
+COHESIVE_GRAVITY_M_S2 = 9.81
 COHESIVE_COHESION_PA = 5.0e3
 COHESIVE_FRICTION_ANGLE_DEG = 25.0
-COHESIVE_GRAVITY_M_S2 = 9.81
 COHESIVE_BACK_SCARP_BAND_M = (2.6, 3.0)
 """Back scarp of the failed block in the initial configuration expected around x = 2.6-3.0 m."""
-COHESIVE_FOS_BAND = (0.88, 0.90)
-"""Strength-reduction factor of safety of the initial geometry (informative)."""
 
 
 def passive_coefficient(friction_angle_deg: float) -> float:

@@ -1,0 +1,86 @@
+"""The arrays the compiled time loop works on, grouped by what they describe.
+
+Named tuples of arrays and scalars: numba compiles attribute access to the same code as
+separate arguments, and :func:`spfem_core.stepper.advance` gets a signature a reader can
+follow.  All arrays are float64, int64 or bool, C-contiguous, SI units; vectors are (n, 2),
+the plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+ELEM_GEOM_WIDTH = 7
+"""Columns of ``StepScratch.elem_geom``: dN/dx of the 3 vertices, dN/dy of the 3 vertices, area (m^2)."""
+
+LEAPFROG_OUT_WIDTH = 6
+"""Length of ``StepScratch.leapfrog_out``, filled by ``integration.leapfrog`` every step."""
+
+
+class NodeState(NamedTuple):
+    """Per-particle state, carried from step to step (and stage to stage)."""
+
+    xy_m: np.ndarray  # (n, 2) current positions
+    displacement_m: np.ndarray  # (n, 2) since the stage started
+    velocity_m_s: np.ndarray  # (n, 2) leapfrog half-step velocity
+    stress_pa: np.ndarray  # (n, 4) Cauchy stress xx, yy, zz, xy
+    plastic_strain: np.ndarray  # (n,) equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)
+    mass_kg: np.ndarray  # (n,) per metre of thickness, fixed at the start: m_k = rho_k A_k
+    material: np.ndarray  # (n,) int64 row of the material table
+    fixed: np.ndarray  # (n, 2) bool: velocity prescribed in that direction
+    fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity where ``fixed``
+
+
+class StepScratch(NamedTuple):
+    """Arrays every step recomputes; their last values describe the current mesh."""
+
+    velocity_gradient: np.ndarray  # (n, 4) smoothed L_k as (xx, xy, yx, yy), 1/s
+    area_m2: np.ndarray  # (n,) smoothing-cell area A_k
+    force_n: np.ndarray  # (n, 2) f_int + f_stab per metre of thickness
+    contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
+    elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
+    leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) see integration.leapfrog
+
+    @classmethod
+    def for_nodes(cls, n: int) -> "StepScratch":
+        """Scratch for ``n`` particles and an empty mesh (``with_elements`` sizes it)."""
+        return cls(np.zeros((n, 4)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
+                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros(LEAPFROG_OUT_WIDTH))
+
+    def with_elements(self, n_elem: int) -> "StepScratch":
+        """The same arrays with an element table for ``n_elem`` triangles."""
+        return self._replace(elem_geom=np.zeros((n_elem, ELEM_GEOM_WIDTH)))
+
+
+class MaterialArrays(NamedTuple):
+    """Per-material constants the kernels read (rows of ``scene.MaterialTable``)."""
+
+    model: np.ndarray  # (n_mat,) int64 MODEL_* code
+    lame_lambda_pa: np.ndarray  # (n_mat,)
+    shear_modulus_pa: np.ndarray  # (n_mat,)
+    youngs_modulus_pa: np.ndarray  # (n_mat,)
+    poisson_ratio: np.ndarray  # (n_mat,)
+    params: np.ndarray  # (n_mat, N_MODEL_PARAMS) constants of the return map (scene.N_MODEL_PARAMS)
+
+
+class Walls(NamedTuple):
+    """Rigid segments (``contact`` module doc)."""
+
+    xy_m: np.ndarray  # (n_wall, 4) x1, y1, x2, y2; material on the left of 1 -> 2
+    friction: np.ndarray  # (n_wall,) Coulomb coefficient mu
+
+
+class StepParameters(NamedTuple):
+    """Scalars of the explicit step (fixed within one compiled call)."""
+
+    gravity_m_s2: np.ndarray  # (2,)
+    dt_s: float
+    damping: float  # local (Cundall) damping factor xi
+    beta: float  # stabilisation factor; 0 skips the bond loop
+    spacing_m: float  # nominal particle spacing h: wall reach, shortest stabilisation bond h/2
+    speed_limit_m_s: float  # divergence: a particle faster than this
+    tolerance: float  # relaxation: stop when the unbalanced-force ratio is below it (0: never)
+    angle_threshold_rad: float  # rebuild the mesh when its smallest angle falls below this
+    angle_margin_rad: float  # safety margin of the cheap angle bound

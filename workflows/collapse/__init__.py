@@ -1,0 +1,1 @@
+"""Column collapses: the metrics of a final deposit and the experiment they are compared with."""

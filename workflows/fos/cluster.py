@@ -1,0 +1,164 @@
+"""The dask cluster an FOS study runs its SRF runs on: a local one, or one at ``--scheduler``.
+
+The cluster starts in a thread (:class:`DaskSession`) while the study's process runs the
+gravity stage, and closes in a thread while the summary and figures are made.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import multiprocessing
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+
+import dask
+from distributed import Client, LocalCluster
+from distributed.utils import get_mp_context
+
+from workflows.study import StudyError
+
+
+def connect(scheduler: str):
+    """A client of the dask scheduler at ``scheduler``; StudyError (exit 2) if it cannot be reached."""
+    try:
+        return Client(scheduler, timeout="30s")
+    except (OSError, TimeoutError, ValueError) as error:
+        raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
+
+
+WORKER_MODULES = ("spfem_core.simulation", "workflows.output.stage_file", "workflows.scene", "workflows.fos.task")
+"""What an SRF run imports (about 1.1 s of CPU per process on top of ``distributed``)."""
+
+
+def _prepare_local_worker() -> None:
+    """On each local worker, ahead of its first task: import :data:`WORKER_MODULES` (already
+    done where the worker was forked from a preloaded server, see :func:`_worker_start_method`).
+    (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but any other
+    program on the machine then starved the workers, up to tenfold.)"""
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
+
+
+def _worker_start_method() -> dict:
+    """dask settings that start local workers by forking a server that has imported
+    ``distributed`` and :data:`WORKER_MODULES` once (``forkserver``), where the platform
+    has it; else {} (each worker is a fresh interpreter that imports them itself, ``spawn``).
+
+    The workers start while this process compiles and runs the gravity stage, on the same
+    cores.  Spawned, every worker imports everything (about 1.6 s of CPU each), so a second
+    worker cost the gravity stage about 0.9 s of wall time on 2 cores, and started the
+    runs that much later than one worker did.  Forked from the server, the imports are made
+    once whatever the number of workers."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return {}
+    settings = {"distributed.worker.multiprocessing-method": "forkserver"}
+    with dask.config.set(settings):
+        context = get_mp_context()  # distributed sets its own preload list here, once per process
+    context.set_forkserver_preload(["distributed", *WORKER_MODULES])
+    return settings
+
+
+LOCAL_CLUSTER_CONFIG = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.admin.tick.interval": "1s",
+    "distributed.scheduler.active-memory-manager.start": False,
+}
+"""dask settings of the local cluster a study starts (not of a cluster at ``--scheduler``).
+
+The defaults serve a dashboard this cluster does not have and many small tasks, where SRF
+runs are few long ones started only on idle workers: a stack sample of every worker every
+10 ms (profile), an event-loop tick every 20 ms and a memory check every 100 ms per worker
+and per nanny.  On 2 cores with both busy, that upkeep ran in this process and the workers
+at the runs' expense: with the defaults the runs of the reference slope took 77.9 s of
+worker time on 2 workers, with these 72.6 s (69.2 s on 1 worker; ``python
+-m benchmarks.bench_fos --warm --workers 2``).  The nannies still check memory every second.
+
+The active memory manager is off: every 2 s it drops all but one copy of data held by
+several workers, such as the study and gravity state every run needs, which are scattered
+to every worker.  Runs then went to the worker that kept the copy even while it was busy,
+and queued there while the other worker idled (6.4 s of one study).  Work stealing stays
+on as the remedy for any such placement."""
+
+
+def start_client(workers: int, scheduler: str | None):
+    """A client on ``scheduler``, or on a new local cluster of ``workers`` single-thread
+    processes (settings :data:`LOCAL_CLUSTER_CONFIG`), prepared by
+    :func:`_prepare_local_worker`; (client, cluster or None)."""
+    if scheduler:
+        client = connect(scheduler)
+        try:
+            client.wait_for_workers(1, timeout=60)
+        except BaseException:
+            client.close()
+            raise
+        return client, None
+    # the nannies hand the settings to their workers when they start them, here
+    with dask.config.set({**LOCAL_CLUSTER_CONFIG, **_worker_start_method()}):
+        cluster = LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            # no dashboard, and the scheduler's health routes on a free port, not 8787: a second
+            # study (or anything else on 8787) would otherwise get a warning
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            silence_logs=logging.ERROR,
+        )
+    client = Client(cluster)
+    try:
+        client.run(_prepare_local_worker)
+    except BaseException:
+        close_client(client, cluster)
+        raise
+    return client, cluster
+
+
+def close_client(client, cluster) -> None:
+    """Bounded, so that an interrupted study still exits."""
+    client.close(timeout=10)
+    if cluster is not None:
+        cluster.close(timeout=10)
+
+
+class DaskSession:
+    """The study's dask client, started in a thread so that the cluster starts and its workers
+    import while this process runs the gravity stage, and closed in a thread so that the
+    workers shut down while the summary and figures are made."""
+
+    def __init__(self, workers: int, scheduler: str | None):
+        pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
+        self._starting = pool.submit(start_client, workers, scheduler)
+        pool.shutdown(wait=False)
+        self._closing: threading.Thread | None = None
+
+    def client(self):
+        """The client, once started (a start error is raised here)."""
+        return self._starting.result()[0]
+
+    def close(self, wait: bool) -> None:
+        """Start closing (once); with ``wait``, wait for it (bounded)."""
+        if self._closing is None:
+            self._closing = threading.Thread(target=self._close, name="dask-close")
+            self._closing.start()
+        if wait:
+            self._closing.join(timeout=60)
+
+    def _close(self) -> None:
+        try:
+            client, cluster = self._starting.result(timeout=120)
+        except BaseException:  # it never started: nothing to close
+            return
+        close_client(client, cluster)
+
+
+@contextmanager
+def dask_session(workers: int, scheduler: str | None):
+    """A :class:`DaskSession`, closed on the way out whatever happened meanwhile."""
+    session = DaskSession(workers, scheduler)
+    try:
+        yield session
+    finally:
+        session.close(wait=True)
+
+

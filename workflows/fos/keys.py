@@ -1,0 +1,44 @@
+"""Keys of the cached states of a strength-reduction study: what a stored file was made from.
+
+A gravity file carries ``gravity_key``, a hash over everything that shapes the gravity state
+(geometry, materials, loads, supports, solver, the stages before the strength reduction, and
+the core's sources); a run file carries ``run_key``, a hash over the gravity key, what the run
+does and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
+The search's own settings are left out of the run key: refining the search reuses every run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+
+from spfem_core.jit import source_hash
+from workflows.study import Study
+
+SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
+"""Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
+def _digest(payload) -> str:
+    text = json.dumps(payload, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def gravity_key(study: Study) -> str:
+    """Hash of everything that shapes the gravity state (module doc)."""
+    raw = dataclasses.asdict(study)
+    for key in ("source_text", "output", "metrics"):
+        raw.pop(key, None)
+    raw["study"].pop("description", None)
+    raw["stages"] = raw["stages"][:-1]
+    raw["core"] = source_hash()
+    return _digest(raw)
+
+
+def run_key(study: Study, srf: float) -> str:
+    """Hash of the gravity key, what a run does (not how the search picks runs) and F."""
+    stage = dataclasses.asdict(study.strength_reduction)
+    for key in SEARCH_FIELDS:
+        stage.pop(key)
+    return _digest({"gravity": gravity_key(study), "stage": stage, "srf": f"{srf:.4f}"})
+
+

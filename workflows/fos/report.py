@@ -1,0 +1,48 @@
+"""The printed report of a strength-reduction study: a table of the runs and the verdict line."""
+
+from __future__ import annotations
+
+import math
+
+from workflows.fos.verdict import DIVERGED, FAILED, STABLE
+
+
+def verdict_line(knee, status, agree, runs, stage) -> str:
+    """One line: the FOS or why there is none, and any warning."""
+    if not runs:
+        return "no SRF run was made"
+    failed_at_or_below_1 = [r["srf"] for r in runs if r["status"] == FAILED and r["srf"] <= 1.0]
+    parts = []
+    if math.isnan(knee.fos):
+        if all(r["status"] == FAILED for r in runs if r["status"] != DIVERGED):
+            parts.append(f"FOS < {runs[0]['srf']:g}: every run failed")
+        elif all(r["status"] == STABLE for r in runs if r["status"] != DIVERGED):
+            parts.append(f"FOS > {runs[-1]['srf']:g}: no run failed (raise srf_max)")
+        else:
+            parts.append(f"no FOS: {knee.reason}")
+    else:
+        parts.append(
+            f"FOS = {knee.fos:.4g}, bracket [{knee.fos_low:.4g}, {knee.fos_high:.4g}] (steepest rise of the "
+            f"displacement after the maximum-curvature knee at SRF {knee.knee_srf:g})"
+        )
+    if failed_at_or_below_1 or (not math.isnan(knee.fos) and knee.fos_high <= 1.0):
+        parts.append("the slope is UNSTABLE AS BUILT (it fails at SRF <= 1)")
+    if not agree:
+        parts.append(f"WARNING: the run verdicts disagree ({status.reason})")
+    elif status.non_monotone:
+        parts.append(f"note: {status.reason}")
+    return "; ".join(parts)
+
+
+def report_lines(outcome) -> list[str]:
+    """The printed report: a table of SRF, largest displacement and status, then the FOS."""
+    lines = [f"{'SRF':>8}  {'max disp (m)':>12}  {'t end (s)':>9}  status", f"{'-' * 8}  {'-' * 12}  {'-' * 9}  ------"]
+    for r in outcome.runs:
+        lines.append(f"{r['srf']:8.4f}  {r['max_displacement_m']:12.4g}  {r['stop_time_s']:9.3g}  {r['status']}")
+    lines.append(outcome.verdict)
+    if not math.isnan(outcome.status_high):
+        lines.append(
+            f"second criterion (run verdicts): FOS in [{outcome.status_low:.4g}, {outcome.status_high:.4g}]"
+            + ("" if outcome.criteria_agree else "  <-- DISAGREES with the knee")
+        )
+    return lines

@@ -1,0 +1,76 @@
+"""The result-file reference page, generated from the declarations in :mod:`workflows.output.variables`.
+
+    python -m workflows.output.reference > docs/result-files.md
+
+The test suite fails when ``docs/result-files.md`` differs from :func:`page`.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from workflows.output.variables import (
+    COLLAPSE_METRICS,
+    FOS_ATTRIBUTES,
+    STAGE_FILE,
+    STAGE_FILE_ATTRIBUTES,
+    SUMMARY_FILE,
+    SUMMARY_FILE_ATTRIBUTES,
+    Attribute,
+    Variable,
+)
+
+REGENERATE = "python -m workflows.output.reference > docs/result-files.md"
+
+INTRO = """\
+# Result-file reference
+
+Every result is a netCDF-4 file that follows the CF conventions (UGRID for the particle mesh):
+every variable has `units` (UDUNITS; `1` for a number or a label) and `long_name`, and every file
+carries the study text that made it.  Files are written to `<name>.tmp` and renamed, so a file
+with its final name is complete.  Open them with xarray (`xr.open_dataset(path)`), ParaView
+(`python -m workflows.output.paraview OUT` writes `.vtu` files and a `.pvd` collection) or the
+notebooks in `studies/notebooks/`.
+
+| file | written by |
+|---|---|
+| `OUT/run.nc` | a study with one stage |
+| `OUT/<stage>.nc` | each stage of a study with several stages; `gravity.nc` of an FOS study |
+| `OUT/srf_<F>.nc` | each strength-reduction run of an FOS study (a stage file of the last stage) |
+| `OUT/summary.nc` | an FOS study: one row per SRF run and the factor of safety |
+| `OUT/srf_curve.png`, `OUT/fields_srf_<F>.png` | an FOS study with `[output] figures = true` |
+"""
+
+
+def _variables(table: dict[str, Variable]) -> list[str]:
+    lines = ["| variable | dims | units | long name |", "|---|---|---|---|"]
+    for v in table.values():
+        dims = ", ".join(v.dims) if v.dims else "(scalar)"
+        lines.append(f"| `{v.name}` | {dims} | {v.units} | {v.long_name} |")
+    return lines
+
+
+def _attributes(attributes: tuple[Attribute, ...]) -> list[str]:
+    lines = ["| attribute | content |", "|---|---|"]
+    lines += [f"| `{a.name}` | {a.meaning} |" for a in attributes]
+    return lines
+
+
+def page() -> str:
+    """The whole reference page (``docs/result-files.md``)."""
+    note = f"<!-- generated from workflows/output/variables.py by `{REGENERATE}`; do not edit -->"
+    parts = [note, INTRO]
+    parts += ["## Stage files (`run.nc`, `<stage>.nc`, `gravity.nc`, `srf_<F>.nc`)", "", *_variables(STAGE_FILE), "",
+              "Global attributes:", "", *_attributes(STAGE_FILE_ATTRIBUTES), ""]
+    parts += ["## Collapse metrics", "",
+              "With `[metrics]`, the last stage's file also holds these scalars (granular or cohesive, by "
+              "`metrics.kind`; attribute `metrics_kind`), computed on the final state of the particles inside "
+              "the mesh (`workflows/collapse/metrics.py` defines each):", "", *_variables(COLLAPSE_METRICS), ""]
+    parts += ["## `summary.nc` of a strength-reduction study", "", *_variables(SUMMARY_FILE), "",
+              "Attributes of `fos`:", "", *_attributes(FOS_ATTRIBUTES), "",
+              "Global attributes:", "", *_attributes(SUMMARY_FILE_ATTRIBUTES), ""]
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    sys.stdout.write(page())

@@ -1,0 +1,189 @@
+"""The result file of one stage: monitor histories, energies and the final particle state.
+
+A study with a single stage writes ``OUT/run.nc``; a study with several stages writes
+``OUT/<stage name>.nc`` for each.  Each file holds the variables of
+:data:`workflows.output.variables.STAGE_FILE` (units and long names from there): the monitor
+histories over ``time`` with ``monitor`` the names of the study, the energy budget and the
+largest displacement, the particles at the end of the stage with their triangle mesh under
+UGRID names (``mesh2d``, ``mesh2d_face_nodes``), and as global attributes the study text, the
+code version and the run's counters.
+"""
+
+from __future__ import annotations
+
+import re
+from datetime import datetime, timezone
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import xarray as xr
+
+from spfem_core import __version__
+from spfem_core.records import ENERGY_COLUMNS
+from workflows.output.variables import STAGE_FILE, energy_variable_name
+from workflows.study import Study
+from workflows.study.fields import specs
+
+SINGLE_RUN_NAME = "run.nc"
+
+_MONITOR_COMPONENTS = {
+    # variable: (TimeSeries field, component)
+    "monitor_ux": ("monitor_displacement_m", 0),
+    "monitor_uy": ("monitor_displacement_m", 1),
+    "monitor_vx": ("monitor_velocity_m_s", 0),
+    "monitor_vy": ("monitor_velocity_m_s", 1),
+    "monitor_sxx": ("monitor_stress_pa", 0),
+    "monitor_syy": ("monitor_stress_pa", 1),
+    "monitor_szz": ("monitor_stress_pa", 2),
+    "monitor_sxy": ("monitor_stress_pa", 3),
+}
+
+_PARTICLE_COMPONENTS = {
+    # variable: (field of the simulation's NodeState, component)
+    "particle_x": ("xy_m", 0),
+    "particle_y": ("xy_m", 1),
+    "particle_ux": ("displacement_m", 0),
+    "particle_uy": ("displacement_m", 1),
+    "particle_vx": ("velocity_m_s", 0),
+    "particle_vy": ("velocity_m_s", 1),
+    "particle_sxx": ("stress_pa", 0),
+    "particle_syy": ("stress_pa", 1),
+    "particle_szz": ("stress_pa", 2),
+    "particle_sxy": ("stress_pa", 3),
+}
+
+STRESS_VARIABLES = ("particle_sxx", "particle_syy", "particle_szz", "particle_sxy")
+
+
+def result_paths(study: Study, out_dir: str | Path) -> list[Path]:
+    """Where each stage of ``study`` writes its result, in stage order."""
+    out_dir = Path(out_dir)
+    if len(study.stages) == 1:
+        return [out_dir / SINGLE_RUN_NAME]
+    return [out_dir / f"{stage.name}.nc" for stage in study.stages]
+
+
+def _attribute_value(value):
+    """A value netCDF can store as an attribute (None is left out by the caller)."""
+    if isinstance(value, bool):
+        return int(value)
+    if isinstance(value, tuple) and all(isinstance(v, str) for v in value):
+        return ", ".join(value)
+    if isinstance(value, tuple):
+        return np.array(value, dtype=np.float64).ravel()
+    return value
+
+
+def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_particles) -> xr.Dataset:
+    """The result of one stage as a dataset (nothing is written).
+
+    ``series`` is the stage's ``TimeSeries``; ``sim`` the ``Simulation`` in its final state
+    (``nodes``, ``mesh``, ``dt_s``, ``critical_dt_s``, the scene with the initial positions and
+    the material of each particle); ``monitor_particles`` the particle index of each
+    ``[[monitors]]`` entry.
+    """
+    var = STAGE_FILE
+    monitor_particles = np.asarray(monitor_particles, dtype=np.int64)
+    ds = xr.Dataset(coords={
+        "time": var["time"](np.asarray(series.time_s, dtype=np.float64)),
+        "monitor": var["monitor"](np.array([m.name for m in study.monitors], dtype=str)),
+    })
+    initial_xy = sim.initial_xy_m
+    ds["monitor_particle"] = var["monitor_particle"](monitor_particles)
+    ds["monitor_x0"] = var["monitor_x0"](initial_xy[monitor_particles, 0])
+    ds["monitor_y0"] = var["monitor_y0"](initial_xy[monitor_particles, 1])
+    for name, (field, component) in _MONITOR_COMPONENTS.items():
+        ds[name] = var[name](np.asarray(getattr(series, field), dtype=np.float64)[:, :, component].T)
+    energy = np.asarray(series.energy_j_per_m, dtype=np.float64)
+    for column, energy_name in enumerate(ENERGY_COLUMNS):
+        name = energy_variable_name(energy_name)
+        ds[name] = var[name](energy[:, column])
+    ds["max_displacement"] = var["max_displacement"](np.asarray(series.max_displacement_m, dtype=np.float64))
+
+    for name, (field, component) in _PARTICLE_COMPONENTS.items():
+        ds[name] = var[name](np.asarray(getattr(sim.nodes, field), dtype=np.float64)[:, component])
+    ds["particle_x0"] = var["particle_x0"](np.asarray(initial_xy[:, 0]))
+    ds["particle_y0"] = var["particle_y0"](np.asarray(initial_xy[:, 1]))
+    ds["particle_plastic_strain"] = var["particle_plastic_strain"](np.asarray(sim.nodes.plastic_strain, dtype=np.float64))
+    ds["particle_area"] = var["particle_area"](np.asarray(sim.node_area_m2, dtype=np.float64))
+    ds["particle_mass"] = var["particle_mass"](np.asarray(sim.nodes.mass_kg, dtype=np.float64))
+    material_names = sim.scene.materials.name
+    ds["particle_material"] = var["particle_material"](
+        np.asarray(sim.scene.node_material, dtype=np.int64),
+        flag_values=np.arange(len(material_names), dtype=np.int64), flag_meanings=" ".join(material_names),
+    )
+    ds["mesh2d"] = var["mesh2d"](
+        np.int32(0), cf_role="mesh_topology", topology_dimension=2, node_coordinates="particle_x particle_y",
+        node_dimension="particle", face_node_connectivity="mesh2d_face_nodes", face_dimension="face",
+    )
+    ds["mesh2d_face_nodes"] = var["mesh2d_face_nodes"](
+        np.asarray(sim.mesh.elem_nodes, dtype=np.int64), cf_role="face_node_connectivity", start_index=0,
+    )
+    for name in ("particle_x", "particle_y"):
+        ds[name].attrs.update(mesh="mesh2d", location="node")
+    ds.attrs = global_attributes(study, stage_index, series, sim)
+    return ds
+
+
+def particle_stress(ds: xr.Dataset) -> np.ndarray:
+    """The final particle stresses of a result dataset as (n, 4) xx, yy, zz, xy in Pa."""
+    return np.stack([ds[name].values for name in STRESS_VARIABLES], axis=1)
+
+
+def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
+    """Provenance and counters of one stage run (``variables.STAGE_FILE_ATTRIBUTES``)."""
+    stage = study.stages[stage_index]
+    attrs = {
+        "title": f"spfem-fos study {study.name}, stage {stage.name}",
+        "Conventions": "CF-1.11 UGRID-1.0",
+        "study_name": study.name,
+        "stage_index": stage_index,
+        "n_stages": len(study.stages),
+        "stage_name": stage.name,
+        "stage_kind": stage.kind,
+    }
+    for field_name in specs(type(stage)):
+        value = getattr(stage, field_name)
+        if field_name == "boundary" and value is None:
+            value = tuple(b.name for b in study.boundary)  # default: every boundary
+        if field_name != "name" and value is not None:
+            attrs[f"stage_{field_name}"] = _attribute_value(value)
+    attrs.update(
+        n_particles=int(sim.n_particles),
+        n_steps=int(series.n_steps),
+        n_remesh=int(series.n_remesh),
+        wall_time_s=float(series.wall_time_s),
+        dt_s=float(sim.dt_s),
+        critical_dt_s=float(sim.critical_dt_s),
+    )
+    if series.converged is not None:
+        attrs["converged"] = int(bool(series.converged))
+        attrs["unbalanced_force_ratio"] = float(series.unbalanced_force_ratio)
+    for key, value in (series.notes or {}).items():
+        attrs["note_" + re.sub(r"\W+", "_", key).strip("_")] = str(value)
+    attrs.update(provenance(study))
+    return attrs
+
+
+def provenance(study: Study) -> dict:
+    """What every result file carries about its origin: the study text, the version, the time."""
+    return {
+        "study": study.source_text,
+        "spfem_fos_version": __version__,
+        "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+    }
+
+
+def stored_study_text(path: str | Path) -> str | None:
+    """The ``study`` attribute of a result file, or None if the file is missing or unreadable."""
+    try:
+        with netCDF4.Dataset(path) as nc:
+            return nc.getncattr("study")
+    except (OSError, AttributeError, RuntimeError):
+        return None
+
+
+def is_up_to_date(path: str | Path, study: Study) -> bool:
+    """True if ``path`` is a finished result of exactly this study text."""
+    return Path(path).is_file() and stored_study_text(path) == study.source_text

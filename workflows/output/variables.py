@@ -1,0 +1,194 @@
+"""Every variable and attribute of the result files, declared once.
+
+Each declaration gives the name, the dimensions, the units (a CF/UDUNITS string: "m",
+"m s-1", "J m-1", "kg m-1", "m2", "degree"; "1" for a dimensionless number or a label) and
+the long name.  The datasets take their netCDF attributes from here (``STAGE_FILE["time"](values)``
+gives the (dims, values, attrs) of an xarray variable) and ``docs/result-files.md`` is
+generated from the same tables (:mod:`workflows.output.reference`).
+
+Files:
+
+- ``STAGE_FILE``: a stage's result (``run.nc``, ``<stage>.nc``, ``gravity.nc``, ``srf_<F>.nc``):
+  monitor histories over ``time``, energies, the final particle state and its UGRID mesh;
+- ``COLLAPSE_METRICS``: added to the last stage's file of a study with ``[metrics]``;
+- ``SUMMARY_FILE``: ``summary.nc`` of a strength-reduction study, one row per SRF run and the FOS.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from spfem_core.records import ENERGY_COLUMNS
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One netCDF variable: name, dimensions, units (UDUNITS), long name."""
+
+    name: str
+    dims: tuple[str, ...]
+    units: str
+    long_name: str
+
+    def attrs(self, **extra) -> dict:
+        """The netCDF attributes: units, long_name and ``extra``."""
+        return {"units": self.units, "long_name": self.long_name, **extra}
+
+    def __call__(self, values, **extra) -> tuple:
+        """(dims, values, attrs): what an xarray Dataset takes for a variable."""
+        return self.dims, values, self.attrs(**extra)
+
+
+@dataclass(frozen=True)
+class Attribute:
+    """One global (or variable) attribute: its name and what it holds."""
+
+    name: str
+    meaning: str
+
+
+def _table(*variables: Variable) -> dict[str, Variable]:
+    return {v.name: v for v in variables}
+
+
+_ENERGY_LONG_NAMES = {
+    "kinetic": "total kinetic energy per metre of out-of-plane thickness",
+    "strain": "elastic strain energy per metre of thickness",
+    "gravity_potential": "gravitational potential energy per metre of thickness, relative to the stage start",
+    "damping_dissipated": "energy removed by local damping since the stage start, per metre of thickness",
+    "stabilisation_dissipated": "energy removed by the stabilisation since the stage start, per metre of thickness",
+    "plastic_dissipated": "energy dissipated by plastic flow since the stage start, per metre of thickness",
+    "contact_dissipated": "kinetic energy removed by the rigid walls since the stage start, per metre of thickness",
+}
+
+
+def energy_variable_name(column: str) -> str:
+    """The result variable of energy column ``column`` (``records.ENERGY_COLUMNS``)."""
+    return "kinetic_energy" if column == "kinetic" else f"energy_{column}"
+
+
+_MONITOR = ("monitor", "time")
+
+STAGE_FILE = _table(
+    Variable("time", ("time",), "s", "time since the start of the stage"),
+    Variable("monitor", ("monitor",), "1", "monitor name, as given in the study"),
+    Variable("monitor_particle", ("monitor",), "1",
+             "index of the particle nearest to the monitor point, followed by the monitor"),
+    Variable("monitor_x0", ("monitor",), "m", "initial x of the monitored particle"),
+    Variable("monitor_y0", ("monitor",), "m", "initial y of the monitored particle"),
+    Variable("monitor_ux", _MONITOR, "m", "x displacement of the monitored particle"),
+    Variable("monitor_uy", _MONITOR, "m", "y displacement of the monitored particle"),
+    Variable("monitor_vx", _MONITOR, "m s-1", "x velocity of the monitored particle"),
+    Variable("monitor_vy", _MONITOR, "m s-1", "y velocity of the monitored particle"),
+    Variable("monitor_sxx", _MONITOR, "Pa", "stress xx at the monitored particle (tension positive)"),
+    Variable("monitor_syy", _MONITOR, "Pa", "stress yy at the monitored particle (tension positive)"),
+    Variable("monitor_szz", _MONITOR, "Pa", "out-of-plane stress zz at the monitored particle"),
+    Variable("monitor_sxy", _MONITOR, "Pa", "shear stress xy at the monitored particle"),
+    *(Variable(energy_variable_name(c), ("time",), "J m-1", _ENERGY_LONG_NAMES[c]) for c in ENERGY_COLUMNS),
+    Variable("max_displacement", ("time",), "m", "largest displacement magnitude of any particle"),
+    Variable("particle_x", ("particle",), "m", "x of the particle at the end of the stage"),
+    Variable("particle_y", ("particle",), "m", "y of the particle at the end of the stage"),
+    Variable("particle_ux", ("particle",), "m", "x displacement of the particle during the stage"),
+    Variable("particle_uy", ("particle",), "m", "y displacement of the particle during the stage"),
+    Variable("particle_vx", ("particle",), "m s-1", "x velocity of the particle at the end of the stage"),
+    Variable("particle_vy", ("particle",), "m s-1", "y velocity of the particle at the end of the stage"),
+    Variable("particle_sxx", ("particle",), "Pa", "stress xx at the particle (tension positive)"),
+    Variable("particle_syy", ("particle",), "Pa", "stress yy at the particle (tension positive)"),
+    Variable("particle_szz", ("particle",), "Pa", "out-of-plane stress zz at the particle"),
+    Variable("particle_sxy", ("particle",), "Pa", "shear stress xy at the particle"),
+    Variable("particle_x0", ("particle",), "m", "initial x of the particle"),
+    Variable("particle_y0", ("particle",), "m", "initial y of the particle"),
+    Variable("particle_plastic_strain", ("particle",), "1",
+             "equivalent plastic strain, sum of sqrt(2/3 de_p:de_p) since the start"),
+    Variable("particle_area", ("particle",), "m2", "smoothing-cell area of the particle on the final mesh"),
+    Variable("particle_mass", ("particle",), "kg m-1", "particle mass per metre of thickness (fixed at the start)"),
+    Variable("particle_material", ("particle",), "1",
+             "material of the particle (row of [[materials]]; flag_meanings holds the names)"),
+    Variable("mesh2d", (), "1", "triangle mesh of the particles at the end of the stage (UGRID mesh topology)"),
+    Variable("mesh2d_face_nodes", ("face", "three"), "1",
+             "particles at the corners of each triangle, counter-clockwise (start_index 0)"),
+)
+
+STAGE_FILE_ATTRIBUTES = (
+    Attribute("study", "the full text of the study file that made the result"),
+    Attribute("spfem_fos_version", "version of spfem-fos"),
+    Attribute("created_utc", "when the file was written (UTC, ISO 8601)"),
+    Attribute("study_name, stage_name, stage_kind, stage_index, n_stages", "which stage of which study"),
+    Attribute("stage_<field>", "each setting of the stage, e.g. stage_duration_s"),
+    Attribute("n_particles, n_steps, n_remesh", "particles, explicit steps and mesh rebuilds of the stage"),
+    Attribute("wall_time_s", "wall time of the stage (s)"),
+    Attribute("dt_s, critical_dt_s", "time step at the end of the stage and the critical step of the last mesh (s)"),
+    Attribute("converged, unbalanced_force_ratio", "relaxation stages: whether the tolerance was reached, and the "
+              "ratio |f_unbalanced| / |m g| at the last step"),
+    Attribute("note_<topic>", "what the run skipped or cut short, e.g. note_stabilisation = \"off (beta = 0): bond "
+              "loop skipped\", note_early_stop"),
+    Attribute("srf, status, status_reason, run_<scalar>", "SRF run files: the factor, the run's verdict and why, "
+              "and its scalars as in summary.nc"),
+    Attribute("gravity_key, run_key", "FOS studies: hashes of what shaped the gravity state and the run; a rerun "
+              "reuses files whose key matches"),
+)
+
+COLLAPSE_METRICS = _table(
+    Variable("final_wall_height_m", (), "m", "granular: height of the deposit at the wall (max y with x < h)"),
+    Variable("runout_2mm_m", (), "m", "granular: runout, where the deposit first thins below 2 mm"),
+    Variable("runout_5mm_m", (), "m", "granular: runout, where the deposit first thins below 5 mm"),
+    Variable("runout_10mm_m", (), "m", "granular: runout, where the deposit first thins below 10 mm"),
+    Variable("surface_rms_error_m", (), "m",
+             "granular: RMS error of the final surface against the Bui et al. (2008) experiment"),
+    Variable("surface_slope_deg", (), "degree", "granular: slope of the final surface over x = 0.02-0.20 m"),
+    Variable("failure_line_angle_deg", (), "degree",
+             "granular: angle from horizontal of the line between moved and unmoved material"),
+    Variable("failure_line_base_x_m", (), "m", "granular: where that line meets the base"),
+    Variable("back_scarp_x_m", (), "m", "cohesive: initial x of the back scarp (first moved particle on the top)"),
+    Variable("crest_height_m", (), "m", "cohesive: height of the final crest"),
+    Variable("toe_x_m", (), "m", "cohesive: toe, where the deposit thins below toe_thickness_m"),
+    Variable("plastic_zone_area_m2", (), "m2",
+             "cohesive: area of the particles whose plastic strain exceeds plastic_strain_threshold"),
+    Variable("moved_threshold_m", (), "m", "a particle whose displacement exceeds this has moved"),
+    Variable("plastic_strain_threshold", (), "1", "cohesive: plastic strain that counts as the plastic zone"),
+    Variable("toe_thickness_m", (), "m", "cohesive: deposit thickness that defines the toe (2 h)"),
+    Variable("surface_x", ("surface",), "m", "x of the free-surface point"),
+    Variable("surface_height", ("surface",), "m", "free-surface height (upper envelope of the particles)"),
+)
+
+SUMMARY_FILE = _table(
+    Variable("srf", ("srf",), "1", "strength reduction factor F"),
+    Variable("max_displacement", ("srf",), "m", "largest displacement of any particle during the run"),
+    Variable("final_kinetic_energy", ("srf",), "J m-1", "kinetic energy at the end of the run, per metre of thickness"),
+    Variable("status", ("srf",), "1", "verdict of the run: stable, failed or diverged"),
+    Variable("status_reason", ("srf",), "1", "why the run got its verdict"),
+    Variable("stop_time", ("srf",), "s", "simulated time reached (early stop: < duration)"),
+    Variable("wall_time", ("srf",), "s", "wall time of the run on its worker"),
+    Variable("run_start", ("srf",), "s",
+             "wall clock when the run started on its worker, since the command started (NaN: reused run)"),
+    Variable("run_end", ("srf",), "s",
+             "wall clock when the run ended on its worker, since the command started (NaN: reused run)"),
+    Variable("n_steps", ("srf",), "1", "explicit steps of the run"),
+    Variable("curvature", ("srf",), "1",
+             "curvature of the SRF-displacement curve (normalised axes, log10 displacement; NaN at the ends)"),
+    Variable("fos", (), "1",
+             "factor of safety: middle of the bracket around the knee of the SRF-displacement curve (NaN: none)"),
+)
+
+FOS_ATTRIBUTES = (
+    Attribute("fos_low, fos_high", "the FOS bracket: the steepest rise of the displacement after the knee"),
+    Attribute("knee_srf", "SRF of maximum curvature of the sweep"),
+    Attribute("criterion", "how the FOS was found, or why there is none"),
+    Attribute("second_criterion", "the runs' verdicts, the second criterion"),
+    Attribute("status_fos_low, status_fos_high", "the bracket from the verdicts: highest stable and lowest failed SRF"),
+    Attribute("criteria_agree", "1 when the two brackets overlap within fos_tolerance"),
+    Attribute("verdict", "the report's one-line verdict"),
+)
+
+SUMMARY_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file"),
+    Attribute("n_particles", "particles of the slope"),
+    Attribute("fos_tolerance, displacement_floor_m", "the search's tolerance and the floor of the log-scale curve"),
+    Attribute("search_stop", "why the search stopped"),
+    Attribute("srf_not_run, srf_not_run_reason", "SRF values the search skipped or cancelled, and why"),
+    Attribute("gravity_reused", "1 when the gravity state came from an earlier invocation"),
+    Attribute("runs_started_ahead, runs_started_ahead_used",
+              "runs guessed on idle workers ahead of the search, and how many the search then asked for"),
+    Attribute("time_<part>_s", "wall time of gravity, srf_runs_elapsed, srf_runs_worker (summed over workers), "
+              "remeshing, io and total (s)"),
+)

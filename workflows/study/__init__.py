@@ -1,0 +1,25 @@
+"""The study file: one TOML file that describes a simulation, checked before anything runs.
+
+- :mod:`workflows.study.fields`: how a field is declared, checked and documented;
+- :mod:`workflows.study.tables`: the tables of a study file and the whole :class:`Study`;
+- :mod:`workflows.study.reading`: TOML text to a checked :class:`Study` (:func:`load_study`);
+- :mod:`workflows.study.reference`: the JSON schema and the study-file reference page, both
+  generated from the declarations.
+"""
+
+from workflows.study.fields import StudyError
+from workflows.study.reading import load_study, parse_study
+from workflows.study.tables import (
+    DEFAULT_CFL,
+    DynamicStage,
+    Metrics,
+    RelaxationStage,
+    StageBase,
+    StrengthReductionStage,
+    Study,
+)
+
+__all__ = [
+    "DEFAULT_CFL", "DynamicStage", "Metrics", "RelaxationStage", "StageBase", "StrengthReductionStage", "Study",
+    "StudyError", "load_study", "parse_study",
+]

@@ -1,0 +1,366 @@
+"""How a study-file field is declared, checked and converted: the kit the tables are made of.
+
+Every field is declared once, on the frozen dataclass of its table, with its type, unit,
+default, bounds and documentation (``number``, ``integer``, ``text``, ``point``, ``polygon``,
+``table``, ``tables`` below).  From that one declaration come the checks (a :class:`Record`
+checks its declared fields on construction and raises :class:`StudyError` with a one-line
+message ``<field path>: <problem>``), the JSON schema and the study-file reference
+(``workflows.study.reference``).  Units are UDUNITS strings ("m", "m s-1", "kg m-3",
+"degree"; "1" for a dimensionless number), as in the result files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import re
+from dataclasses import dataclass
+from typing import Any
+
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
+"""Names of studies, stages, materials, boundaries and monitors: they become folder,
+file and coordinate names, so letters, digits, ``_``, ``.`` and ``-`` only."""
+
+REQUIRED = dataclasses.MISSING
+
+
+class StudyError(ValueError):
+    """A study file that cannot be run; ``str()`` is one line ``<field>: <problem>``."""
+
+    def __init__(self, field: str, problem: str):
+        self.field = field
+        self.problem = " ".join(str(problem).split())
+        super().__init__(f"{field}: {self.problem}" if field else self.problem)
+
+
+# ---------------------------------------------------------------------------------------
+# How a field is declared
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Spec:
+    """How one field of a study file is written, checked and documented.
+
+    ``type`` is one of ``number`` (a float; an integer is accepted, a boolean is not),
+    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``table``
+    (one nested table, class ``of``) or ``tables`` (an array of tables: ``of`` is a
+    class, or a dict from the value of the ``key`` field to a class).
+    """
+
+    type: str
+    unit: str = ""
+    doc: str = ""
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    choices: tuple[str, ...] = ()
+    pattern: str | None = None
+    of: Any = None
+    key: str | None = None
+    key_doc: str = ""
+    min_items: int = 0
+
+    @property
+    def bounds(self) -> list[tuple[str, float]]:
+        """The bounds that apply, as (operator, value) pairs."""
+        pairs = [(">", self.gt), (">=", self.ge), ("<", self.lt), ("<=", self.le)]
+        return [(op, value) for op, value in pairs if value is not None]
+
+    @property
+    def variants(self) -> dict[str, type]:
+        """For ``tables`` with a ``key``: kind -> dataclass; otherwise {}."""
+        return dict(self.of) if isinstance(self.of, dict) else {}
+
+
+def _declare(spec: Spec, default=REQUIRED, default_factory=REQUIRED):
+    return dataclasses.field(default=default, default_factory=default_factory, metadata={"spec": spec})
+
+
+def number(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
+    """A finite float field (``unit`` "1" for a dimensionless number)."""
+    return _declare(Spec("number", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
+
+
+def integer(doc, *, default=REQUIRED, ge=None, le=None):
+    """An integer field."""
+    return _declare(Spec("integer", "1", doc, ge=ge, le=le), default)
+
+
+def text(doc, *, default=REQUIRED, choices=(), pattern=None):
+    """A string field, optionally limited to ``choices`` or a regular expression."""
+    return _declare(Spec("text", "", doc, choices=tuple(choices), pattern=pattern), default)
+
+
+def boolean(doc, *, default=REQUIRED):
+    """A true/false field."""
+    return _declare(Spec("boolean", "", doc), default)
+
+
+def names(doc, *, default=REQUIRED):
+    """A list of names (of other entries of the study), e.g. ["base", "left"]."""
+    return _declare(Spec("names", "", doc), default)
+
+
+def name_field(doc):
+    """A required name made of letters, digits, ``_``, ``.`` and ``-``."""
+    return text(doc, pattern=NAME_PATTERN)
+
+
+def point(unit, doc, *, default=REQUIRED):
+    """A pair of numbers [x, y]."""
+    return _declare(Spec("point", unit, doc), default)
+
+
+def polygon(unit, doc, *, default=REQUIRED):
+    """A simple polygon [[x, y], ...]: at least 3 vertices, non-zero area, no crossing edges."""
+    return _declare(Spec("polygon", unit, doc), default)
+
+
+def table(of: type, *, required: bool = True):
+    """A nested table ``[name]`` described by the dataclass ``of`` (its docstring documents it);
+    not ``required``: an absent table takes every default of ``of``."""
+    spec = Spec("table", doc=_first_line(of.__doc__), of=of)
+    return _declare(spec) if required else _declare(spec, default_factory=of)
+
+
+def optional_table(of: type):
+    """A nested table ``[name]`` that is None when absent (what it describes does not happen)."""
+    return _declare(Spec("table", doc=_first_line(of.__doc__), of=of), default=None)
+
+
+def tables(of, doc, *, key=None, key_doc="", min_items=0):
+    """An array of tables ``[[name]]``; entries need unique ``name`` fields.
+
+    ``of`` is a dataclass, or with ``key`` a dict from the value of that field to the
+    dataclass of that kind of entry.
+    """
+    spec = Spec("tables", doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items)
+    return _declare(spec, default=() if min_items == 0 else REQUIRED)
+
+
+def specs(cls) -> dict[str, Spec]:
+    """The declared fields of a study dataclass, in order (undeclared fields excluded)."""
+    return {f.name: f.metadata["spec"] for f in dataclasses.fields(cls) if "spec" in f.metadata}
+
+
+def field_default(cls, field_name: str):
+    """The default of a declared field: a value, or ``REQUIRED``."""
+    f = next(f for f in dataclasses.fields(cls) if f.name == field_name)
+    if f.default is not REQUIRED:
+        return f.default
+    if f.default_factory is not REQUIRED:
+        return f.default_factory()
+    return REQUIRED
+
+
+def _first_line(doc: str | None) -> str:
+    return (doc or "").strip().splitlines()[0] if doc else ""
+
+
+# ---------------------------------------------------------------------------------------
+# Checking one value against its declaration
+# ---------------------------------------------------------------------------------------
+
+
+def show(value) -> str:
+    """A value as it would look in TOML, shortened for error messages."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, (list, tuple)):
+        shown = "[" + ", ".join(show(v) for v in value) + "]"
+        return shown if len(shown) <= 60 else shown[:56] + " ...]"
+    if value is None:
+        return "nothing"
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _as_number(value, what="must be a number") -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        kind = " (a boolean)" if isinstance(value, bool) else ""
+        raise ValueError(f"{what}, got {show(value)}{kind}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise ValueError(f"must be finite, got {show(value)}")
+    return x
+
+
+def _as_pair(value, what: str) -> tuple[float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ValueError(f"{what} must be a pair of numbers [x, y], got {show(value)}")
+    return (_as_number(value[0], f"{what} must be numbers"), _as_number(value[1], f"{what} must be numbers"))
+
+
+def polygon_area(vertices) -> float:
+    """Signed area (shoelace formula), positive for counter-clockwise vertices."""
+    n = len(vertices)
+    return 0.5 * sum(
+        vertices[i][0] * vertices[(i + 1) % n][1] - vertices[(i + 1) % n][0] * vertices[i][1] for i in range(n)
+    )
+
+
+def _segments_cross(p1, p2, q1, q2) -> bool:
+    """True when the closed segments p1-p2 and q1-q2 intersect."""
+
+    def orient(a, b, c):
+        value = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        return (value > 0) - (value < 0)
+
+    def on_segment(a, b, c):  # c collinear with a-b: is it between them?
+        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+
+    o1, o2, o3, o4 = orient(p1, p2, q1), orient(p1, p2, q2), orient(q1, q2, p1), orient(q1, q2, p2)
+    if o1 != o2 and o3 != o4:
+        return True
+    return (
+        (o1 == 0 and on_segment(p1, p2, q1))
+        or (o2 == 0 and on_segment(p1, p2, q2))
+        or (o3 == 0 and on_segment(q1, q2, p1))
+        or (o4 == 0 and on_segment(q1, q2, p2))
+    )
+
+
+def _as_polygon(value) -> tuple[tuple[float, float], ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"must be a list of [x, y] vertices, got {show(value)}")
+    vertices = tuple(_as_pair(v, f"vertex {i}") for i, v in enumerate(value))
+    n = len(vertices)
+    if n < 3:
+        raise ValueError(f"needs at least 3 vertices, got {n}")
+    if vertices[0] == vertices[-1]:
+        raise ValueError("the last vertex repeats the first; the polygon closes itself, leave it out")
+    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
+    extent = max(max(xs) - min(xs), max(ys) - min(ys))
+    for i in range(n):
+        for j in range(i + 1, n):
+            if j == i + 1 or (i == 0 and j == n - 1):
+                if vertices[i] == vertices[j]:
+                    raise ValueError(f"vertices {i} and {j} coincide")
+                continue
+            if _segments_cross(vertices[i], vertices[(i + 1) % n], vertices[j], vertices[(j + 1) % n]):
+                raise ValueError(f"edges {i} and {j} cross; the polygon must be simple")
+    if abs(polygon_area(vertices)) <= 1e-12 * extent**2 or extent == 0.0:
+        raise ValueError(f"has zero area: {show(value)}")
+    return vertices
+
+
+def check_value(spec: Spec, value):
+    """``value`` converted to its stored form (float, int, str, tuples); ValueError if invalid."""
+    if spec.type == "number":
+        x = _as_number(value)
+        for op, bound in spec.bounds:
+            ok = {">": x > bound, ">=": x >= bound, "<": x < bound, "<=": x <= bound}[op]
+            if not ok:
+                raise ValueError(f"must be {op} {bound:g}, got {show(value)}")
+        return x
+    if spec.type == "integer":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"must be an integer, got {show(value)}")
+        for op, bound in spec.bounds:
+            if not {">=": value >= bound, "<=": value <= bound}[op]:
+                raise ValueError(f"must be {op} {bound:g}, got {value}")
+        return value
+    if spec.type == "text":
+        if not isinstance(value, str):
+            raise ValueError(f"must be a string, got {show(value)}")
+        if spec.choices and value not in spec.choices:
+            raise ValueError(f"must be one of {', '.join(map(show, spec.choices))}, got {show(value)}")
+        if spec.pattern and not re.match(spec.pattern, value):
+            raise ValueError(
+                f"must be letters, digits, '_', '.' or '-' (not starting with '_', '.' or '-'), got {show(value)}"
+            )
+        return value
+    if spec.type == "boolean":
+        if not isinstance(value, bool):
+            raise ValueError(f"must be true or false, got {show(value)}")
+        return value
+    if spec.type == "names":
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise ValueError(f"must be a list of names, got {show(value)}")
+        if len(set(value)) != len(value):
+            raise ValueError(f"lists a name twice: {show(value)}")
+        return tuple(value)
+    if spec.type == "point":
+        if not isinstance(value, (list, tuple)) or len(value) != 2:
+            raise ValueError(f"must be a pair of numbers [x, y], got {show(value)}")
+        return (_as_number(value[0]), _as_number(value[1]))
+    if spec.type == "polygon":
+        return _as_polygon(value)
+    raise AssertionError(f"check_value does not handle {spec.type!r}")
+
+
+# ---------------------------------------------------------------------------------------
+# The tables of a study file
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, kw_only=True)
+class Record:
+    """Base of every table: declared fields are checked and converted on construction.
+
+    Subclasses add cross-field rules in :meth:`check`, raising ``StudyError(field, problem)``
+    with ``field`` relative to the table.
+    """
+
+    def __post_init__(self):
+        for field_name, spec in specs(type(self)).items():
+            value = getattr(self, field_name)
+            if value is None and field_default(type(self), field_name) is None:
+                continue
+            try:
+                if spec.type == "table":
+                    if not isinstance(value, spec.of):
+                        raise ValueError(f"must be a {spec.of.__name__}, got {show(value)}")
+                elif spec.type == "tables":
+                    value = self._check_entries(field_name, spec, tuple(value))
+                else:
+                    value = check_value(spec, value)
+            except ValueError as error:
+                if isinstance(error, StudyError):
+                    raise
+                raise StudyError(field_name, str(error)) from None
+            object.__setattr__(self, field_name, value)
+        self.check()
+
+    @staticmethod
+    def _check_entries(field_name: str, spec: Spec, entries: tuple) -> tuple:
+        allowed = tuple(spec.variants.values()) or (spec.of,)
+        for i, entry in enumerate(entries):
+            if not isinstance(entry, allowed):
+                raise StudyError(f"{field_name}[{i}]", f"must be a table, got {show(entry)}")
+        if len(entries) < spec.min_items:
+            raise StudyError(field_name, f"needs at least {spec.min_items} [[{field_name}]] entry, got {len(entries)}")
+        seen: dict[str, int] = {}
+        for i, entry in enumerate(entries):
+            if entry.name in seen:
+                also = f"{field_name}[{seen[entry.name]}]"
+                raise StudyError(f"{field_name}[{i}].name", f"duplicate name {show(entry.name)} (also {also})")
+            seen[entry.name] = i
+        return entries
+
+    def check(self) -> None:
+        """Cross-field rules of this table (none by default)."""
+
+
+def point_in_polygon(xy, vertices) -> bool:
+    """True when ``xy`` is inside the polygon or on its boundary (relative tolerance 1e-9)."""
+    x, y = xy
+    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
+    tol = 1e-9 * max(max(xs) - min(xs), max(ys) - min(ys))
+    n = len(vertices)
+    inside = False
+    for i in range(n):
+        (x1, y1), (x2, y2) = vertices[i], vertices[(i + 1) % n]
+        dx, dy = x2 - x1, y2 - y1
+        t = min(1.0, max(0.0, ((x - x1) * dx + (y - y1) * dy) / (dx * dx + dy * dy)))
+        if math.hypot(x - (x1 + t * dx), y - (y1 + t * dy)) <= tol:
+            return True
+        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * dx / dy:
+            inside = not inside
+    return inside

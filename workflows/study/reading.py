@@ -1,0 +1,96 @@
+"""Reading a study file: TOML text to a checked :class:`~workflows.study.tables.Study`.
+
+A study file is data only: it is read with :mod:`tomllib` and never executes code.  Unknown
+fields, missing required ones and values a declaration refuses raise :class:`StudyError` with
+the path of the field (``stages[1].duration_s``), before anything runs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import re
+import tomllib
+from pathlib import Path
+
+from workflows.study.fields import REQUIRED, Spec, StudyError, field_default, show, specs
+from workflows.study.tables import Study
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path and not key.startswith("[") else f"{path}{key}"
+
+
+def _unknown(path: str, key: str, known) -> StudyError:
+    hint = difflib.get_close_matches(key, list(known), n=1)
+    problem = f"unknown field (did you mean {hint[0]!r}?)" if hint else f"unknown field (known: {', '.join(known)})"
+    return StudyError(_join(path, key), problem)
+
+
+def _build(cls, raw, path: str):
+    """An instance of the table dataclass ``cls`` from the TOML table ``raw`` at ``path``."""
+    if not isinstance(raw, dict):
+        raise StudyError(path, f"must be a table, got {show(raw)}")
+    declared = specs(cls)
+    for key in raw:
+        if key not in declared:
+            raise _unknown(path, key, declared)
+    values = {}
+    for key, spec in declared.items():
+        if key not in raw:
+            if field_default(cls, key) is REQUIRED:
+                kind = {"table": f" (a [{key}] table)", "tables": f" (at least one [[{key}]] table)"}.get(spec.type, "")
+                raise StudyError(_join(path, key), f"required field missing{kind}")
+            continue
+        value = raw[key]
+        if spec.type == "table":
+            value = _build(spec.of, value, _join(path, key))
+        elif spec.type == "tables":
+            value = _build_entries(spec, value, _join(path, key))
+        values[key] = value
+    try:
+        return cls(**values)
+    except StudyError as error:
+        raise StudyError(_join(path, error.field), error.problem) from None
+
+
+def _build_entries(spec: Spec, raw, path: str) -> tuple:
+    if not isinstance(raw, list) or not all(isinstance(entry, dict) for entry in raw):
+        raise StudyError(path, f"must be an array of tables ([[{path}]]), got {show(raw)}")
+    entries = []
+    for i, entry in enumerate(raw):
+        where = f"{path}[{i}]"
+        cls = spec.of
+        if spec.key is not None:
+            if spec.key not in entry:
+                raise StudyError(f"{where}.{spec.key}", "required field missing")
+            kind = entry[spec.key]
+            if kind not in spec.variants:
+                choices = ", ".join(map(show, spec.variants))
+                raise StudyError(f"{where}.{spec.key}", f"must be one of {choices}, got {show(kind)}")
+            cls = spec.variants[kind]
+            entry = {k: v for k, v in entry.items() if k != spec.key}
+        entries.append(_build(cls, entry, where))
+    return tuple(entries)
+
+
+_TOML_POSITION = re.compile(r"^(?P<problem>.*?)\s*\(at line (?P<line>\d+), column (?P<column>\d+)\)$")
+
+
+def parse_study(toml_text: str) -> Study:
+    """The :class:`Study` written in ``toml_text``; :class:`StudyError` if it is not valid."""
+    try:
+        raw = tomllib.loads(toml_text)
+    except tomllib.TOMLDecodeError as error:
+        match = _TOML_POSITION.match(str(error))
+        if match:
+            raise StudyError(f"line {match['line']}, column {match['column']}", match["problem"]) from None
+        raise StudyError("toml", str(error)) from None
+    study = _build(Study, raw, "")
+    return dataclasses.replace(study, source_text=toml_text)
+
+
+def load_study(path: str | Path) -> Study:
+    """The study in the TOML file ``path`` (OSError if unreadable, StudyError if invalid)."""
+    return parse_study(Path(path).read_text(encoding="utf-8"))
+

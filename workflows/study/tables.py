@@ -1,0 +1,401 @@
+"""The tables of a study file, one frozen dataclass each, and the whole :class:`Study`.
+
+Arrays of tables whose entries come in kinds (``[[stages]]`` with ``kind``,
+``[[materials]]`` with ``model``) map each kind to its own dataclass, so a new kind
+(a ``drucker_prager`` material, a ``strength_reduction`` stage) is one more class.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar
+
+from workflows.study.fields import (
+    Record,
+    StudyError,
+    boolean,
+    integer,
+    name_field,
+    names,
+    number,
+    optional_table,
+    point,
+    point_in_polygon,
+    polygon,
+    table,
+    tables,
+    text,
+)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyInfo(Record):
+    """What the study is: its name (the default output folder) and a description."""
+
+    name: str = name_field("name of the study; the default output folder is `./<name>`")
+    description: str = text("free text: what the study reproduces and why", default="")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Geometry(Record):
+    """The domain and its particle cloud: a polygon filled with particles at spacing h."""
+
+    polygon_m: tuple = polygon("m", "outline of the domain, [[x, y], ...], either orientation, not closed")
+    spacing_m: float = number("m", "particle spacing h of the lattice clipped to the polygon", gt=0.0)
+    jitter: float = number(
+        "1", "random offset of interior particles, as a fraction of h", default=0.0, ge=0.0, lt=0.5
+    )
+    seed: int = integer("seed of the random jitter", default=0, ge=0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MaterialBase(Record):
+    """Fields shared by every material model."""
+
+    model: ClassVar[str]
+    name: str = name_field("name of the material")
+    density_kg_m3: float = number("kg m-3", "mass density rho", gt=0.0)
+    youngs_modulus_pa: float = number("Pa", "Young's modulus E", gt=0.0)
+    poisson_ratio: float = number("1", "Poisson's ratio nu", ge=0.0, lt=0.5)
+    region_m: tuple | None = polygon(
+        "m", "polygon of the particles that get this material; default: the whole domain; "
+        "later materials override earlier ones", default=None
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class ElasticMaterial(MaterialBase):
+    """Linear elastic, plane strain."""
+
+    model: ClassVar[str] = "elastic"
+
+
+@dataclass(frozen=True, kw_only=True)
+class StrengthMixin(Record):
+    """Shear strength (c, phi, psi) of a perfectly plastic material."""
+
+    cohesion_pa: float = number("Pa", "cohesion c", ge=0.0)
+    friction_deg: float = number("degree", "friction angle phi", ge=0.0, lt=90.0)
+    dilation_deg: float = number("degree", "dilation angle psi (<= phi); 0: no plastic volume change", default=0.0, ge=0.0)
+
+    def check(self):
+        if self.dilation_deg > self.friction_deg:
+            raise StudyError("dilation_deg", f"must be <= friction_deg = {self.friction_deg:g}, got {self.dilation_deg:g}")
+        if self.cohesion_pa == 0.0 and self.friction_deg == 0.0:
+            raise StudyError("cohesion_pa", "a material with c = 0 and phi = 0 has no strength")
+
+
+DP_FIT_CHOICES = ("mohr_coulomb_match", "inner", "outer", "plane_strain_associated", "plane_strain_nonassociated")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DruckerPragerMaterial(StrengthMixin, MaterialBase):
+    """Drucker-Prager, perfectly plastic, plane strain; the fit sets its match to Mohr-Coulomb."""
+
+    model: ClassVar[str] = "drucker_prager"
+    dp_fit: str = text(
+        "cone fitted to Mohr-Coulomb: `mohr_coulomb_match` picks the plane-strain fit that reproduces "
+        "Mohr-Coulomb at collapse for the given dilation; `inner` is ESPFEM2D's",
+        default="mohr_coulomb_match", choices=DP_FIT_CHOICES,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class MohrCoulombMaterial(StrengthMixin, MaterialBase):
+    """Mohr-Coulomb, perfectly plastic, plane strain (return map in principal stresses)."""
+
+    model: ClassVar[str] = "mohr_coulomb"
+
+
+MATERIAL_MODELS: dict[str, type[MaterialBase]] = {
+    "elastic": ElasticMaterial,
+    "drucker_prager": DruckerPragerMaterial,
+    "mohr_coulomb": MohrCoulombMaterial,
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Loads(Record):
+    """Body forces applied from the start of the first stage."""
+
+    gravity_m_s2: tuple = point("m s-2", "gravitational acceleration [gx, gy]", default=(0.0, -9.81))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Boundary(Record):
+    """Prescribed velocity on the particles initially inside a box (closed, tolerance h/1000).
+
+    A missing bound leaves the box open on that side; a missing velocity leaves that
+    direction free (vx = 0 alone is a roller).
+    """
+
+    name: str = name_field("name of the boundary condition")
+    x_min_m: float | None = number("m", "left side of the box; default: unbounded", default=None)
+    x_max_m: float | None = number("m", "right side of the box; default: unbounded", default=None)
+    y_min_m: float | None = number("m", "bottom of the box; default: unbounded", default=None)
+    y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
+    vx_m_s: float | None = number("m s-1", "prescribed x velocity; default: free", default=None)
+    vy_m_s: float | None = number("m s-1", "prescribed y velocity; default: free", default=None)
+
+    def check(self):
+        if self.vx_m_s is None and self.vy_m_s is None:
+            raise StudyError("vx_m_s", "give vx_m_s, vy_m_s or both (a boundary must prescribe something)")
+        for axis in "xy":
+            low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
+            if low is not None and high is not None and low > high:
+                raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Wall(Record):
+    """A rigid wall: a straight segment with Coulomb friction; material lies on its left
+    when going from start to end (a floor runs in +x)."""
+
+    name: str = name_field("name of the wall")
+    start_m: tuple = point("m", "first end of the segment [x, y]")
+    end_m: tuple = point("m", "second end of the segment [x, y]")
+    friction: float = number("1", "Coulomb friction coefficient mu (0: frictionless)", default=0.0, ge=0.0)
+
+    def check(self):
+        if self.start_m == self.end_m:
+            raise StudyError("end_m", "must differ from start_m (a wall needs a length)")
+
+
+DEFAULT_CFL = 0.5
+
+
+@dataclass(frozen=True, kw_only=True)
+class Solver(Record):
+    """Numerical settings: time step, stabilisation and the alpha-shape of the mesh."""
+
+    cfl: float | None = number(
+        "1", f"time step as a fraction of the critical step; default {DEFAULT_CFL} when dt_s is not given",
+        default=None, gt=0.0, le=1.0,
+    )
+    dt_s: float | None = number(
+        "s", "fixed time step instead of cfl; refused if above the critical step", default=None, gt=0.0
+    )
+    stabilisation_beta: float = number(
+        "1", "rank-deficiency stabilisation factor beta; 0 switches it off", default=0.1, ge=0.0
+    )
+    alpha: float = number(
+        "1", "alpha-shape factor: triangles with circumradius > alpha h are dropped", default=1.5, ge=1.0, le=3.0
+    )
+    remesh_min_angle_deg: float = number(
+        "degree", "rebuild the mesh when its smallest angle falls below this; after each rebuild the "
+        "threshold is the fresh mesh's smallest angle less 5 degrees (or half of it, if that is larger), "
+        "never above this", default=20.0, gt=0.0, lt=60.0,
+    )
+
+    def check(self):
+        if self.cfl is not None and self.dt_s is not None:
+            raise StudyError("dt_s", "give cfl or dt_s, not both")
+
+
+@dataclass(frozen=True, kw_only=True)
+class StageBase(Record):
+    """Fields shared by every kind of stage."""
+
+    kind: ClassVar[str]
+    duration_field: ClassVar[str]  # the field that bounds how long the stage runs
+    name: str = name_field("name of the stage; names the result file when a study has several stages")
+    record_interval_s: float = number("s", "time between two records of the monitors", gt=0.0)
+    elastic: bool = boolean("treat every material as linear elastic in this stage (a gravity stage)", default=False)
+    boundary: tuple | None = names("names of the [[boundary]] entries active in this stage; default: all", default=None)
+    start: str = text(
+        "`original_positions`: start at rest at the initial positions with the stresses the previous "
+        "stage left (displacements discarded); `continue`: carry on from the previous stage's state",
+        default="original_positions", choices=("original_positions", "continue"),
+    )
+
+    def check(self):
+        limit = getattr(self, self.duration_field)
+        if self.record_interval_s > limit:
+            problem = f"must be <= {self.duration_field} = {limit:g}, got {self.record_interval_s:g}"
+            raise StudyError("record_interval_s", problem)
+
+
+@dataclass(frozen=True, kw_only=True)
+class DynamicStage(StageBase):
+    """Explicit dynamics for a fixed duration."""
+
+    kind: ClassVar[str] = "dynamic"
+    duration_field: ClassVar[str] = "duration_s"
+    duration_s: float = number("s", "simulated time of the stage", gt=0.0)
+    damping: float = number(
+        "1", "local (Cundall) damping factor; 0 is undamped dynamics", default=0.0, ge=0.0, lt=1.0
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class RelaxationStage(StageBase):
+    """Dynamic relaxation: damped steps until the unbalanced-force ratio falls below a tolerance."""
+
+    kind: ClassVar[str] = "relaxation"
+    duration_field: ClassVar[str] = "max_duration_s"
+    max_duration_s: float = number("s", "stop here even if not converged (the result records it)", gt=0.0)
+    tolerance: float = number(
+        "1", "converged when the unbalanced-force ratio is below this", default=1e-5, gt=0.0, lt=1.0
+    )
+    damping: float = number("1", "local (Cundall) damping factor", default=0.7, gt=0.0, lt=1.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class StrengthReductionStage(StageBase):
+    """Strength reduction: one undamped run per SRF F from the previous stage's stresses, with
+    c / F and tan(phi) / F; the FOS is the knee of the SRF-displacement curve (last stage only)."""
+
+    kind: ClassVar[str] = "strength_reduction"
+    duration_field: ClassVar[str] = "duration_s"
+    duration_s: float = number("s", "simulated time of each SRF run (several response times of the slope)", gt=0.0)
+    srf_min: float = number("1", "first SRF of the sweep; below 1 tests whether the slope stands as built", gt=0.0)
+    srf_max: float = number("1", "last SRF of the sweep", gt=0.0)
+    srf_step: float = number("1", "SRF step of the first sweep (refined around the knee afterwards)", gt=0.0)
+    fos_tolerance: float = number(
+        "1", "refine until the FOS bracket is at most this wide", default=0.01, gt=0.0
+    )
+    max_runs: int = integer("never make more SRF runs than this", default=40, ge=3, le=1000)
+    failure_displacement_m: float | None = number(
+        "m", "a run whose largest displacement exceeds this has failed (and stops there when early_stop "
+        "is on); default: 10% of the height of geometry.polygon_m", default=None, gt=0.0,
+    )
+    displacement_floor_m: float | None = number(
+        "m", "displacements below this count as this in the log-scale curve (no mechanism); "
+        "default: failure_displacement_m / 1000", default=None, gt=0.0,
+    )
+    rest_window_s: float = number(
+        "s", "at rest: the largest displacement grew by less than rest_growth of itself over the last "
+        "window, and by less than over the window before", default=1.0, gt=0.0,
+    )
+    rest_growth: float = number("1", "see rest_window_s", default=0.01, gt=0.0, lt=1.0)
+    early_stop: bool = boolean("end a run once it is at rest or past failure_displacement_m", default=True)
+
+    def check(self):
+        super().check()
+        if self.srf_max < self.srf_min:
+            raise StudyError("srf_max", f"must be >= srf_min = {self.srf_min:g}, got {self.srf_max:g}")
+        if self.srf_step > self.srf_max - self.srf_min and self.srf_max > self.srf_min:
+            raise StudyError("srf_step", f"must be <= srf_max - srf_min = {self.srf_max - self.srf_min:g}")
+        if (self.srf_max - self.srf_min) / self.srf_step > 200:
+            raise StudyError("srf_step", "gives more than 200 sweep values; use a coarser step (the knee is refined)")
+        if self.elastic:
+            raise StudyError("elastic", "must be false: a strength-reduction stage needs a plastic material")
+        if self.start != "original_positions":
+            raise StudyError("start", "must be 'original_positions': every SRF run starts from the gravity state")
+        if 2 * self.rest_window_s > self.duration_s and self.early_stop:
+            raise StudyError("rest_window_s", f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s:g}")
+        if (
+            self.failure_displacement_m is not None
+            and self.displacement_floor_m is not None
+            and self.displacement_floor_m >= self.failure_displacement_m
+        ):
+            raise StudyError("displacement_floor_m", "must be < failure_displacement_m")
+
+
+STAGE_KINDS: dict[str, type[StageBase]] = {
+    "dynamic": DynamicStage,
+    "relaxation": RelaxationStage,
+    "strength_reduction": StrengthReductionStage,
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Monitor(Record):
+    """A point whose nearest particle is recorded (displacement, velocity, stress)."""
+
+    name: str = name_field("name of the monitor; the value of the monitor coordinate of the results")
+    x_m: float = number("m", "x of the point, inside or on the polygon")
+    y_m: float = number("m", "y of the point, inside or on the polygon")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Metrics(Record):
+    """Scalars computed from the final state of the last stage and stored in its result file."""
+
+    kind: str = text(
+        "`granular_collapse`: wall height, runouts, surface RMS error against the Bui et al. (2008) "
+        "experiment, failure-line angle; `cohesive_collapse`: back scarp, crest height, toe, plastic zone",
+        choices=("granular_collapse", "cohesive_collapse"),
+    )
+    moved_threshold_m: float = number(
+        "m", "a particle whose displacement exceeds this has moved (failure line, back scarp)", gt=0.0
+    )
+    plastic_strain_threshold: float = number(
+        "1", "equivalent plastic strain above which a particle counts in the plastic zone", default=0.01, gt=0.0
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Output(Record):
+    """What is written beside the result files."""
+
+    figures: bool = boolean(
+        "draw PNG figures (a strength-reduction study: the SRF-displacement curve and the fields at the "
+        "last stable and first failed SRF)", default=True,
+    )
+    snapshot_interval_s: float | None = number(
+        "s", "write ParaView snapshots of every stage at this interval (`OUT/paraview/<stage>_<k>.vtu` and "
+        "`<stage>.pvd`); SRF runs are not snapshotted (`python -m workflows.output.paraview OUT` gives their "
+        "final states); default: none", default=None, gt=0.0,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Study(Record):
+    """A whole study file."""
+
+    study: StudyInfo = table(StudyInfo)
+    geometry: Geometry = table(Geometry)
+    materials: tuple = tables(
+        MATERIAL_MODELS, "materials; a particle takes the last material whose region holds it",
+        key="model", key_doc="constitutive model", min_items=1,
+    )
+    loads: Loads = table(Loads, required=False)
+    boundary: tuple = tables(Boundary, "prescribed velocities (supports), applied in order")
+    walls: tuple = tables(Wall, "rigid walls (segments with friction); none: no contact work at all")
+    solver: Solver = table(Solver, required=False)
+    stages: tuple = tables(
+        STAGE_KINDS, "what to run, in order; each stage continues from the state the previous one left",
+        key="kind", key_doc="what the stage does", min_items=1,
+    )
+    monitors: tuple = tables(Monitor, "points recorded during every stage")
+    metrics: Metrics | None = optional_table(Metrics)
+    output: Output = table(Output, required=False)
+    source_text: str = dataclasses.field(default="", repr=False, compare=False)
+    """The TOML text the study was read from (stored with every result)."""
+
+    @property
+    def name(self) -> str:
+        return self.study.name
+
+    @property
+    def strength_reduction(self) -> "StrengthReductionStage | None":
+        """The strength-reduction stage (always the last), or None for a plain study."""
+        last = self.stages[-1]
+        return last if isinstance(last, StrengthReductionStage) else None
+
+    def check(self):
+        for i, stage in enumerate(self.stages):
+            if isinstance(stage, StrengthReductionStage):
+                if i != len(self.stages) - 1:
+                    raise StudyError(f"stages[{i}].kind", "a strength_reduction stage must be the last stage")
+                if i == 0:
+                    raise StudyError(
+                        f"stages[{i}].kind",
+                        "a strength_reduction stage starts from a gravity state: put a relaxation stage before it",
+                    )
+                if not any(m.model != "elastic" for m in self.materials):
+                    raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
+        if self.metrics is not None and self.strength_reduction is not None:
+            raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
+        known = {b.name for b in self.boundary}
+        for i, stage in enumerate(self.stages):
+            for name in stage.boundary or ():
+                if name not in known:
+                    raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
+        for i, monitor in enumerate(self.monitors):
+            if not point_in_polygon((monitor.x_m, monitor.y_m), self.geometry.polygon_m):
+                raise StudyError(
+                    f"monitors[{i}]", f"point ({monitor.x_m:g}, {monitor.y_m:g}) lies outside geometry.polygon_m"
+                )
