@@ -40,8 +40,8 @@ def leapfrog(
     particles touching a wall].
 
     The walls' share is minus the work of their impulse m (w - v) at the mid-step velocity
-    (v^{n-1/2} + w) / 2, the same measure leapfrog uses for every force (the kinetic energy
-    change over a step is sum m dv . (v^{n-1/2} + v^{n+1/2}) / 2).  Measuring it as
+    (v^{n-1/2} + w) / 2, the measure of a leapfrog step's kinetic energy change
+    (sum m dv . (v^{n-1/2} + v^{n+1/2}) / 2); the damping power is taken at v^{n-1/2}.  Measuring it as
     m (v^2 - w^2) / 2 instead counted m (dt f / m)^2 / 2 every step for a particle at rest
     on a floor, a loss proportional to dt that never happened.
     """

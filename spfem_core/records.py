@@ -7,7 +7,7 @@ The compiled loop writes one row every record interval of stage time into growab
     kinetic             sum_k m_k |v_k|^2 / 2
     strain              sum_k A_k w(sigma_k),  w the complementary energy density of the
                         material's elasticity (``constitutive.elastic_energy_density``)
-    gravity_potential   -sum_k m_k g . u_k   (relative to the stage start)
+    gravity_potential   -sum_k m_k g . u_k   (relative to the initial positions, see NodeState)
     *_dissipated        the work removed by damping, stabilisation, plastic flow and the
                         walls since the stage start (``dissipated`` accumulators, >= 0)
 

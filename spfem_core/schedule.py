@@ -9,8 +9,8 @@ cut to end on them.  A run is then the same on a fast or a slow machine.
 - **stop rule**: asked every ``STOP_CHECK_FRACTION`` of the stage's duration (stage time);
 - **snapshots**: every snapshot interval of stage time;
 - **landing checks**: a detached particle must be seen before it crosses the mesh, so with
-  particles outside the mesh a check comes after half a spacing of travel of the fastest
-  particle (stage steps).
+  particles outside the mesh a check comes after half a spacing of travel at the largest
+  velocity component of any particle (stage steps).
 """
 
 from __future__ import annotations

@@ -68,7 +68,8 @@ class Simulation:
     """Particle state of a scene and the stages run on it.
 
     ``nodes`` (``state.NodeState``) holds the state in SI units: current positions, the
-    displacement since the stage started, the leapfrog half-step velocity, the stress
+    displacement since the particles last left their initial positions (the first stage, or a stage
+    that starts from the original positions), the leapfrog half-step velocity, the stress
     (xx, yy, zz, xy), the equivalent plastic strain, and the masses fixed at the start
     (m_k = rho_k A_k on the first mesh).
     """

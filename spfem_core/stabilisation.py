@@ -34,7 +34,7 @@ def add_stabilisation_force(
     node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, min_bond_sq, node_force
 ):
     """Add the bond forces f_ij over every mesh edge (i, j) to node_force; return their power
-    sum f . v (W/m, <= 0)."""
+    sum f . v (W/m; negative when the bonds remove energy, as they do on a whole mesh)."""
     half_beta = 0.5 * beta
     power = 0.0
     for b in range(edge_nodes.shape[0]):

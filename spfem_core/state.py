@@ -23,7 +23,7 @@ class NodeState(NamedTuple):
     """Per-particle state, carried from step to step (and stage to stage)."""
 
     xy_m: np.ndarray  # (n, 2) current positions
-    displacement_m: np.ndarray  # (n, 2) since the stage started
+    displacement_m: np.ndarray  # (n, 2) since the particles last left their initial positions
     velocity_m_s: np.ndarray  # (n, 2) leapfrog half-step velocity
     stress_pa: np.ndarray  # (n, 4) Cauchy stress xx, yy, zz, xy
     plastic_strain: np.ndarray  # (n,) equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)

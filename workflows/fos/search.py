@@ -46,7 +46,7 @@ class RunOutcome:
 
     srf: float
     max_displacement_m: float
-    status: str  # fos_criterion.STABLE / FAILED / DIVERGED
+    status: str  # verdict.STABLE / FAILED / DIVERGED
 
 
 def sweep_values(srf_min: float, srf_max: float, srf_step: float) -> list[float]:

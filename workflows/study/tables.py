@@ -174,7 +174,7 @@ class Solver(Record):
         default=None, gt=0.0, le=1.0,
     )
     dt_s: float | None = number(
-        "s", "fixed time step instead of cfl; refused if above the critical step", default=None, gt=0.0
+        "s", "fixed time step instead of cfl; refused if above the stable step, the critical step / (1 + beta)", default=None, gt=0.0
     )
     stabilisation_beta: float = number(
         "1", "rank-deficiency stabilisation factor beta; 0 switches it off", default=0.1, ge=0.0
