@@ -27,31 +27,15 @@ from workflows.study.fields import specs
 
 SINGLE_RUN_NAME = "run.nc"
 
-_MONITOR_COMPONENTS = {
-    # variable: (TimeSeries field, component)
-    "monitor_ux": ("monitor_displacement_m", 0),
-    "monitor_uy": ("monitor_displacement_m", 1),
-    "monitor_vx": ("monitor_velocity_m_s", 0),
-    "monitor_vy": ("monitor_velocity_m_s", 1),
-    "monitor_sxx": ("monitor_stress_pa", 0),
-    "monitor_syy": ("monitor_stress_pa", 1),
-    "monitor_szz": ("monitor_stress_pa", 2),
-    "monitor_sxy": ("monitor_stress_pa", 3),
-}
-
-_PARTICLE_COMPONENTS = {
-    # variable: (field of the simulation's NodeState, component)
-    "particle_x": ("xy_m", 0),
-    "particle_y": ("xy_m", 1),
-    "particle_ux": ("displacement_m", 0),
-    "particle_uy": ("displacement_m", 1),
-    "particle_vx": ("velocity_m_s", 0),
-    "particle_vy": ("velocity_m_s", 1),
-    "particle_sxx": ("stress_pa", 0),
-    "particle_syy": ("stress_pa", 1),
-    "particle_szz": ("stress_pa", 2),
-    "particle_sxy": ("stress_pa", 3),
-}
+_VECTOR_COMPONENTS = {"displacement_m": ("ux", "uy"), "velocity_m_s": ("vx", "vy"),
+                      "stress_pa": ("sxx", "syy", "szz", "sxy")}
+"""Field of the state (``NodeState``; ``monitor_`` + field of the ``TimeSeries``) -> the suffix of
+each component's variable."""
+_MONITOR_COMPONENTS = {f"monitor_{suffix}": (f"monitor_{field}", component)
+                       for field, suffixes in _VECTOR_COMPONENTS.items() for component, suffix in enumerate(suffixes)}
+_PARTICLE_COMPONENTS = {f"particle_{suffix}": (field, component)
+                        for field, suffixes in {"xy_m": ("x", "y"), **_VECTOR_COMPONENTS}.items()
+                        for component, suffix in enumerate(suffixes)}
 
 STRESS_VARIABLES = ("particle_sxx", "particle_syy", "particle_szz", "particle_sxy")
 

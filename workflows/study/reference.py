@@ -12,7 +12,7 @@ import argparse
 import json
 import sys
 
-from workflows.study.fields import NAME_PATTERN, REQUIRED, Spec, field_default, specs
+from workflows.study.fields import NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
@@ -94,16 +94,6 @@ def json_schema() -> dict:
 # ---------------------------------------------------------------------------------------
 
 
-def _toml(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, tuple):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
-
-
 def _allowed(spec: Spec) -> str:
     if spec.choices:
         return ", ".join(f"`{c}`" for c in spec.choices)
@@ -143,7 +133,7 @@ def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str
             rows.append([f"`{entry}.{spec.key}`", "string", "", "required", kinds, spec.key_doc])
             rows += _variant_rows(spec, entry)
         else:
-            shown = "required" if default is REQUIRED else ("" if default is None else f"`{_toml(default)}`")
+            shown = "required" if default is REQUIRED else ("" if default is None else f"`{show(default)}`")
             unit = "" if spec.unit == "1" else spec.unit
             doc = f"*{only}:* {spec.doc}" if only else spec.doc
             rows.append([f"`{path}`", _type_name(spec), unit, shown, _allowed(spec), doc])
