@@ -105,13 +105,15 @@ class MaterialTable:
                 params[m] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
         return params
 
-    def with_strength_reduction(self, srf: float) -> "MaterialTable":
-        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, psi_F = min(psi, phi_F)."""
+    def with_strength_reduction(self, srf: float, associated: bool = False) -> "MaterialTable":
+        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, and
+        psi_F = min(psi, phi_F), or psi_F = phi_F with ``associated`` (normality: the flow rule
+        under which limit equilibrium and limit analysis give the factor of safety)."""
         if not srf > 0:
             raise ValueError(f"srf: must be > 0, got {srf}")
         phi_f = np.degrees(np.arctan(np.tan(np.radians(self.friction_deg)) / srf))
-        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f,
-                       dilation_deg=np.minimum(self.dilation_deg, phi_f))
+        psi_f = phi_f if associated else np.minimum(self.dilation_deg, phi_f)
+        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f, dilation_deg=psi_f)
 
     def as_elastic(self) -> "MaterialTable":
         """The same table with every material linear elastic (e.g. for a gravity stage)."""

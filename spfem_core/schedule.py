@@ -8,6 +8,7 @@ cut to end on them.  A run is then the same on a fast or a slow machine.
 
 - **stop rule**: asked every ``STOP_CHECK_FRACTION`` of the stage's duration (stage time);
 - **snapshots**: every snapshot interval of stage time;
+- **a periodic action** (e.g. a step of a strength ramp): every action interval of stage time;
 - **landing checks**: a detached particle must be seen before it crosses the mesh, so with
   particles outside the mesh a check comes after half a spacing of travel at the largest
   velocity component of any particle (stage steps).
@@ -39,7 +40,8 @@ def _due(target_s: float, stage_time_s: float, dt_s: float) -> bool:
 class StageSchedule:
     """The call lengths and the stop / snapshot / landing schedules of one stage (module doc)."""
 
-    def __init__(self, duration_s: float, n_particles: int, stop_rule: bool, snapshot_interval_s: float | None):
+    def __init__(self, duration_s: float, n_particles: int, stop_rule: bool, snapshot_interval_s: float | None,
+                 action_interval_s: float | None = None):
         self.duration_s = duration_s
         self.steps_per_call = max(10, int(WALL_SECONDS_PER_CALL / (FIRST_GUESS_S_PER_PARTICLE_STEP * max(n_particles, 1))))
         self.stop_every_s = STOP_CHECK_FRACTION * duration_s if stop_rule else None
@@ -47,6 +49,8 @@ class StageSchedule:
         self.snapshot_interval_s = snapshot_interval_s
         self.next_snapshot_s = snapshot_interval_s
         self.last_snapshot_s = 0.0
+        self.action_interval_s = action_interval_s
+        self.next_action_s = action_interval_s
         self.next_landing_step = -1  # stage step of the next landing check (-1: none scheduled)
 
     def running(self, stage_time_s: float, dt_s: float) -> bool:
@@ -61,6 +65,8 @@ class StageSchedule:
             n_want = min(n_want, _steps_until(self.next_snapshot_s, stage_time_s, dt_s))
         if self.next_stop_s is not None:
             n_want = min(n_want, _steps_until(self.next_stop_s, stage_time_s, dt_s))
+        if self.next_action_s is not None:
+            n_want = min(n_want, _steps_until(self.next_action_s, stage_time_s, dt_s))
         if self.next_landing_step >= 0:
             n_want = max(1, min(n_want, self.next_landing_step - stage_steps))
         return n_want
@@ -102,6 +108,14 @@ class StageSchedule:
         self.last_snapshot_s = stage_time_s
         while self.next_snapshot_s <= stage_time_s + 0.5 * dt_s:
             self.next_snapshot_s += self.snapshot_interval_s
+        return True
+
+    def action_due(self, stage_time_s: float, dt_s: float) -> bool:
+        """True when the periodic action is to be taken now (the next is then scheduled)."""
+        if self.next_action_s is None or not _due(self.next_action_s, stage_time_s, dt_s):
+            return False
+        while self.next_action_s <= stage_time_s + 0.5 * dt_s:
+            self.next_action_s += self.action_interval_s
         return True
 
     def final_snapshot_due(self, stage_time_s: float, dt_s: float) -> bool:

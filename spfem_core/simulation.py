@@ -47,6 +47,14 @@ kinetic_energy_j_per_m; read-only views): a reason (one line) to end the stage n
 Snapshot = tuple[float, Callable[[float], None]]
 """(interval in s, callback(stage time in s)): the callback reads the state from the simulation."""
 
+PeriodicAction = tuple[float, Callable[[float], None]]
+"""(interval in s, callback(stage time in s)) called every interval of stage time, not at the
+start or the end: it may change the simulation (a step of a strength ramp: ``set_materials``)."""
+
+
+class DetachedParticlesError(ValueError):
+    """Particles in no triangle of the first mesh (without ``allow_detached``)."""
+
 
 @dataclass
 class RunCounters:
@@ -100,7 +108,7 @@ class Simulation:
         self._initial_mesh = self.mesh
         orphans = self.mesh.orphan_nodes
         if orphans.size and not allow_detached:
-            raise ValueError(
+            raise DetachedParticlesError(
                 f"{orphans.size} particles lie in no triangle of the initial mesh (first: {orphans[:5].tolist()}); "
                 "check the spacing against the geometry or raise alpha"
             )
@@ -215,15 +223,18 @@ class Simulation:
         progress: Callable[[float], None] | None = None,
         stop: StopRule | None = None,
         snapshot: Snapshot | None = None,
+        periodic: PeriodicAction | None = None,
     ) -> TimeSeries:
         """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``.
 
         ``stop`` is asked between compiled calls whether the outcome is decided (see
         :data:`StopRule`); the stage then ends early and its notes say why.  ``snapshot``
         (interval in s, callback) is called with the stage time at its start, every interval
-        and at its end, with the state of that moment in this object.
+        and at its end, with the state of that moment in this object.  ``periodic`` (see
+        :data:`PeriodicAction`) may change the simulation every interval.
         """
-        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop, snapshot)
+        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop, snapshot,
+                           periodic)
 
     def relax(
         self,
@@ -234,11 +245,13 @@ class Simulation:
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
         snapshot: Snapshot | None = None,
+        stop: StopRule | None = None,
     ) -> TimeSeries:
         """Dynamic relaxation: locally damped steps until |f_unbalanced| / |m g| < ``tolerance``.
 
         The ratio is over the free directions of all particles (2-norms).  Stops at
-        ``max_duration_s`` otherwise, with ``converged = False``.
+        ``max_duration_s`` otherwise, with ``converged = False``, or when ``stop`` (as in
+        :meth:`run`) gives a reason.
 
         Only the end state of a relaxation counts, not its path, so it steps at the largest
         accepted cfl, 1 / (1 + beta), whatever the solver's cfl or dt_s (the dynamic stages
@@ -251,7 +264,7 @@ class Simulation:
         self._relaxing = True
         self.dt_s = self.time_step.relaxation(self.critical_dt_s)
         try:
-            return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, None,
+            return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop,
                                snapshot)
         finally:
             self._relaxing = False
@@ -265,7 +278,7 @@ class Simulation:
         )
 
     def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None,
-               snapshot=None):
+               snapshot=None, periodic=None):
         if not duration_s > 0.0:
             raise ValueError(f"duration_s must be > 0, got {duration_s}")
         if not 0.0 <= damping < 1.0:
@@ -288,7 +301,8 @@ class Simulation:
         converged = None if tolerance == 0.0 else False
         stop_reason = ""
         schedule = StageSchedule(duration_s, self.n_particles, stop is not None,
-                                 None if snapshot is None else float(snapshot[0]))
+                                 None if snapshot is None else float(snapshot[0]),
+                                 None if periodic is None else float(periodic[0]))
         if snapshot is not None:
             snapshot[1](0.0)
 
@@ -342,6 +356,8 @@ class Simulation:
                     break
             if schedule.snapshot_due(stage_time, self.dt_s):
                 snapshot[1](stage_time)
+            if schedule.action_due(stage_time, self.dt_s):
+                periodic[1](stage_time)
             if progress is not None:
                 progress(min(stage_time / duration_s, 1.0))
         if schedule.final_snapshot_due(stage_time, self.dt_s):

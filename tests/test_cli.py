@@ -110,6 +110,10 @@ def test_tiny_beam_end_to_end(tmp_path):
     again = invoke(study, "--out", out)
     assert again.exit_code == 0 and "up to date" in again.stdout
 
+    quiet = invoke(study, "--out", out, "--force", "--quiet")  # the one-line result and nothing else
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+    assert quiet.stdout.count("\n") == 1 and quiet.stdout.startswith("tiny_beam: ") and "particles" in quiet.stdout
+
 
 def test_boundary_box_without_particles_exits_2(tmp_path):
     study = write_study(tmp_path, TINY_BEAM.replace("x_max_m = 0.0", "x_min_m = 5.0"))
@@ -129,3 +133,51 @@ def test_divergence_exits_1_without_result(tmp_path, monkeypatch):
     assert result.exit_code == 1
     assert "step 7" in result.stderr and "0.0007" in result.stderr and result.stderr.count("\n") == 1
     assert not (tmp_path / "out" / "run.nc").exists()
+
+
+SLOPE = (REPO / "studies" / "quickstart.toml").read_text()
+
+
+@pytest.mark.parametrize("case", ["utf-16", "binary", "out is a file", "out cannot be made", "spacing 1e-300",
+                                  "spacing 1 mm on the slope", "max-memory too small", "jitter 0.4",
+                                  "study is a folder"])
+def test_inputs_that_used_to_crash_exit_2_with_one_line(case, tmp_path):
+    """Each of these ended in a traceback (or the kernel killing the process for its memory)."""
+    study = tmp_path / "study.toml"
+    study.write_text(SLOPE)
+    out = tmp_path / "out"
+    options = []
+    if case == "utf-16":
+        study.write_bytes(SLOPE.encode("utf-16"))
+        expected = "not a UTF-8 text file"
+    elif case == "binary":
+        study.write_bytes(bytes(range(256)))
+        expected = "not a UTF-8 text file"
+    elif case == "out is a file":
+        out.write_text("")
+        expected = "--out: "
+    elif case == "out cannot be made":
+        out = Path("/proc/spfem-fos-cannot-make-this")
+        expected = "--out: cannot make the output folder"
+    elif case == "spacing 1e-300":
+        study.write_text(SLOPE.replace("spacing_m = 1.0", "spacing_m = 1e-300"))
+        expected = "geometry.spacing_m: 1e-300 m gives more particles than can be counted"
+    elif case == "spacing 1 mm on the slope":  # about 9e8 particles
+        study.write_text(SLOPE.replace("spacing_m = 1.0", "spacing_m = 0.001"))
+        expected = "geometry.spacing_m: 0.001 m gives about"
+    elif case == "max-memory too small":
+        options = ["--max-memory", "0.001"]
+        expected = "allowed by --max-memory"
+    elif case == "jitter 0.4":
+        study.write_text(SLOPE.replace("spacing_m = 1.0", "spacing_m = 1.0\njitter = 0.4"))
+        expected = "geometry.jitter: must be < 0.3"
+    else:
+        study = tmp_path / "folder.toml"
+        study.mkdir()
+        expected = "is a folder"
+    result = invoke(study, "--out", out, *options)
+    assert result.exit_code == 2, result.output
+    assert result.stderr.startswith("error: ") and result.stderr.count("\n") == 1, result.stderr
+    assert expected in result.stderr, result.stderr
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    assert not out.is_dir()  # nothing written

@@ -27,7 +27,7 @@ MALFORMED = {
     "srf_max below srf_min": (variant("srf_max = 2.0", "srf_max = 0.9"), "stages[1].srf_max", "must be >= srf_min = 1"),
     "srf_step wider than the range": (variant("srf_step = 0.1", "srf_step = 1.5"), "stages[1].srf_step", "<= srf_max - srf_min"),
     "srf_step tiny": (variant("srf_step = 0.1", "srf_step = 0.001"), "stages[1].srf_step", "more than 200"),
-    "zero srf_min": (variant("srf_min = 1.0", "srf_min = 0.0"), "stages[1].srf_min", "must be > 0"),
+    "zero srf_min": (variant("srf_min = 1.0", "srf_min = 0.0"), "stages[1].srf_min", "must be >= 0.01"),
     "srf as text": (variant("srf_min = 1.0", 'srf_min = "1.0"'), "stages[1].srf_min", "must be a number"),
     "negative tolerance": (variant("fos_tolerance = 0.01", "fos_tolerance = -0.01"), "stages[1].fos_tolerance", "> 0"),
     "max_runs too small": (variant("fos_tolerance = 0.01", "fos_tolerance = 0.01\nmax_runs = 2"), "stages[1].max_runs", ">= 3"),
@@ -36,7 +36,10 @@ MALFORMED = {
     "unknown key in the stage": (variant("fos_tolerance = 0.01", "fos_tolerence = 0.01"), "stages[1].fos_tolerence", "did you mean 'fos_tolerance'"),
     "elastic strength reduction": (variant("srf_step = 0.1", "srf_step = 0.1\nelastic = true"), "stages[1].elastic", "must be false"),
     "continue instead of original positions": (variant("srf_step = 0.1", 'srf_step = 0.1\nstart = "continue"'), "stages[1].start", "original_positions"),
-    "rest window longer than half the run": (variant("srf_step = 0.1", "srf_step = 0.1\nrest_window_s = 3.0"), "stages[1].rest_window_s", "<= duration_s / 2"),
+    "rest window longer than half the run": (variant("srf_step = 0.1", 'srf_step = 0.1\nprotocol = "sudden"\nrest_window_s = 3.0'), "stages[1].rest_window_s", "<= duration_s / 2"),
+    "rest window for a quasi-static run": (variant("srf_step = 0.1", "srf_step = 0.1\nrest_window_s = 1.0"), "stages[1].rest_window_s", "applies to protocol = ramp or sudden only"),
+    "ramp longer than the run": (variant("srf_step = 0.1", 'srf_step = 0.1\nprotocol = "ramp"\nramp_time_s = 6.0'), "stages[1].ramp_time_s", "must be < duration_s"),
+    "unknown protocol": (variant("srf_step = 0.1", 'srf_step = 0.1\nprotocol = "slow"'), "stages[1].protocol", "must be one of"),
     "floor above failure": (
         variant("srf_step = 0.1", "srf_step = 0.1\nfailure_displacement_m = 0.5\ndisplacement_floor_m = 0.5"),
         "stages[1].displacement_floor_m", "< failure_displacement_m",
@@ -107,5 +110,5 @@ def test_zero_workers_exits_2(tmp_path):
     study = tmp_path / "study.toml"
     study.write_text(QUICKSTART)
     result = CliRunner().invoke(app, [str(study), "--workers", "0", "--out", str(tmp_path / "out")])
-    assert result.exit_code == 2 and result.stderr == "error: --workers: must be >= 1, got 0\n"
+    assert result.exit_code == 2 and result.stderr == "error: --workers: must be in [1, 256], got 0\n"
     assert not (tmp_path / "out").exists()

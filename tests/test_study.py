@@ -16,9 +16,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from spfem_core.cloud import MAX_JITTER
 from workflows.study import StudyError, load_study, parse_study, reference
 from workflows.study.fields import point_in_polygon, specs
-from workflows.study.tables import DynamicStage, ElasticMaterial, RelaxationStage, Study
+from workflows.study.tables import DynamicStage, ElasticMaterial, Geometry, RelaxationStage, Study
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED_STUDIES = sorted((REPO / "studies").glob("*.toml"))
@@ -120,8 +121,8 @@ def test_relaxation_stage_defaults_to_local_damping():
 
 
 def test_integer_accepted_for_a_float():
-    study = parse_study(variant("spacing_m = 0.02", "spacing_m = 1"))
-    assert study.geometry.spacing_m == 1.0 and type(study.geometry.spacing_m) is float
+    study = parse_study(variant("record_interval_s = 0.001", "record_interval_s = 1"))
+    assert study.stages[0].record_interval_s == 1.0 and type(study.stages[0].record_interval_s) is float
 
 
 MALFORMED = {
@@ -140,7 +141,7 @@ MALFORMED = {
     "negative spacing": (variant("spacing_m = 0.02", "spacing_m = -0.1"), "geometry.spacing_m", "must be > 0, got -0.1"),
     "nan spacing": (variant("spacing_m = 0.02", "spacing_m = nan"), "geometry.spacing_m", "finite"),
     "nu = 0.5": (variant("poisson_ratio = 0.25", "poisson_ratio = 0.5"), "materials[0].poisson_ratio", "< 0.5"),
-    "zero density": (variant("density_kg_m3 = 1850.0", "density_kg_m3 = 0.0"), "materials[0].density_kg_m3", "> 0"),
+    "zero density": (variant("density_kg_m3 = 1850.0", "density_kg_m3 = 0.0"), "materials[0].density_kg_m3", ">= 1"),
     "missing required field": (
         variant("density_kg_m3 = 1850.0\n", ""),
         "materials[0].density_kg_m3",
@@ -170,7 +171,7 @@ MALFORMED = {
         "vertex 1",
     ),
     "gravity with 3 components": (BASE + "\n[loads]\ngravity_m_s2 = [0.0, -9.8, 0.0]\n", "loads.gravity_m_s2", "pair"),
-    "jitter 0.5": (variant("spacing_m = 0.02", "spacing_m = 0.02\njitter = 0.5"), "geometry.jitter", "< 0.5"),
+    "jitter 0.3": (variant("spacing_m = 0.02", "spacing_m = 0.02\njitter = 0.3"), "geometry.jitter", "< 0.3"),
     "unknown model": (variant('model = "elastic"', 'model = "plastic"'), "materials[0].model", 'got "plastic"'),
     "missing model": (variant('model = "elastic"\n', ""), "materials[0].model", "required field missing"),
     "unknown stage kind": (variant('kind = "dynamic"', 'kind = "static"'), "stages[0].kind", '"dynamic", "relaxation"'),
@@ -328,3 +329,7 @@ def test_reference_page_mentions_every_field():
 def test_study_file_reference_in_docs_is_up_to_date():
     page = (REPO / "docs" / "study-file.md").read_text(encoding="utf-8")
     assert page == reference.page(), f"docs/study-file.md is stale: run {reference.REGENERATE}"
+
+
+def test_jitter_bound_is_the_cloud_generator_s():
+    assert specs(Geometry)["jitter"].lt == MAX_JITTER

@@ -1,6 +1,6 @@
 """The ``spfem-fos`` command: run a study file and write its results.
 
-    spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS]
+    spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS] [--max-memory GIB]
     python -m workflows.cli STUDY.toml ...
 
 A study whose last stage is ``strength_reduction`` computes a factor of safety
@@ -8,12 +8,15 @@ A study whose last stage is ``strength_reduction`` computes a factor of safety
 stages in order (:mod:`workflows.stages`).
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
-(missing file, invalid study or option: one line on stderr, nothing written), 130
-interrupted (Ctrl-C) during an FOS study: finished runs are kept and a rerun resumes.
+(missing or unreadable file, invalid study or option, too large for the memory, an output
+folder that cannot be made: one line on stderr, nothing written), 130 interrupted by Ctrl-C
+(SIGINT) and 143 by SIGTERM: finished runs are kept, the cluster is shut down, and the same
+command resumes.
 """
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -26,8 +29,19 @@ from workflows.study import StudyError, load_study
 EXIT_DIVERGED = 1
 EXIT_BAD_STUDY = 2
 EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports SIGINT
+EXIT_TERMINATED = 143  # SIGTERM, as a shell reports it
+MAX_WORKERS = 256
 
 app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread as Ctrl-C is, so that the same clean-up runs (files
+    completed or removed, the cluster shut down)."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated
 
 
 class StageBars:
@@ -48,13 +62,28 @@ def _fail(message: str, code: int) -> typer.Exit:
     return typer.Exit(code)
 
 
+def check_output_folder(out_dir: Path) -> str | None:
+    """Why ``out_dir`` cannot hold results (one line), or None: it exists as something other
+    than a folder, or the nearest existing folder above it is not one we may write in."""
+    if out_dir.exists() and not out_dir.is_dir():
+        return f"{out_dir} exists and is not a folder"
+    parent = out_dir
+    while not parent.exists():
+        if parent.parent == parent:
+            return f"{out_dir}: no existing folder above it"
+        parent = parent.parent
+    if not parent.is_dir():
+        return f"cannot make {out_dir}: {parent} is not a folder"
+    return None
+
+
 @app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).")
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar and no summary")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result line (the FOS)")] = False,
     force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
     workers: Annotated[
         int, typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread each)")
@@ -64,44 +93,71 @@ def main(
         typer.Option("--scheduler", help="address of a running dask scheduler (tcp://host:8786) to run the SRF runs on",
                      show_default=False),
     ] = None,
+    max_memory: Annotated[
+        Optional[float],
+        typer.Option("--max-memory", metavar="GIB", help="refuse a study whose particles would need more memory than "
+                     "this (default: what the machine has available)", show_default=False),
+    ] = None,
 ) -> None:
     try:
         study = load_study(study_file)
     except FileNotFoundError:
         raise _fail(f"error: {study_file}: no such file", EXIT_BAD_STUDY) from None
+    except IsADirectoryError:
+        raise _fail(f"error: {study_file}: is a folder, not a study file", EXIT_BAD_STUDY) from None
     except OSError as error:
         raise _fail(f"error: {study_file}: cannot read: {error.strerror or error}", EXIT_BAD_STUDY) from None
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
 
-    if workers < 1:
-        raise _fail(f"error: --workers: must be >= 1, got {workers}", EXIT_BAD_STUDY)
+    if not 1 <= workers <= MAX_WORKERS:
+        raise _fail(f"error: --workers: must be in [1, {MAX_WORKERS}], got {workers}", EXIT_BAD_STUDY)
+    if max_memory is not None and not max_memory > 0.0:
+        raise _fail(f"error: --max-memory: must be > 0 GiB, got {max_memory:g}", EXIT_BAD_STUDY)
+    out_dir = Path(out) if out is not None else Path.cwd() / study.name
+    problem = check_output_folder(out_dir)
+    if problem:
+        raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
     # Imported only once the study is valid, so that --help and a bad study file answer at once:
     # the core imports numba, the FOS workflow dask (about 1 s together).
     from spfem_core.divergence import DivergenceError
-    from workflows.stages import run_study
+    from workflows.memory_guard import GIB
 
-    out_dir = Path(out) if out is not None else Path.cwd() / study.name
+    max_memory_bytes = None if max_memory is None else max_memory * GIB
     console = Console(stderr=True, quiet=quiet)
     columns = (
         TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(), TimeRemainingColumn()
     )
-    if study.strength_reduction is not None:
-        _run_fos(study, study_file, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
-                 scheduler=scheduler)
-        return
+    previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        with Progress(*columns, console=console) as progress:
-            outcome = run_study(study, out_dir, progress=StageBars(progress), force=force)
+        if study.strength_reduction is not None:
+            _run_fos(study, study_file, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
+                     scheduler=scheduler, max_memory_bytes=max_memory_bytes)
+        else:
+            _run_stages(study, study_file, out_dir, console, columns, quiet=quiet, force=force,
+                        max_memory_bytes=max_memory_bytes)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
         raise _fail(f"error: {study_file}: the run diverged: {error}", EXIT_DIVERGED) from None
+    except KeyboardInterrupt as interrupt:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not break the clean-up message
+        how = "terminated (SIGTERM)" if isinstance(interrupt, Terminated) else "interrupted"
+        kept = "the finished SRF runs are kept" if study.strength_reduction is not None else "finished stages are kept"
+        raise _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
+                    EXIT_TERMINATED if isinstance(interrupt, Terminated) else EXIT_INTERRUPTED) from None
+    finally:
+        signal.signal(signal.SIGTERM, previous_sigterm)
 
+
+def _run_stages(study, study_file, out_dir, console, columns, *, quiet, force, max_memory_bytes) -> None:
+    from workflows.stages import run_study  # deferred, see main()
+
+    with Progress(*columns, console=console) as progress:
+        outcome = run_study(study, out_dir, progress=StageBars(progress), force=force,
+                            max_memory_bytes=max_memory_bytes)
     for name in outcome.unconverged_stages:
         typer.echo(f"warning: stage {name!r} reached max_duration_s before converging (converged = 0)", err=True)
-    if quiet:
-        return
     paths = ", ".join(str(path) for path in outcome.paths)
     if outcome.up_to_date:
         typer.echo(f"{paths}: up to date with {study_file}, not run again (--force runs it)")
@@ -110,21 +166,19 @@ def main(
         f"{study.name}: {outcome.n_particles} particles, {outcome.n_steps} steps of {outcome.dt_s:.3g} s, "
         f"wall time {outcome.wall_time_s:.1f} s"
     )
-    typer.echo(f"wrote {paths}")
+    if not quiet:
+        typer.echo(f"wrote {paths}")
 
 
-def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler) -> None:
+def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler,
+             max_memory_bytes) -> None:
     # deferred until the study is valid, see main()
-    from spfem_core.divergence import DivergenceError
     from workflows.fos.cluster import connect
     from workflows.fos.orchestration import FosProgress, run_fos_study
     from workflows.fos.report import report_lines
 
     if scheduler:  # before any output: an unreachable cluster is one line and exit 2
-        try:
-            connect(scheduler).close()
-        except StudyError as error:
-            raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+        connect(scheduler).close()
     progress = Progress(*columns, console=console)
     bars: dict[str, int] = {}
 
@@ -148,22 +202,14 @@ def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, work
 
     try:
         outcome = run_fos_study(
-            study, out_dir, workers=workers, scheduler=scheduler, force=force,
+            study, out_dir, workers=workers, scheduler=scheduler, force=force, max_memory_bytes=max_memory_bytes,
             progress=FosProgress(stage=stage, runs=runs, message=message),
         )
-    except StudyError as error:
-        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
-    except DivergenceError as error:
-        raise _fail(f"error: {study_file}: the gravity stage diverged: {error}", EXIT_DIVERGED) from None
-    except KeyboardInterrupt:
-        raise _fail(
-            f"interrupted: the finished SRF runs are kept in {out_dir}; run the same command again to resume",
-            EXIT_INTERRUPTED,
-        ) from None
     finally:
         if bars:
             progress.stop()
     if quiet:
+        typer.echo(outcome.verdict)
         return
     typer.echo(f"{study.name}: {outcome.n_particles} particles, {len(outcome.runs)} SRF runs, "
                f"wall time {outcome.timings_s['total']:.1f} s")

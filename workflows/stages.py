@@ -7,18 +7,20 @@ study text is not run again (``force=True`` runs it anyway).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from spfem_core.simulation import Simulation
+from spfem_core.simulation import DetachedParticlesError, Simulation
 from spfem_core.timestep import UnstableTimeStepError
+from workflows.memory_guard import check_memory
 from workflows.output.metrics import add_metrics
 from workflows.output.paraview import SnapshotWriter
 from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
-from workflows.output.writing import write_dataset
+from workflows.output.writing import make_output_folder, write_dataset
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
 from workflows.study import DynamicStage, RelaxationStage, StageBase, Study, StudyError
 
@@ -82,12 +84,46 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
     raise TypeError(f"no runner for a stage of kind {stage.kind!r}")
 
 
+MAX_STEPS_PER_STAGE = 1e9
+"""A stage that would take more explicit steps than this is refused (days of wall time)."""
+
+MAX_RECORDS_PER_STAGE = 1e7
+"""A stage that would record more rows than this is refused (gigabytes of monitor history)."""
+
+
 def new_simulation(study: Study, scene) -> Simulation:
-    """The study's Simulation; a time step the core refuses is a StudyError naming the solver field."""
+    """The study's Simulation; what the core refuses is a StudyError naming the field: a time step
+    (``solver.cfl`` or ``solver.dt_s``), or particles the first mesh leaves out (``geometry.spacing_m``);
+    and so is a stage too long for the time step (:func:`check_stage_lengths`)."""
     try:
-        return Simulation(scene, solver_settings(study))
+        sim = Simulation(scene, solver_settings(study))
     except UnstableTimeStepError as error:
         raise StudyError("solver.dt_s" if study.solver.dt_s is not None else "solver.cfl", str(error)) from None
+    except DetachedParticlesError as error:
+        raise StudyError("geometry.spacing_m", f"{study.geometry.spacing_m:g} m: {error}") from None
+    check_stage_lengths(study, sim.dt_s)
+    return sim
+
+
+def check_stage_lengths(study: Study, dt_s: float) -> None:
+    """StudyError when a stage would take more than ``MAX_STEPS_PER_STAGE`` steps of ``dt_s`` or
+    record more than ``MAX_RECORDS_PER_STAGE`` rows (an SRF run counts as a stage)."""
+    for i, stage in enumerate(study.stages):
+        duration_s = getattr(stage, stage.duration_field)
+        steps = duration_s / dt_s if dt_s > 0.0 else math.inf
+        if not steps <= MAX_STEPS_PER_STAGE:
+            raise StudyError(
+                f"stages[{i}].{stage.duration_field}",
+                f"{duration_s:g} s is about {steps:.2g} steps of {dt_s:.3g} s (the stable step of these materials "
+                f"and spacing), more than {MAX_STEPS_PER_STAGE:g}",
+            )
+        records = duration_s / max(stage.record_interval_s, dt_s)  # dt_s > 0 here
+        if not records <= MAX_RECORDS_PER_STAGE:
+            raise StudyError(
+                f"stages[{i}].record_interval_s",
+                f"{stage.record_interval_s:g} s gives about {records:.2g} records in {duration_s:g} s, more than "
+                f"{MAX_RECORDS_PER_STAGE:g}",
+            )
 
 
 def run_and_write_stage(
@@ -110,22 +146,25 @@ def run_and_write_stage(
     return series
 
 
-def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | None = None, force=False) -> StudyRun:
+def run_study(study: Study, out_dir: str | Path, *, progress: StageProgress | None = None, force=False,
+              max_memory_bytes: float | None = None) -> StudyRun:
     """Run every stage of ``study`` and write its results under ``out_dir``.
 
-    Raises StudyError (nothing written) for a study the core refuses, and lets the core's
-    DivergenceError through (the diverged stage writes no result).
+    Raises StudyError (nothing written) for a study the core refuses or the memory cannot hold
+    (``memory_guard``, limit ``max_memory_bytes``), and lets the core's DivergenceError through
+    (the diverged stage writes no result).
     """
     out_dir = Path(out_dir)
     paths = result_paths(study, out_dir)
     if not force and all(is_up_to_date(path, study) for path in paths):
         return StudyRun(paths=paths, up_to_date=True)
 
+    check_memory(study, processes=1, limit_bytes=max_memory_bytes)
     scene = build_scene(study)
     monitor_nodes = monitor_particles(study, scene)
     sim = new_simulation(study, scene)
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_output_folder(out_dir)
     for path in paths:  # results of another study text must not outlive a failed rerun
         path.unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))

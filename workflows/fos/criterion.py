@@ -26,10 +26,10 @@ without a failed run: a convex but stable curve only says the FOS is higher).
 Refining inside that pair converges to a jump (its slope grows like 1/h) and, on a smooth
 curve, to the steepest point of the rise.  ``fos`` is the middle of [fos_low, fos_high].
 
-**Second criterion**: each run's own verdict (``stable`` or ``failed``, from its
-displacement and whether it was still moving at the end).  Its bracket is [highest stable
-F below the lowest failed F, lowest failed F].  The two brackets should overlap; when
-they do not, the result says so.
+**Second criterion**: each run's own verdict (``workflows.fos.verdict``: ``failed`` when a
+mechanism moved past the failure displacement or no equilibrium was found, else
+``stable``).  Its bracket is [highest stable F below the lowest failed F, lowest failed F].
+The two brackets should overlap; when they do not, the result says so.
 """
 
 from __future__ import annotations

@@ -38,7 +38,7 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.92)
     srf = summary["srf"].values
-    u = summary["max_displacement"].values
+    u = np.maximum(summary["max_displacement"].values, summary.attrs["displacement_floor_m"])  # log axis
     status = summary["status"].values.astype(str)
     ax.plot(srf, u, "-", color="0.6", lw=1)
     for name, colour in COLOURS.items():

@@ -14,7 +14,7 @@ import xarray as xr
 
 from workflows.fos.keys import gravity_key
 from workflows.output.stage_file import particle_stress
-from workflows.output.writing import interrupts_deferred
+from workflows.output.writing import interrupts_deferred, make_output_folder
 from workflows.scene import build_scene, monitor_particles
 from workflows.stages import new_simulation, run_and_write_stage
 from workflows.study import Study
@@ -47,7 +47,7 @@ def gravity_state(study: Study, out_dir: Path, *, force: bool, progress):
         if state is not None and state[0].shape == (scene.n_particles, 4):
             progress.message(f"gravity state reused from {paths[-1]} (its inputs are unchanged)")
             return state[0], state[1], True, scene.n_particles, 0.0
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_output_folder(out_dir)
     start = time.perf_counter()
     for index, (stage, path) in enumerate(zip(study.stages[:-1], paths)):
         report = lambda fraction, name=stage.name: progress.stage(name, fraction)  # noqa: E731

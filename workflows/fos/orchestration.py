@@ -35,11 +35,13 @@ from workflows.fos.run_store import (
     stored_run,
     write_run,
 )
+from workflows.fos.scales import check_resolution
 from workflows.fos.search import RunOutcome, SrfSearch
 from workflows.fos.summary import summary_dataset
 from workflows.fos.task import SrfRunResult, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
-from workflows.output.writing import write_dataset
+from workflows.memory_guard import check_memory
+from workflows.output.writing import make_output_folder, write_dataset
 from workflows.study import Study, StudyError
 
 
@@ -65,6 +67,7 @@ class FosOutcome:
     status_low: float
     status_high: float
     criteria_agree: bool
+    non_monotone: list[float]  # stable SRF values above a failed one (verdicts not monotone in F)
     verdict: str  # one line for the report
     runs: list[dict] = field(default_factory=list)  # per SRF: srf, max_displacement_m, status, ...
     skipped: dict[float, str] = field(default_factory=dict)
@@ -84,10 +87,17 @@ def run_fos_study(
     scheduler: str | None = None,
     force: bool = False,
     progress: FosProgress | None = None,
+    max_memory_bytes: float | None = None,
 ) -> FosOutcome:
-    """Gravity once, SRF runs on dask, the FOS from the knee; everything written to ``out_dir``."""
+    """Gravity once, SRF runs on dask, the FOS from the knee; everything written to ``out_dir``.
+
+    StudyError (nothing written) when the particles would need more memory than
+    ``max_memory_bytes`` (default: what the machine has available) in this process and the
+    local workers (``memory_guard``)."""
     if study.strength_reduction is None:
         raise StudyError("stages", "the last stage is not a strength_reduction stage")
+    check_resolution(study)
+    check_memory(study, processes=1 + (0 if scheduler else workers), limit_bytes=max_memory_bytes)
     progress = progress or FosProgress()
     out_dir = Path(out_dir)
     wall_start = time.perf_counter()
@@ -101,7 +111,7 @@ def run_fos_study(
             study, out_dir, force=force, progress=progress
         )
         gkey = gravity_key(study)
-        out_dir.mkdir(parents=True, exist_ok=True)
+        make_output_folder(out_dir)
         if force:
             for path in out_dir.glob("srf_*.nc"):
                 path.unlink()
@@ -149,7 +159,7 @@ def _conclude(study, out_dir, search, runs, reused_runs, pool, gravity_reused, n
     outcome = FosOutcome(
         out_dir=out_dir, summary_path=out_dir / SUMMARY_NAME, fos=knee.fos, fos_low=knee.fos_low,
         fos_high=knee.fos_high, criterion=knee.reason, status_low=status.fos_low, status_high=status.fos_high,
-        criteria_agree=agree, verdict=verdict, runs=ordered,
+        criteria_agree=agree, non_monotone=list(status.non_monotone), verdict=verdict, runs=ordered,
         skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=gravity_reused,
         timings_s=timings, n_particles=n_particles, guesses=(pool.n_guessed, pool.n_guesses_used),
     )

@@ -47,7 +47,8 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
         fos_high=float(knee.fos_high),
         knee_srf=float(knee.knee_srf),
         criterion="maximum curvature, convex upturns only: " + knee.reason,
-        second_criterion="run verdicts (failed: past failure_displacement_m or still moving at the end): "
+        second_criterion="run verdicts (failed: a mechanism moved past failure_displacement_m, or no "
+        "equilibrium at the end): "
         + status.reason,
         status_fos_low=float(status.fos_low),
         status_fos_high=float(status.fos_high),

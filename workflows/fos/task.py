@@ -2,9 +2,20 @@
 
 The task gets the study text, the gravity state (stress and plastic strain per particle)
 and F; it rebuilds the scene (deterministic: same particles, same first mesh), divides the
-strength (c / F, tan(phi) / F), runs the stage undamped from the original positions and
-returns the run's dataset with its verdict (``workflows.fos.verdict``).  It touches no file:
-the client writes the results, so workers need not share a file system with it.
+strength (c / F, tan(phi) / F; psi_F by the stage's flow rule), runs the stage from the
+original positions by the stage's protocol and returns the run's dataset with its verdict
+(``workflows.fos.verdict``).  It touches no file: the client writes the results, so workers
+need not share a file system with it.
+
+Protocols (``strength_reduction.protocol``):
+
+- ``quasi_static``: the reduced strength at once, then dynamic relaxation with local damping
+  (``damping``) at the largest stable step until the unbalanced-force ratio falls below
+  ``tolerance`` (the slope is at rest) or ``duration_s`` (Dawson, Roth & Drescher 1999 in a
+  large-deformation setting);
+- ``ramp``: undamped dynamics with the strength falling linearly in 1/F from full to c / F over
+  ``ramp_time_s`` (in ``RAMP_STEPS`` steps), then held; F <= 1 (a stronger slope) at once;
+- ``sudden``: the reduced strength at once, undamped dynamics.
 """
 
 from __future__ import annotations
@@ -18,10 +29,11 @@ from distributed import Event
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.simulation import Simulation
+from workflows.fos.scales import response_time_s
 from workflows.fos.verdict import DIVERGED, verdict_for
 from workflows.output.stage_file import stage_dataset
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
-from workflows.study import parse_study
+from workflows.study import Study, parse_study
 
 
 def _cancellable(rule, event_name: str):
@@ -55,6 +67,48 @@ class SrfRunResult:
     dataset: object  # xarray.Dataset of the run (workflows.output.stage_file.stage_dataset)
 
 
+RAMP_STEPS = 20
+"""A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
+
+
+def reduced_materials(study: Study, scene, srf: float):
+    """The scene's materials with the strength divided by ``srf`` under the stage's flow rule."""
+    return scene.materials.with_strength_reduction(srf, associated=study.strength_reduction.flow_rule == "associated")
+
+
+def _run_protocol(study: Study, scene, sim: Simulation, srf: float, monitors, stop):
+    """The run of one SRF value by the stage's protocol (module doc); its TimeSeries."""
+    stage = study.strength_reduction
+    record = dict(record_interval_s=stage.record_interval_s, monitor_nodes=monitors, stop=stop)
+    if stage.protocol == "quasi_static":
+        sim.set_materials(reduced_materials(study, scene, srf))
+        return sim.relax(damping=stage.damping_or_default, tolerance=stage.tolerance_or_default,
+                         max_duration_s=stage.duration_s, **record)
+    if stage.protocol == "sudden":
+        sim.set_materials(reduced_materials(study, scene, srf))
+        return sim.run(stage.duration_s, damping=0.0, **record)
+    if srf <= 1.0:  # a stronger slope than built: nothing to ramp (and the slope as built may fail)
+        sim.set_materials(reduced_materials(study, scene, srf))
+        return sim.run(stage.duration_s, damping=0.0, **record)
+    ramp_s = stage.ramp_time_s if stage.ramp_time_s is not None else default_ramp_time_s(study)
+    step_s = ramp_s / RAMP_STEPS
+
+    def ramp(time_s: float) -> None:
+        """Set the strength of the ramp step that starts at ``time_s`` (held constant over it)."""
+        fraction = min((time_s + step_s) / ramp_s, 1.0)
+        if time_s < ramp_s:
+            sim.set_materials(reduced_materials(study, scene, 1.0 / (1.0 - fraction * (1.0 - 1.0 / srf))))
+
+    ramp(0.0)
+    return sim.run(stage.duration_s, damping=0.0, periodic=(step_s, ramp), **record)
+
+
+def default_ramp_time_s(study: Study) -> float:
+    """``ramp_time_s`` when the study gives none: 4 response times of the slope
+    (``scales.response_time_s``), at most half of ``duration_s``."""
+    return min(4.0 * response_time_s(study), 0.5 * study.strength_reduction.duration_s)
+
+
 def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float,
             cancel_event: str | None = None):
     """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
@@ -71,7 +125,6 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     monitors = monitor_particles(study, scene)
     sim = Simulation(scene, solver_settings(study))
     sim.set_initial_stress(gravity_stress_pa, gravity_plastic_strain)
-    sim.set_materials(scene.materials.with_strength_reduction(float(srf)))
     sim.set_supports(*supports(study, scene, stage.boundary))
     verdict = verdict_for(study)
     remesh_start = sim.counters.remesh_wall_s
@@ -79,11 +132,8 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     if stop is not None and cancel_event is not None:
         stop = _cancellable(stop, cancel_event)
     try:
-        series = sim.run(
-            stage.duration_s, damping=0.0, record_interval_s=stage.record_interval_s, monitor_nodes=monitors,
-            stop=stop,
-        )
-        status, reason = verdict.classify(series.time_s, series.max_displacement_m)
+        series = _run_protocol(study, scene, sim, float(srf), monitors, stop)
+        status, reason = verdict.classify(series.time_s, series.max_displacement_m, series.converged)
     except DivergenceError as error:
         series = error.partial
         status, reason = DIVERGED, str(error)

@@ -1,14 +1,29 @@
 """How one strength-reduction run ended: stable, failed or diverged.
 
-- ``failed``: the largest displacement passed ``failure_displacement_m``, or the run was
-  still moving at the end (the running maximum of the displacement grew by more than
-  ``rest_growth`` of itself over the last ``rest_window_s`` and not less than over the
-  window before);
-- ``stable``: otherwise (and a run that came to rest early);
-- ``diverged``: the solver detected a blow-up; the run is left out of the curve.
+A run starts from the gravity state with the strength divided by F.  Its largest particle
+displacement u (the running maximum over the run) is compared with the failure displacement
+u_fail, by default 0.5% of the slope height H (``workflows.fos.scales``):
 
-The same rules stop a run early (:meth:`Verdict.stop_rule`): once past the failure
-displacement, or at rest.
+- ``failed``: a mechanism formed and moved: u > u_fail.  Large deformation lets a slide
+  stop again once the moved ground has found a new equilibrium; such an arrested slide is a
+  failure of the original geometry, and the reason says how far it moved.  A run that is
+  still moving at its end, below u_fail, has failed as well: no equilibrium was found
+  (quasi-static: the unbalanced force did not converge within ``duration_s``; undamped: the
+  displacement was still growing without slowing).
+- ``stable``: the slope came to rest with u <= u_fail, a displacement of the order of the
+  contained elastic-plastic response (quasi-static: unbalanced-force ratio below
+  ``tolerance``; undamped: the displacement stopped growing, see :meth:`Verdict.at_rest`).
+- ``diverged``: the solver detected a blow-up; the run is left out of both criteria.
+
+Why 0.5% of H.  Above the FOS F*, the arrested displacement grows about linearly with the
+excess strength deficit, u ~ H (F - F*) / F* on the reference slope (docs/method.md); below
+it, the contained response of a slope with realistic stiffness stays below about 0.3% of H
+up to F* (0.2% at E = 100 MPa, H = 10 m, phi = 20 deg).  A threshold of 0.5% H therefore
+separates the two within about 0.005 of F*, where the FOS bracket of the curve lies.
+
+The same rules stop a run early (:meth:`Verdict.stop_rule`): at rest, or once the slide has
+moved ``SLIDE_STOP_FRACTION`` of H, at least twice u_fail (a failure no longer in doubt; the
+run goes no further).
 """
 
 from __future__ import annotations
@@ -17,20 +32,26 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.study import StrengthReductionStage, Study
+from workflows.fos.scales import slope_height_m
+from workflows.study import Study
 
 STABLE = "stable"
 FAILED = "failed"
 DIVERGED = "diverged"
 
+FAILURE_FRACTION_OF_HEIGHT = 0.005
+"""Default failure displacement as a fraction of the slope height (module doc)."""
+
+SLIDE_STOP_FRACTION = 0.1
+"""With early_stop, a run ends once its largest displacement passes this fraction of the slope height."""
+
 
 def failure_displacement_m(study: Study) -> float:
-    """The stage's ``failure_displacement_m``, default 10% of the height of the domain."""
+    """The stage's ``failure_displacement_m``, default 0.5% of the slope height."""
     stage = study.strength_reduction
     if stage.failure_displacement_m is not None:
         return stage.failure_displacement_m
-    ys = [y for _, y in study.geometry.polygon_m]
-    return 0.1 * (max(ys) - min(ys))
+    return FAILURE_FRACTION_OF_HEIGHT * slope_height_m(study)
 
 
 def displacement_floor_m(study: Study) -> float:
@@ -54,53 +75,70 @@ def _window_growth(time_s: np.ndarray, max_u_m: np.ndarray, window_s: float) -> 
 
 @dataclass(frozen=True)
 class Verdict:
-    """How one run ended."""
+    """The rules of the module doc for one study: its thresholds and its protocol."""
 
     failure_m: float
+    slide_stop_m: float
     floor_m: float
+    quasi_static: bool  # at rest = converged unbalanced force; else = displacement stopped growing
     window_s: float
     growth: float
 
-    def past_failure(self, max_u_m: np.ndarray) -> bool:
-        return bool(max_u_m.size) and float(np.max(max_u_m)) > self.failure_m
+    def past(self, max_u_m: np.ndarray, threshold_m: float) -> bool:
+        return bool(max_u_m.size) and float(np.max(max_u_m)) > threshold_m
 
     def at_rest(self, time_s, max_u_m) -> bool:
-        """Displacement no longer growing: less than ``growth`` of itself per window, and slowing."""
+        """Undamped runs: the displacement no longer grows (less than ``growth`` of itself over the
+        last window) and slows down."""
         if time_s[-1] < 2.0 * self.window_s:
             return False
         u_now, last, before = _window_growth(time_s, max_u_m, self.window_s)
         return last <= self.growth * max(u_now, self.floor_m) and last <= before
 
     def still_moving(self, time_s, max_u_m) -> bool:
-        """Displacement still growing at the end (more than ``growth`` per window, not slowing)."""
+        """Undamped runs: the displacement still grows at the end (more than ``growth`` of itself
+        over the last window) and does not slow down."""
         if time_s[-1] < 2.0 * self.window_s:
             return True
         u_now, last, before = _window_growth(time_s, max_u_m, self.window_s)
         return last > self.growth * max(u_now, self.floor_m) and last >= before
 
     def stop_rule(self):
-        """The early-stop rule handed to ``Simulation.run``."""
+        """The early-stop rule handed to the simulation: slid past ``slide_stop_m``, or (undamped)
+        at rest.  A quasi-static run also ends by itself once the unbalanced force converges."""
 
         def rule(time_s, max_u_m, kinetic):
-            if self.past_failure(max_u_m):
-                return f"failed: largest displacement {float(np.max(max_u_m)):.3g} m > {self.failure_m:g} m"
-            if self.at_rest(time_s, max_u_m):
+            if self.past(max_u_m, self.slide_stop_m):
+                return f"slid: largest displacement {float(np.max(max_u_m)):.3g} m > {self.slide_stop_m:g} m"
+            if not self.quasi_static and self.at_rest(time_s, max_u_m):
                 return f"at rest: largest displacement grew < {self.growth:g} of itself in the last {self.window_s:g} s"
             return None
 
         return rule
 
-    def classify(self, time_s, max_u_m) -> tuple[str, str]:
-        """(status, one-line reason) of a finished run."""
+    def classify(self, time_s, max_u_m, converged: bool | None) -> tuple[str, str]:
+        """(status, one-line reason) of a finished run; ``converged``: did a quasi-static run's
+        unbalanced force converge (None for undamped runs)."""
         peak = float(np.max(max_u_m))
-        if self.past_failure(max_u_m):
-            return FAILED, f"largest displacement {peak:.3g} m > failure_displacement_m {self.failure_m:g} m"
-        if self.still_moving(time_s, max_u_m):
+        rest = bool(converged) if self.quasi_static else not self.still_moving(time_s, max_u_m)
+        if peak > self.failure_m:
+            ended = ("came to rest (an arrested slide)" if rest else
+                     "still moving" if peak <= self.slide_stop_m else "stopped there")
+            return FAILED, (f"a mechanism formed and moved {peak:.3g} m (> failure_displacement_m {self.failure_m:g} m), "
+                            f"{ended}")
+        if not rest:
+            if self.quasi_static:
+                return FAILED, f"no equilibrium within the run: the unbalanced force had not converged at {time_s[-1]:.3g} s"
             _, last, _ = _window_growth(time_s, max_u_m, self.window_s)
             return FAILED, f"still moving at the end: +{last:.3g} m in the last {self.window_s:g} s (not slowing)"
-        return STABLE, f"largest displacement {peak:.3g} m, not growing at the end"
+        return STABLE, f"came to rest with a largest displacement of {peak:.3g} m (<= {self.failure_m:g} m)"
 
 
 def verdict_for(study: Study) -> Verdict:
-    stage: StrengthReductionStage = study.strength_reduction
-    return Verdict(failure_displacement_m(study), displacement_floor_m(study), stage.rest_window_s, stage.rest_growth)
+    stage = study.strength_reduction
+    return Verdict(
+        failure_m=failure_displacement_m(study),
+        slide_stop_m=max(SLIDE_STOP_FRACTION * slope_height_m(study), 2.0 * failure_displacement_m(study)),
+        floor_m=displacement_floor_m(study), quasi_static=stage.protocol == "quasi_static",
+        window_s=stage.rest_window_s_or_default, growth=stage.rest_growth_or_default,
+    )

@@ -16,6 +16,8 @@ from pathlib import Path
 import xarray as xr
 from xarray.backends import NetCDF4DataStore
 
+from workflows.study import StudyError
+
 
 @contextmanager
 def interrupts_deferred():
@@ -40,6 +42,16 @@ def interrupts_deferred():
             raise KeyboardInterrupt
         if received:
             signal.raise_signal(received[0])
+
+
+def make_output_folder(out_dir: Path) -> None:
+    """Create ``out_dir`` (and its parents) if needed; StudyError on ``--out`` when it cannot be."""
+    try:
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise StudyError("--out", f"{out_dir} exists and is not a folder") from None
+    except OSError as error:
+        raise StudyError("--out", f"cannot make the output folder {out_dir}: {error.strerror or error}") from None
 
 
 _NETCDF_WRITE_LOCK = threading.Lock()

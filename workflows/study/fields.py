@@ -178,16 +178,28 @@ def show(value) -> str:
         return shown if len(shown) <= 60 else shown[:56] + " ...]"
     if value is None:
         return "nothing"
+    if isinstance(value, int) and abs(value) > 10**15:
+        return f"an integer of {len(str(abs(value))) if value.bit_length() < 14000 else 'thousands of'} digits"
     return repr(value) if isinstance(value, float) else str(value)
+
+
+MAX_MAGNITUDE = 1e12
+"""No number of a study file is larger than this in magnitude (SI units): products of a few of
+them stay finite in float64, and nothing physical is near it (steel's E is 2e11 Pa)."""
 
 
 def _as_number(value, what="must be a number") -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         kind = " (a boolean)" if isinstance(value, bool) else ""
         raise ValueError(f"{what}, got {show(value)}{kind}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an integer too large for a float
+        x = math.inf
     if not math.isfinite(x):
         raise ValueError(f"must be finite, got {show(value)}")
+    if abs(x) > MAX_MAGNITUDE:
+        raise ValueError(f"must be at most {MAX_MAGNITUDE:g} in magnitude, got {show(value)}")
     return x
 
 

@@ -65,7 +65,7 @@ def _build_entries(spec: Spec, raw, path: str) -> tuple:
             if spec.key not in entry:
                 raise StudyError(f"{where}.{spec.key}", "required field missing")
             kind = entry[spec.key]
-            if kind not in spec.variants:
+            if not isinstance(kind, str) or kind not in spec.variants:
                 choices = ", ".join(map(show, spec.variants))
                 raise StudyError(f"{where}.{spec.key}", f"must be one of {choices}, got {show(kind)}")
             cls = spec.variants[kind]
@@ -90,7 +90,24 @@ def parse_study(toml_text: str) -> Study:
     return dataclasses.replace(study, source_text=toml_text)
 
 
+def decode_study_bytes(data: bytes) -> str:
+    """The text of a study file: UTF-8 as TOML requires (a leading byte-order mark is dropped);
+    StudyError naming the first offending byte otherwise, with a hint for UTF-16 files."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        head = data[:64]
+        utf16 = data[:2] in (b"\xff\xfe", b"\xfe\xff") or (
+            len(head) >= 8 and max(head[0::2].count(0), head[1::2].count(0)) >= 0.4 * len(head)
+        )
+        hint = "; it looks like UTF-16: save it as UTF-8" if utf16 else ""
+        raise StudyError(
+            "", f"not a UTF-8 text file (TOML files are UTF-8): byte 0x{data[error.start]:02x} at position "
+            f"{error.start}{hint}"
+        ) from None
+
+
 def load_study(path: str | Path) -> Study:
     """The study in the TOML file ``path`` (OSError if unreadable, StudyError if invalid)."""
-    return parse_study(Path(path).read_text(encoding="utf-8"))
+    return parse_study(decode_study_bytes(Path(path).read_bytes()))
 

@@ -43,10 +43,17 @@ class Geometry(Record):
 
     polygon_m: tuple = polygon("m", "outline of the domain, [[x, y], ...], either orientation, not closed")
     spacing_m: float = number("m", "particle spacing h of the lattice clipped to the polygon", gt=0.0)
-    jitter: float = number(
-        "1", "random offset of interior particles, as a fraction of h", default=0.0, ge=0.0, lt=0.5
+    jitter: float = number(  # lt: spfem_core.cloud.MAX_JITTER (not imported: it would import numba)
+        "1", "random offset of interior particles, as a fraction of h", default=0.0, ge=0.0, lt=0.3
     )
     seed: int = integer("seed of the random jitter", default=0, ge=0)
+
+    def check(self):
+        xs, ys = [x for x, _ in self.polygon_m], [y for _, y in self.polygon_m]
+        extent = min(max(xs) - min(xs), max(ys) - min(ys))
+        if self.spacing_m > 0.5 * extent:
+            raise StudyError("spacing_m", f"{self.spacing_m:g} m is more than half the domain's smaller extent "
+                             f"({extent:g} m): too few particles across it")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -55,8 +62,8 @@ class MaterialBase(Record):
 
     model: ClassVar[str]
     name: str = name_field("name of the material")
-    density_kg_m3: float = number("kg m-3", "mass density rho", gt=0.0)
-    youngs_modulus_pa: float = number("Pa", "Young's modulus E", gt=0.0)
+    density_kg_m3: float = number("kg m-3", "mass density rho", ge=1.0)
+    youngs_modulus_pa: float = number("Pa", "Young's modulus E", ge=1.0)
     poisson_ratio: float = number("1", "Poisson's ratio nu", ge=0.0, lt=0.5)
     region_m: tuple | None = polygon(
         "m", "polygon of the particles that get this material; default: the whole domain; "
@@ -241,35 +248,83 @@ class RelaxationStage(StageBase):
     damping: float = number("1", "local (Cundall) damping factor", default=0.7, gt=0.0, lt=1.0)
 
 
+PROTOCOLS = ("quasi_static", "ramp", "sudden")
+FLOW_RULES = ("associated", "as_declared")
+DEFAULT_QUASI_STATIC_DAMPING = 0.7
+DEFAULT_QUASI_STATIC_TOLERANCE = 1e-5
+DEFAULT_REST_WINDOW_S = 1.0
+DEFAULT_REST_GROWTH = 0.01
+
+
 @dataclass(frozen=True, kw_only=True)
 class StrengthReductionStage(StageBase):
-    """Strength reduction: one undamped run per SRF F from the previous stage's stresses, with
-    c / F and tan(phi) / F; the FOS is the knee of the SRF-displacement curve (last stage only)."""
+    """Strength reduction: one run per SRF F from the previous stage's stresses with c / F and
+    tan(phi) / F; the FOS is where the SRF-displacement curve turns up (last stage only)."""
 
     kind: ClassVar[str] = "strength_reduction"
     duration_field: ClassVar[str] = "duration_s"
-    duration_s: float = number("s", "simulated time of each SRF run (several response times of the slope)", gt=0.0)
-    srf_min: float = number("1", "first SRF of the sweep; below 1 tests whether the slope stands as built", gt=0.0)
+    duration_s: float = number(
+        "s", "longest simulated time of each SRF run; with early_stop a run ends once at rest or once it has "
+        "slid 10% of the slope height", gt=0.0,
+    )
+    protocol: str = text(
+        "how the strength is reduced: `quasi_static`: at once, with local damping, each run until the "
+        "unbalanced force converges (a slope at rest) or the slope slides; `ramp`: gradually over ramp_time_s, "
+        "undamped; `sudden`: at once, undamped (docs/verification.md compares them)",
+        default="quasi_static", choices=PROTOCOLS,
+    )
+    damping: float | None = number(
+        "1", "*protocol = quasi_static:* local (Cundall) damping factor; default 0.7", default=None, gt=0.0, lt=1.0,
+    )
+    tolerance: float | None = number(
+        "1", "*protocol = quasi_static:* at rest once the unbalanced-force ratio is below this; default 1e-05",
+        default=None, gt=0.0, lt=1.0,
+    )
+    ramp_time_s: float | None = number(
+        "s", "*protocol = ramp:* the strength falls from full to c / F, tan(phi) / F over this time; default "
+        "4 response times of the slope, 16 H_domain / V_s", default=None, gt=0.0,
+    )
+    flow_rule: str = text(
+        "`associated`: the dilation follows the reduced friction, psi_F = phi_F, the flow rule under which limit "
+        "equilibrium and limit analysis give the FOS; `as_declared`: psi_F = min(psi, phi_F) with each "
+        "material's dilation_deg (psi = 0 gives a lower FOS, about 2% at phi = 20 deg)",
+        default="associated", choices=FLOW_RULES,
+    )
+    srf_min: float = number(
+        "1", "first SRF of the sweep; below 1 tests whether the slope stands as built", ge=0.01,
+    )
     srf_max: float = number("1", "last SRF of the sweep", gt=0.0)
-    srf_step: float = number("1", "SRF step of the first sweep (refined around the knee afterwards)", gt=0.0)
+    srf_step: float = number(
+        "1", "SRF step of the first sweep (refined around the knee afterwards; SRF values are rounded to 1e-4)",
+        ge=0.001,
+    )
     fos_tolerance: float = number(
         "1", "refine until the FOS bracket is at most this wide", default=0.01, gt=0.0
     )
     max_runs: int = integer("never make more SRF runs than this", default=40, ge=3, le=1000)
+    slope_height_m: float | None = number(
+        "m", "height H of the slope, the scale of failure; default: the relief of the free surface, the highest "
+        "minus the lowest point of the polygon's upper boundary (crest above toe)", default=None, gt=0.0,
+    )
     failure_displacement_m: float | None = number(
-        "m", "a run whose largest displacement exceeds this has failed (and stops there when early_stop "
-        "is on); default: 10% of the height of geometry.polygon_m", default=None, gt=0.0,
+        "m", "a run whose largest displacement exceeds this has failed: a mechanism formed and moved; "
+        "default: 0.5% of the slope height", default=None, gt=0.0,
     )
     displacement_floor_m: float | None = number(
         "m", "displacements below this count as this in the log-scale curve (no mechanism); "
         "default: failure_displacement_m / 1000", default=None, gt=0.0,
     )
-    rest_window_s: float = number(
-        "s", "at rest: the largest displacement grew by less than rest_growth of itself over the last "
-        "window, and by less than over the window before", default=1.0, gt=0.0,
+    rest_window_s: float | None = number(
+        "s", "*protocol = ramp or sudden:* at rest: the largest displacement grew by less than rest_growth of "
+        "itself over the last window, and by less than over the window before; default 1.0", default=None,
+        gt=0.0,
     )
-    rest_growth: float = number("1", "see rest_window_s", default=0.01, gt=0.0, lt=1.0)
-    early_stop: bool = boolean("end a run once it is at rest or past failure_displacement_m", default=True)
+    rest_growth: float | None = number(
+        "1", "*protocol = ramp or sudden:* see rest_window_s; default 0.01", default=None, gt=0.0, lt=1.0,
+    )
+    early_stop: bool = boolean(
+        "end a run once it is at rest or once it has slid 10% of the slope height", default=True,
+    )
 
     def check(self):
         super().check()
@@ -283,14 +338,40 @@ class StrengthReductionStage(StageBase):
             raise StudyError("elastic", "must be false: a strength-reduction stage needs a plastic material")
         if self.start != "original_positions":
             raise StudyError("start", "must be 'original_positions': every SRF run starts from the gravity state")
-        if 2 * self.rest_window_s > self.duration_s and self.early_stop:
-            raise StudyError("rest_window_s", f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s:g}")
+        applies = {"damping": ("quasi_static",), "tolerance": ("quasi_static",), "ramp_time_s": ("ramp",),
+                   "rest_window_s": ("ramp", "sudden"), "rest_growth": ("ramp", "sudden")}
+        for name, protocols in applies.items():
+            if getattr(self, name) is not None and self.protocol not in protocols:
+                raise StudyError(name, f"applies to protocol = {' or '.join(protocols)} only, not {self.protocol}")
+        if self.protocol != "quasi_static" and self.early_stop and 2 * self.rest_window_s_or_default > self.duration_s:
+            raise StudyError(
+                "rest_window_s",
+                f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s_or_default:g}",
+            )
+        if self.protocol == "ramp" and self.ramp_time_s is not None and self.ramp_time_s >= self.duration_s:
+            raise StudyError("ramp_time_s", f"must be < duration_s = {self.duration_s:g}, got {self.ramp_time_s:g}")
         if (
             self.failure_displacement_m is not None
             and self.displacement_floor_m is not None
             and self.displacement_floor_m >= self.failure_displacement_m
         ):
             raise StudyError("displacement_floor_m", "must be < failure_displacement_m")
+
+    @property
+    def rest_window_s_or_default(self) -> float:
+        return DEFAULT_REST_WINDOW_S if self.rest_window_s is None else self.rest_window_s
+
+    @property
+    def rest_growth_or_default(self) -> float:
+        return DEFAULT_REST_GROWTH if self.rest_growth is None else self.rest_growth
+
+    @property
+    def damping_or_default(self) -> float:
+        return DEFAULT_QUASI_STATIC_DAMPING if self.damping is None else self.damping
+
+    @property
+    def tolerance_or_default(self) -> float:
+        return DEFAULT_QUASI_STATIC_TOLERANCE if self.tolerance is None else self.tolerance
 
 
 STAGE_KINDS: dict[str, type[StageBase]] = {

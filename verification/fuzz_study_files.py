@@ -1,0 +1,281 @@
+"""Fuzzing the command with mutated study files: every input ends cleanly, in one line at most.
+
+    python -m verification.fuzz_study_files [--examples 300]
+
+Two small valid studies (an elastic block settling under gravity, and a coarse slope whose
+strength-reduction search makes a few short runs) are mutated by hypothesis: a value replaced
+by another type, a huge, tiny, negative, zero, NaN or infinite number, a key removed,
+renamed or written twice, bytes corrupted, the text saved as UTF-16 or Latin-1.  Each
+mutant is run through the command in this process (``typer.testing.CliRunner``).  It must end
+with exit 0 and complete result files (no ``*.tmp``), or with exit 2, one line on stderr that
+starts with ``error:`` and nothing written, or, for a valid study whose numbers drive the
+solver past its limits (a boundary pushed at tens of metres per second), with exit 1 and one
+line saying the run diverged, the finished stages' files complete; never a traceback (an
+exception escaping the command) and never another exit code.  ``tests/test_fuzz_study_files.py`` runs a bounded number
+of examples; this script prints the outcome counts of as many as asked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+import tempfile
+import tomllib
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from workflows.cli import app
+
+BLOCK = """\
+[study]
+name = "block"
+
+[geometry]
+polygon_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]
+spacing_m = 0.25
+
+[[materials]]
+name = "soil"
+model = "elastic"
+density_kg_m3 = 2000.0
+youngs_modulus_pa = 1e7
+poisson_ratio = 0.3
+
+[loads]
+gravity_m_s2 = [0.0, -10.0]
+
+[[boundary]]
+name = "base"
+y_max_m = 0.0
+vx_m_s = 0.0
+vy_m_s = 0.0
+
+[[stages]]
+name = "settle"
+kind = "relaxation"
+max_duration_s = 0.5
+record_interval_s = 0.05
+
+[[monitors]]
+name = "top"
+x_m = 1.0
+y_m = 1.0
+"""
+
+SLOPE = """\
+[study]
+name = "slope"
+
+[geometry]
+polygon_m = [[0.0, 0.0], [30.0, 0.0], [30.0, 3.0], [20.0, 3.0], [10.0, 8.0], [0.0, 8.0]]
+spacing_m = 1.0
+
+[[materials]]
+name = "soil"
+model = "drucker_prager"
+density_kg_m3 = 2000.0
+youngs_modulus_pa = 1e8
+poisson_ratio = 0.3
+cohesion_pa = 10e3
+friction_deg = 20.0
+
+[loads]
+gravity_m_s2 = [0.0, -10.0]
+
+[[boundary]]
+name = "base"
+y_max_m = 0.0
+vx_m_s = 0.0
+vy_m_s = 0.0
+
+[[boundary]]
+name = "sides"
+x_max_m = 0.0
+vx_m_s = 0.0
+
+[[stages]]
+name = "gravity"
+kind = "relaxation"
+elastic = true
+max_duration_s = 5.0
+record_interval_s = 0.1
+
+[[stages]]
+name = "srf"
+kind = "strength_reduction"
+duration_s = 1.0
+record_interval_s = 0.05
+srf_min = 1.0
+srf_max = 1.4
+srf_step = 0.2
+fos_tolerance = 0.1
+max_runs = 4
+"""
+
+BASES = {"block": BLOCK, "slope": SLOPE}
+
+ODD_VALUES = st.one_of(
+    st.sampled_from([0, -1, 1, 2, 10**30, -(10**30), 0.0, -0.0, 1e-300, -1e-300, 1e308, -1e308, math.inf, -math.inf,
+                     math.nan, True, False, "", "x", "nan", [], [0.0], [[0.0, 0.0]], {"a": 1}]),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(),
+    st.text(max_size=8),
+)
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(type(value))
+
+
+def to_toml(data: dict) -> str:
+    """TOML text of a study-shaped dict (tables, arrays of tables, plain values)."""
+    lines = [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, (dict, list))
+             or (isinstance(v, list) and not all(isinstance(e, dict) for e in v)) or v == []]
+    for key, value in data.items():
+        if isinstance(value, dict):
+            lines.append(f"\n[{json.dumps(key)}]")
+            lines += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()]
+        elif isinstance(value, list) and value and all(isinstance(e, dict) for e in value):
+            for entry in value:
+                lines.append(f"\n[[{json.dumps(key)}]]")
+                lines += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in entry.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _leaves(data: dict) -> list[tuple]:
+    """Paths (tuples of keys and list indices) of every value in a study dict."""
+    paths = []
+    for key, value in data.items():
+        if isinstance(value, dict):
+            paths += [(key, k) for k in value]
+        elif isinstance(value, list) and value and all(isinstance(e, dict) for e in value):
+            paths += [(key, i, k) for i, entry in enumerate(value) for k in entry]
+        else:
+            paths.append((key,))
+    return paths
+
+
+def _container(data: dict, path: tuple):
+    node = data
+    for part in path[:-1]:
+        node = node[part]
+    return node
+
+
+@st.composite
+def mutated_study_file(draw) -> bytes:
+    """One mutant of one of the base studies (module doc), as the bytes of a file."""
+    base = draw(st.sampled_from(sorted(BASES)))
+    text = BASES[base]
+    data = tomllib.loads(text)
+    kind = draw(st.sampled_from(["value", "value", "value", "remove", "rename", "duplicate", "bytes", "encoding",
+                                 "unchanged"]))
+    path = draw(st.sampled_from(_leaves(data)))
+    node, key = _container(data, path), path[-1]
+    if kind == "value":
+        node[key] = draw(ODD_VALUES)
+        text = to_toml(data)
+    elif kind == "remove":
+        del node[key]
+        text = to_toml(data)
+    elif kind == "rename":
+        node[key + draw(st.sampled_from(["_", "s", "x"]))] = node.pop(key)
+        text = to_toml(data)
+    elif kind == "duplicate":
+        line = draw(st.sampled_from([row for row in text.splitlines() if " = " in row]))
+        text = text.replace(line, line + "\n" + line, 1)
+    raw = text.encode("utf-8")
+    if kind == "bytes":
+        position = draw(st.integers(0, len(raw) - 1))
+        raw = raw[:position] + bytes([draw(st.integers(0, 255))]) + raw[position + 1:]
+    elif kind == "encoding":
+        raw = text.replace('"soil"', '"sôil"').encode(draw(st.sampled_from(["utf-16", "latin-1", "utf-32"])))
+    return raw
+
+
+@dataclass
+class Outcome:
+    """How the command ended on one input."""
+
+    exit_code: int
+    stderr: str
+    traceback: str = ""
+    problems: list[str] = field(default_factory=list)
+
+
+def run_command(raw: bytes, scratch: Path) -> Outcome:
+    """Run ``spfem-fos`` in this process on a file with the bytes ``raw``; judge the result (module doc)."""
+    study, out = scratch / "study.toml", scratch / "out"
+    study.write_bytes(raw)
+    result = CliRunner().invoke(app, [str(study), "--out", str(out), "--workers", "1", "--quiet"])
+    outcome = Outcome(result.exit_code, result.stderr)
+    if result.exception is not None and not isinstance(result.exception, SystemExit):
+        outcome.traceback = f"{type(result.exception).__name__}: {result.exception}"
+        outcome.problems.append(f"an exception escaped the command: {outcome.traceback}")
+    written = sorted(p.name for p in out.rglob("*")) if out.exists() else []
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    if result.exit_code == 2:
+        if len(lines) != 1 or not lines[0].startswith("error: "):
+            outcome.problems.append(f"exit 2 without exactly one 'error:' line: {lines[:3]}")
+        if written:
+            outcome.problems.append(f"exit 2 but files were written: {written[:5]}")
+    elif result.exit_code in (0, 1):
+        if any(re.search(r"\.tmp$", name) for name in written):
+            outcome.problems.append(f"a temporary file was left: {written}")
+        if result.exit_code == 1 and (len(lines) != 1 or "the run diverged" not in lines[0]):
+            outcome.problems.append(f"exit 1 that is not one line saying the run diverged: {lines[:3]}")
+    else:
+        outcome.problems.append(f"exit code {result.exit_code}: {lines[-1:] or outcome.traceback}")
+    return outcome
+
+
+def fuzz(max_examples: int, counts: Counter | None = None, derandomize: bool = True) -> Counter:
+    """Run ``max_examples`` mutants (``derandomize``: the same ones every time); raise on the first
+    that breaks a rule of the module doc.  Returns the count of each exit code."""
+    counts = Counter() if counts is None else counts
+
+    @settings(max_examples=max_examples, deadline=None, derandomize=derandomize, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(raw=mutated_study_file())
+    def one(raw: bytes) -> None:
+        with tempfile.TemporaryDirectory() as scratch:
+            outcome = run_command(raw, Path(scratch))
+        counts[f"exit {outcome.exit_code}"] += 1
+        assert not outcome.problems, outcome.problems
+
+    one()
+    return counts
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m verification.fuzz_study_files", description=__doc__.splitlines()[0])
+    parser.add_argument("--examples", type=int, default=300)
+    parser.add_argument("--random", action="store_true", help="new mutants on every call (not the derandomized set)")
+    args = parser.parse_args(argv)
+    counts = fuzz(args.examples, derandomize=not args.random)
+    print(f"{sum(counts.values())} inputs: " + ", ".join(f"{n} {what}" for what, n in sorted(counts.items())))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
