@@ -22,6 +22,7 @@ Import this module before any other ``spfem_core`` module compiles (the package'
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from pathlib import Path
@@ -29,8 +30,10 @@ from pathlib import Path
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
 
+@functools.lru_cache(maxsize=1)
 def source_hash() -> str:
-    """Short SHA-256 over the names and bytes of every ``.py`` file of spfem_core."""
+    """Short SHA-256 over the names and bytes of every ``.py`` file of spfem_core, as imported
+    (read once per process: the process runs the code it imported, whatever the files say later)."""
     digest = hashlib.sha256()
     for path in sorted(_PACKAGE_DIR.rglob("*.py")):
         digest.update(path.relative_to(_PACKAGE_DIR).as_posix().encode())

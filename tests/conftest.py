@@ -1,8 +1,15 @@
-"""Shared fixtures of the tests: the reference scenes (``verification.scenes``) and one
-quickstart study run shared by the FOS, ParaView and notebook tests."""
+"""Shared fixtures of the tests: the reference scenes (``verification.scenes``), one quickstart
+study run shared by the FOS, ParaView and notebook tests, one run of the shipped strength sweep
+shared by the sweep and notebook tests, and a separately started dask cluster on loopback."""
 
 from __future__ import annotations
 
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -10,6 +17,7 @@ import pytest
 from verification.scenes import beam_scene, column_scene
 from workflows.fos.orchestration import run_fos_study
 from workflows.study import load_study
+from workflows.sweep.run import run_sweep
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -31,3 +39,41 @@ def quickstart_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("quickstart")
     study = load_study(REPO / "studies" / "quickstart.toml")
     return study, out, run_fos_study(study, out, workers=2)
+
+
+@pytest.fixture(scope="session")
+def strength_sweep(tmp_path_factory):
+    """studies/sweep_strength.toml (3 x 3 cases) run once on a local cluster of 2 workers:
+    (study, output folder, SweepOutcome)."""
+    out = tmp_path_factory.mktemp("sweep_strength")
+    study = load_study(REPO / "studies" / "sweep_strength.toml")
+    return study, out, run_sweep(study, out, workers=2)
+
+
+@pytest.fixture
+def separate_dask_cluster(tmp_path):
+    """A ``dask scheduler`` and two ``dask worker`` processes (1 thread each) started on loopback
+    as a user would start them; yields the scheduler's address, kills them afterwards."""
+    scheduler_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
+    processes = [subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+         "--no-dashboard", "--scheduler-file", str(scheduler_file)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env,
+    )]
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.is_file() or not scheduler_file.read_text().strip():
+            assert time.monotonic() < deadline, "the scheduler did not start"
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        for _ in range(2):
+            processes.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
+            ))
+        yield address
+    finally:
+        for process in processes:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()

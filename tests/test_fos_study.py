@@ -4,7 +4,6 @@ resume after a killed study, damaged files, and the gravity stage against the el
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import signal
@@ -198,14 +197,24 @@ def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
 
 
 def test_keys_change_with_what_shapes_a_state_and_not_with_the_search_settings(quickstart_run):
-    """The gravity key covers every input of the stages before the reduction, the strength too
-    (an elastic gravity stage ignores it; the key is conservative, not minimal), so a changed
-    strength recomputes gravity and every run.  The search settings choose which runs to make,
-    not what a run does: a finer tolerance keeps both keys, and every run is reused."""
+    """The gravity key covers every input of the stages before the reduction except the
+    strength, which the quickstart's elastic gravity stage does not use (a sweep over strength
+    relaxes once); the run key covers the strength, so a changed strength recomputes every run.
+    A plastic gravity stage puts the strength in the gravity key.  The search settings choose
+    which runs to make, not what a run does: a finer tolerance keeps both keys."""
     study, _, _ = quickstart_run
     stronger = parse_study(QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 12e3"))
-    assert gravity_key(stronger) != gravity_key(study)
+    assert gravity_key(stronger) == gravity_key(study)
     assert run_key(stronger, 1.2) != run_key(study, 1.2)
+    mohr_coulomb = parse_study(QUICKSTART.replace('model = "drucker_prager"', 'model = "mohr_coulomb"')
+                               .replace('dp_fit = "mohr_coulomb_match"\n', ""))
+    assert gravity_key(mohr_coulomb) == gravity_key(study)
+    assert run_key(mohr_coulomb, 1.2) != run_key(study, 1.2)
+    heavier = parse_study(QUICKSTART.replace("density_kg_m3 = 2000.0", "density_kg_m3 = 2100.0"))
+    assert gravity_key(heavier) != gravity_key(study)
+    plastic, plastic_stronger = (parse_study(text.replace("elastic = true", "elastic = false"))
+                                 for text in (QUICKSTART, stronger.source_text))
+    assert gravity_key(plastic) != gravity_key(plastic_stronger)
     finer = parse_study(QUICKSTART.replace("fos_tolerance = 0.01", "fos_tolerance = 0.005"))
     assert gravity_key(finer) == gravity_key(study)
     assert run_key(finer, 1.2) == run_key(study, 1.2)
@@ -238,37 +247,15 @@ def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):
     assert not list(out.glob("*.tmp"))
 
 
-def test_runs_on_a_separately_started_dask_cluster(quickstart_run, tmp_path):
+def test_runs_on_a_separately_started_dask_cluster(quickstart_run, separate_dask_cluster, tmp_path):
     _, _, local = quickstart_run
-    scheduler_file = tmp_path / "scheduler.json"
-    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
-    processes = [subprocess.Popen(
-        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
-         "--no-dashboard", "--scheduler-file", str(scheduler_file)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, env=env,
-    )]
-    try:
-        deadline = time.monotonic() + 60
-        while not scheduler_file.is_file() or not scheduler_file.read_text().strip():
-            assert time.monotonic() < deadline, "the scheduler did not start"
-            time.sleep(0.1)
-        address = json.loads(scheduler_file.read_text())["address"]
-        for _ in range(2):
-            processes.append(subprocess.Popen(
-                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
-                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
-            ))
-        study_path = tmp_path / "quickstart.toml"
-        study_path.write_text(QUICKSTART)
-        run = cli(study_path, "--out", tmp_path / "out", "--scheduler", address)
-        assert run.returncode == 0, run.stderr
-        summary = xr.open_dataset(tmp_path / "out" / "summary.nc")
-        assert float(summary["fos"]) == pytest.approx(local.fos)  # the same runs, another cluster
-        assert f"FOS = {local.fos:.4g}" in run.stdout
-    finally:
-        for process in processes:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
+    study_path = tmp_path / "quickstart.toml"
+    study_path.write_text(QUICKSTART)
+    run = cli(study_path, "--out", tmp_path / "out", "--scheduler", separate_dask_cluster)
+    assert run.returncode == 0, run.stderr
+    summary = xr.open_dataset(tmp_path / "out" / "summary.nc")
+    assert float(summary["fos"]) == pytest.approx(local.fos)  # the same runs, another cluster
+    assert f"FOS = {local.fos:.4g}" in run.stdout
 
 
 def test_unreachable_scheduler_exits_2(tmp_path):

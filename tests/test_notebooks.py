@@ -1,5 +1,6 @@
 """The notebooks in studies/notebooks run top to bottom (nbclient): the results notebook on a
-fresh quickstart result, the benchmark notebook on the committed bench_results tables."""
+fresh quickstart result, the sweep notebook on a fresh sweep, the benchmark notebook on the
+committed bench_results tables."""
 
 from __future__ import annotations
 
@@ -25,6 +26,15 @@ def test_results_notebook_runs_on_the_quickstart_results(quickstart_run, monkeyp
     assert f"FOS {outcome.fos:.4f}" in run_notebook(NOTEBOOK_DIR / "fos_results.ipynb")
 
 
+def test_sweep_notebook_runs_on_the_strength_sweep(strength_sweep, monkeypatch):
+    _, out, outcome = strength_sweep
+    monkeypatch.setenv("SPFEM_RESULTS", str(out))
+    printed = run_notebook(NOTEBOOK_DIR / "sweep_results.ipynb")
+    assert "sweep_strength: 9 cases over cohesion_pa, friction_deg" in printed
+    below = sum(r.status == "found" and r.fos < 1.0 for r in outcome.results.values())
+    assert f"{below} of 9 cases have FOS < 1" in printed
+
+
 def test_benchmark_notebook_runs_on_the_committed_tables():
     tables = sorted(p.stem for p in (NOTEBOOK_DIR.parents[1] / "bench_results").glob("*/*.nc"))
     assert "beam" in tables
@@ -33,4 +43,4 @@ def test_benchmark_notebook_runs_on_the_committed_tables():
 
 
 def test_every_notebook_is_tested():
-    assert sorted(p.name for p in NOTEBOOK_DIR.glob("*.ipynb")) == ["benchmarks.ipynb", "fos_results.ipynb"]
+    assert sorted(p.name for p in NOTEBOOK_DIR.glob("*.ipynb")) == ["benchmarks.ipynb", "fos_results.ipynb", "sweep_results.ipynb"]

@@ -8,17 +8,24 @@ from pathlib import Path
 
 from workflows.scene import build_scene
 from workflows.study import parse_study
+from workflows.study.reading import sweep_cases
 
 REPO = Path(__file__).resolve().parents[1]
 README = (REPO / "README.md").read_text(encoding="utf-8")
 
 
 def test_readme_study_file_is_valid_and_builds_a_scene():
-    [block] = re.findall(r"```toml\n(.*?)```", README, flags=re.S)
+    block, _ = re.findall(r"```toml\n(.*?)```", README, flags=re.S)
     study = parse_study(block)
     assert study.strength_reduction is not None
     assert build_scene(study).n_particles > 500
     assert tomllib.loads(block)["study"]["name"] == study.name
+
+
+def test_readme_sweep_makes_cases_of_the_readme_study():
+    block, axis = re.findall(r"```toml\n(.*?)```", README, flags=re.S)
+    cases = sweep_cases(parse_study(block + "\n" + axis))
+    assert [case.study.materials[0].cohesion_pa for case in cases] == [5e3, 10e3, 15e3]
 
 
 def test_readme_set_up_commands_are_what_ci_runs():

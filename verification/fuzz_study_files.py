@@ -2,8 +2,9 @@
 
     python -m verification.fuzz_study_files [--examples 300]
 
-Two small valid studies (an elastic block settling under gravity, and a coarse slope whose
-strength-reduction search makes a few short runs) are mutated by hypothesis: a value replaced
+Three small valid studies (an elastic block settling under gravity, a coarse slope whose
+strength-reduction search makes a few short runs, and a sweep of two cases over a slope made
+by ``[geometry.slope]``) are mutated by hypothesis: a value replaced
 by another type, a huge, tiny, negative, zero, NaN or infinite number, a key removed,
 renamed or written twice, bytes corrupted, the text saved as UTF-16 or Latin-1.  Each
 mutant is run through the command in this process (``typer.testing.CliRunner``).  It must end
@@ -18,7 +19,6 @@ of examples; this script prints the outcome counts of as many as asked.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
@@ -33,6 +33,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from workflows.cli import app
+from workflows.study.toml_text import to_toml
 
 BLOCK = """\
 [study]
@@ -120,7 +121,16 @@ fos_tolerance = 0.1
 max_runs = 4
 """
 
-BASES = {"block": BLOCK, "slope": SLOPE}
+SWEEP = (
+    '[study]\nname = "sweep"\n\n[geometry]\nspacing_m = 1.0\n\n'
+    "[geometry.slope]\nheight_m = 5.0\ngradient = 2.0\nfoundation_depth_m = 2.0\n\n"
+    + SLOPE[SLOPE.index("[[materials]]"):SLOPE.index("[[boundary]]")]  # no supports: the slope form makes them
+    + SLOPE[SLOPE.index("[[stages]]"):]
+    + '\n[sweep]\ncombination = "grid"\n\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [8e3, 12e3]\n'
+)
+"""The slope as a slope form, swept over two cohesions."""
+
+BASES = {"block": BLOCK, "slope": SLOPE, "sweep": SWEEP}
 
 ODD_VALUES = st.one_of(
     st.sampled_from([0, -1, 1, 2, 10**30, -(10**30), 0.0, -0.0, 1e-300, -1e-300, 1e308, -1e308, math.inf, -math.inf,
@@ -131,47 +141,18 @@ ODD_VALUES = st.one_of(
 )
 
 
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
-    raise TypeError(type(value))
-
-
-def to_toml(data: dict) -> str:
-    """TOML text of a study-shaped dict (tables, arrays of tables, plain values)."""
-    lines = [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, (dict, list))
-             or (isinstance(v, list) and not all(isinstance(e, dict) for e in v)) or v == []]
-    for key, value in data.items():
-        if isinstance(value, dict):
-            lines.append(f"\n[{json.dumps(key)}]")
-            lines += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in value.items()]
-        elif isinstance(value, list) and value and all(isinstance(e, dict) for e in value):
-            for entry in value:
-                lines.append(f"\n[[{json.dumps(key)}]]")
-                lines += [f"{json.dumps(k)} = {_toml_value(v)}" for k, v in entry.items()]
-    return "\n".join(lines) + "\n"
-
-
-def _leaves(data: dict) -> list[tuple]:
-    """Paths (tuples of keys and list indices) of every value in a study dict."""
+def _leaves(data: dict, prefix: tuple = ()) -> list[tuple]:
+    """Paths (tuples of keys and list indices) of every value in a study dict, at any depth
+    (``geometry.slope.height_m``, ``sweep.axes[0].values``)."""
     paths = []
     for key, value in data.items():
         if isinstance(value, dict):
-            paths += [(key, k) for k in value]
+            paths += _leaves(value, prefix + (key,))
         elif isinstance(value, list) and value and all(isinstance(e, dict) for e in value):
-            paths += [(key, i, k) for i, entry in enumerate(value) for k in entry]
+            for i, entry in enumerate(value):
+                paths += _leaves(entry, prefix + (key, i))
         else:
-            paths.append((key,))
+            paths.append(prefix + (key,))
     return paths
 
 

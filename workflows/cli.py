@@ -4,8 +4,9 @@
     python -m workflows.cli STUDY.toml ...
 
 A study whose last stage is ``strength_reduction`` computes a factor of safety
-(:mod:`workflows.fos`: SRF runs on dask, report and ``summary.nc``); any other study runs its
-stages in order (:mod:`workflows.stages`).
+(:mod:`workflows.fos`: SRF runs on dask, report and ``summary.nc``), one per case with a
+``[sweep]`` (:mod:`workflows.sweep`: all cases on one cluster, ``study.nc``); any other study
+runs its stages in order (:mod:`workflows.stages`).
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
@@ -83,7 +84,7 @@ def main(
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result line (the FOS)")] = False,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result: the FOS line (a sweep: its table)")] = False,
     force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
     workers: Annotated[
         int, typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread each)")
@@ -130,7 +131,10 @@ def main(
     )
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        if study.strength_reduction is not None:
+        if study.sweep is not None:
+            _run_sweep(study, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
+                       scheduler=scheduler, max_memory_bytes=max_memory_bytes)
+        elif study.strength_reduction is not None:
             _run_fos(study, study_file, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
                      scheduler=scheduler, max_memory_bytes=max_memory_bytes)
         else:
@@ -170,20 +174,16 @@ def _run_stages(study, study_file, out_dir, console, columns, *, quiet, force, m
         typer.echo(f"wrote {paths}")
 
 
-def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, workers, scheduler,
-             max_memory_bytes) -> None:
-    # deferred until the study is valid, see main()
-    from workflows.fos.cluster import connect
-    from workflows.fos.orchestration import FosProgress, run_fos_study
-    from workflows.fos.report import report_lines
+def _fos_progress(console, columns, quiet: bool, with_cases: bool):
+    """(a FosProgress that drives one rich display, the display's stop function).  The display
+    starts with its first bar, so that an error before any work stays one line."""
+    from workflows.fos.engine import FosProgress  # deferred, see main()
 
-    if scheduler:  # before any output: an unreachable cluster is one line and exit 2
-        connect(scheduler).close()
     progress = Progress(*columns, console=console)
     bars: dict[str, int] = {}
+    counts = {"cases": ""}
 
     def bar(key: str, description: str, total: float) -> int:
-        """The bar ``key``; the display starts with the first bar, so an early error stays one line."""
         if key not in bars:
             if not bars:
                 progress.start()
@@ -194,20 +194,42 @@ def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, work
         progress.update(bar(name, f"{name} (gravity)", 1.0), completed=min(max(fraction, 0.0), 1.0))
 
     def runs(done, planned):
-        progress.update(bar("runs", "SRF runs", max(planned, 1)), completed=done, total=max(planned, 1))
+        description = f"cases {counts['cases']}, SRF runs" if with_cases else "SRF runs"
+        progress.update(bar("runs", description, max(planned, 1)), completed=done, total=max(planned, 1),
+                        description=description)
+
+    def cases(done, total):
+        counts["cases"] = f"{done}/{total}"
 
     def message(text):
-        if text.startswith("warning") or not quiet:
+        if text.startswith("warning") or ": warning" in text or not quiet:
             progress.console.print(text, highlight=False, markup=False)
 
-    try:
-        outcome = run_fos_study(
-            study, out_dir, workers=workers, scheduler=scheduler, force=force, max_memory_bytes=max_memory_bytes,
-            progress=FosProgress(stage=stage, runs=runs, message=message),
-        )
-    finally:
+    def stop():
         if bars:
             progress.stop()
+
+    return FosProgress(stage=stage, runs=runs, message=message, cases=cases), stop
+
+
+def _on_cluster(run, study, out_dir, console, columns, *, quiet, with_cases, scheduler, **options):
+    """``run(study, out_dir, ...)`` (a FOS study or a sweep) with its progress display; its outcome."""
+    from workflows.fos.cluster import connect  # deferred until the study is valid, see main()
+
+    if scheduler:  # before any output: an unreachable cluster is one line and exit 2
+        connect(scheduler).close()
+    progress, stop = _fos_progress(console, columns, quiet, with_cases=with_cases)
+    try:
+        return run(study, out_dir, scheduler=scheduler, progress=progress, **options)
+    finally:
+        stop()
+
+
+def _run_fos(study, study_file, out_dir, console, columns, *, quiet, **options) -> None:
+    from workflows.fos.orchestration import run_fos_study  # deferred, see main()
+    from workflows.fos.report import report_lines
+
+    outcome = _on_cluster(run_fos_study, study, out_dir, console, columns, quiet=quiet, with_cases=False, **options)
     if quiet:
         typer.echo(outcome.verdict)
         return
@@ -216,6 +238,24 @@ def _run_fos(study, study_file, out_dir, console, columns, *, quiet, force, work
     for line in report_lines(outcome):
         typer.echo(line)
     typer.echo(f"wrote {outcome.summary_path}" + "".join(f", {path.name}" for path in outcome.figures))
+
+
+def _run_sweep(study, out_dir, console, columns, *, quiet, **options) -> None:
+    from workflows.sweep.report import table_lines  # deferred, see main()
+    from workflows.sweep.run import run_sweep
+
+    outcome = _on_cluster(run_sweep, study, out_dir, console, columns, quiet=quiet, with_cases=True, **options)
+    if not quiet:
+        reused = f", {outcome.runs_reused} reused" if outcome.runs_reused else ""
+        same = (f" ({len(outcome.cases) - outcome.n_distinct} identical to another)"
+                if outcome.n_distinct < len(outcome.cases) else "")
+        typer.echo(f"{study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
+                   f"wall time {outcome.timings_s['total']:.1f} s")
+    for line in table_lines(outcome.cases, outcome.results):
+        typer.echo(line)
+    if not quiet:
+        typer.echo(f"wrote {outcome.study_path}, {outcome.out_dir / 'cases'}/"
+                   + "".join(f", {path.name}" for path in outcome.figures))
 
 
 if __name__ == "__main__":

@@ -126,21 +126,30 @@ def check_stage_lengths(study: Study, dt_s: float) -> None:
             )
 
 
-def run_and_write_stage(
-    study: Study, sim: Simulation, index: int, path: Path, monitor_nodes: np.ndarray, out_dir: Path,
-    *, progress=None, attrs: dict | None = None,
-):
-    """Prepare stage ``index``, run it (with the study's snapshots), write its result to ``path``
-    (collapse metrics after the last stage, ``attrs`` added); the stage's TimeSeries."""
+def run_stage_result(study: Study, sim: Simulation, index: int, monitor_nodes: np.ndarray, *, progress=None,
+                     snapshot=None):
+    """Prepare stage ``index``, run it and make its result dataset (collapse metrics after the
+    last stage); (the stage's TimeSeries, the dataset).  Nothing is written."""
     stage = study.stages[index]
     try:
         prepare_stage(sim, study, stage, index)
     except UnstableTimeStepError as error:
         raise StudyError(f"stages[{index}]", str(error)) from None
-    series = run_stage(sim, stage, monitor_nodes, progress, snapshots(study, stage, sim, out_dir))
+    series = run_stage(sim, stage, monitor_nodes, progress, snapshot)
     dataset = stage_dataset(study=study, stage_index=index, series=series, sim=sim, monitor_particles=monitor_nodes)
     if index == len(study.stages) - 1:
         dataset = add_metrics(dataset, study.metrics, sim)
+    return series, dataset
+
+
+def run_and_write_stage(
+    study: Study, sim: Simulation, index: int, path: Path, monitor_nodes: np.ndarray, out_dir: Path,
+    *, progress=None, attrs: dict | None = None,
+):
+    """:func:`run_stage_result` with the study's snapshots, the dataset (``attrs`` added) written to
+    ``path``; the stage's TimeSeries."""
+    snapshot = snapshots(study, study.stages[index], sim, out_dir)
+    series, dataset = run_stage_result(study, sim, index, monitor_nodes, progress=progress, snapshot=snapshot)
     dataset.attrs.update(attrs or {})
     write_dataset(dataset, path)
     return series

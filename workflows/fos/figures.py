@@ -22,7 +22,7 @@ from workflows.fos.run_store import run_file_name
 COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
 
 
-def _pyplot():
+def pyplot():
     """matplotlib's pyplot on the Agg backend.  Imported on first use, not with this module:
     it costs about 0.5 s, which a study with ``figures = false`` never pays."""
     import matplotlib
@@ -34,7 +34,7 @@ def _pyplot():
 
 
 def srf_curve(summary: xr.Dataset, path: Path) -> Path:
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.92)
     srf = summary["srf"].values
@@ -64,8 +64,8 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
 
 
 def run_fields(run_path: Path, path: Path) -> Path:
-    plt = _pyplot()
-    import matplotlib.tri as mtri  # with pyplot, see _pyplot
+    plt = pyplot()
+    import matplotlib.tri as mtri  # with pyplot, see pyplot
 
     with xr.open_dataset(run_path, engine="netcdf4") as ds:
         x, y = ds["particle_x"].values, ds["particle_y"].values

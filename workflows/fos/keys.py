@@ -2,7 +2,8 @@
 
 A gravity file carries ``gravity_key``, a hash over everything that shapes the gravity state
 (geometry, materials, loads, supports, solver, the stages before the strength reduction, and
-the core's sources); a run file carries ``run_key``, a hash over the gravity key, what the run
+the core's sources; not the materials' strength when every stage before the strength
+reduction is elastic, so that a sweep over strength relaxes gravity once); a run file carries ``run_key``, a hash over the gravity key, what the run
 does and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
 The search's own settings are left out of the run key: refining the search reuses every run.
 """
@@ -18,6 +19,11 @@ from workflows.study import Study
 
 SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
 """Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
+
+STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit")
+"""Material fields an elastic stage does not use."""
+
+
 def _digest(payload) -> str:
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:24]
@@ -30,15 +36,25 @@ def gravity_key(study: Study) -> str:
         raw.pop(key, None)
     raw["study"].pop("description", None)
     raw["stages"] = raw["stages"][:-1]
+    if all(stage.elastic for stage in study.stages[:-1]):
+        raw["materials"] = [{k: v for k, v in material.items() if k not in STRENGTH_FIELDS}
+                            for material in raw["materials"]]
     raw["core"] = source_hash()
     return _digest(raw)
 
 
 def run_key(study: Study, srf: float) -> str:
-    """Hash of the gravity key, what a run does (not how the search picks runs) and F."""
+    """Hash of the gravity key, the materials (their strength too), what a run does (not how the
+    search picks runs) and F."""
     stage = dataclasses.asdict(study.strength_reduction)
     for key in SEARCH_FIELDS:
         stage.pop(key)
-    return _digest({"gravity": gravity_key(study), "stage": stage, "srf": f"{srf:.4f}"})
+    materials = [{"model": material.model, **dataclasses.asdict(material)} for material in study.materials]
+    return _digest({"gravity": gravity_key(study), "materials": materials, "stage": stage, "srf": f"{srf:.4f}"})
 
 
+def case_key(study: Study) -> str:
+    """Hash of everything a study computes and how its search picks runs: equal keys, equal
+    results (the cases of a sweep that share one are computed once)."""
+    stage = study.strength_reduction
+    return _digest({"run": run_key(study, 0.0), "search": {name: getattr(stage, name) for name in SEARCH_FIELDS}})

@@ -1,8 +1,8 @@
 """The run files of a strength-reduction study on disk: names, reuse, writing, stale files.
 
 Each finished SRF run is written by the study's process to ``OUT/srf_<F>.nc`` (temporary
-name, then rename) with its key (``workflows.fos.keys``) and its scalars as ``run_<name>``
-attributes.  A rerun reuses a file with the same key, removes files of another gravity state,
+name, then rename), as its worker made it: with its key (``workflows.fos.keys``) and its
+scalars as ``run_<name>`` attributes.  A rerun reuses a file with the same key, removes files another study made,
 and recomputes a damaged one.
 """
 
@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Callable
 
 import xarray as xr
 
-from workflows.fos.task import SrfRunResult
-from workflows.output.writing import interrupts_deferred, write_dataset
+from workflows.fos.task import RESULT_SCALARS, SrfRunResult
+from workflows.output.writing import interrupts_deferred, write_bytes
 
 SUMMARY_NAME = "summary.nc"
 
@@ -22,10 +23,6 @@ SUMMARY_NAME = "summary.nc"
 def run_file_name(srf: float) -> str:
     return f"srf_{srf:.4f}.nc"
 
-
-
-RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
-                   "wall_time_s", "remesh_wall_s", "n_steps")
 
 
 def stored_run(path: Path, key: str) -> dict | None:
@@ -56,21 +53,20 @@ def run_scalars(result: SrfRunResult, study_start_unix_s: float) -> dict:
     }
 
 
-def write_run(result: SrfRunResult, path: Path, key: str, gkey: str) -> None:
-    ds = result.dataset
-    ds.attrs.update({f"run_{name}": getattr(result, name) for name in RESULT_SCALARS})
-    ds.attrs.update(run_key=key, gravity_key=gkey)
-    write_dataset(ds, path)
+def write_run(result: SrfRunResult, path: Path) -> None:
+    """Put a run's file (made on its worker, keys included) on disk."""
+    write_bytes(result.file_bytes, path)
 
 
-def remove_stale_runs(out_dir: Path, gkey: str) -> int:
-    """Delete run files of another gravity state (another slope or another core)."""
+def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str]) -> int:
+    """Delete run files that another study made (another slope, strength or core): a file whose
+    ``run_key`` is not ``key_of(its srf)``, and leftover temporary files."""
     removed = 0
     for path in out_dir.glob("srf_*.nc"):
         try:
             with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
-                stale = ds.attrs.get("gravity_key") != gkey
-        except (OSError, ValueError, RuntimeError):
+                stale = ds.attrs.get("run_key") != key_of(float(ds.attrs["srf"]))
+        except (OSError, ValueError, RuntimeError, KeyError):
             stale = True
         if stale:
             path.unlink(missing_ok=True)
@@ -78,5 +74,3 @@ def remove_stale_runs(out_dir: Path, gkey: str) -> int:
     for path in out_dir.glob("*.nc.tmp"):
         path.unlink(missing_ok=True)
     return removed
-
-

@@ -3,9 +3,11 @@
 The task gets the study text, the gravity state (stress and plastic strain per particle)
 and F; it rebuilds the scene (deterministic: same particles, same first mesh), divides the
 strength (c / F, tan(phi) / F; psi_F by the stage's flow rule), runs the stage from the
-original positions by the stage's protocol and returns the run's dataset with its verdict
-(``workflows.fos.verdict``).  It touches no file: the client writes the results, so workers
-need not share a file system with it.
+original positions by the stage's protocol and returns the run's verdict
+(``workflows.fos.verdict``) and its result file, made in memory on the worker
+(``workflows.output.writing.dataset_bytes``).  It touches no file: the client only puts the
+bytes on disk, so workers need not share a file system with it, and the client's process
+(which shares the machine's cores with local workers) does little.
 
 Protocols (``strength_reduction.protocol``):
 
@@ -24,14 +26,18 @@ import math
 import time
 from dataclasses import dataclass
 
+import netCDF4
 import numpy as np
+import xarray as xr
 from distributed import Event
+from xarray.backends import NetCDF4DataStore
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.simulation import Simulation
 from workflows.fos.scales import response_time_s
 from workflows.fos.verdict import DIVERGED, verdict_for
 from workflows.output.stage_file import stage_dataset
+from workflows.output.writing import dataset_bytes
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
 from workflows.study import Study, parse_study
 
@@ -64,8 +70,17 @@ class SrfRunResult:
     n_steps: int
     started_unix_s: float  # wall clock on the worker when the task started and ended (time.time())
     finished_unix_s: float
-    dataset: object  # xarray.Dataset of the run (workflows.output.stage_file.stage_dataset)
+    file_bytes: bytes = b""  # the run's result file (stage_dataset, verdict, scalars and keys as attributes)
 
+    @property
+    def dataset(self) -> xr.Dataset:
+        """The result file, read back (for inspection; the client writes ``file_bytes`` as they are)."""
+        return xr.open_dataset(NetCDF4DataStore(netCDF4.Dataset("run.nc", mode="r", memory=self.file_bytes))).load()
+
+
+RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
+                  "wall_time_s", "remesh_wall_s", "n_steps")
+"""The fields of a result that its file carries as ``run_<name>`` attributes (read back on reuse)."""
 
 RAMP_STEPS = 20
 """A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
@@ -110,12 +125,13 @@ def default_ramp_time_s(study: Study) -> float:
 
 
 def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float,
-            cancel_event: str | None = None):
+            cancel_event: str | None = None, run_key: str = "", gravity_key: str = ""):
     """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
 
     ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
     longer change the answer) the run stops at its next stop-rule check, so that its worker is
     free for a run that can.  Needs ``stage.early_stop`` (the checks come with the stop rule).
+    ``run_key`` and ``gravity_key`` (``workflows.fos.keys``, from the client) go into the file.
     """
     started_unix_s = time.time()
     study = parse_study(study_text)
@@ -140,8 +156,7 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
         series.notes["diverged"] = str(error)
     ds = stage_dataset(study=study, stage_index=stage_index, series=series, sim=sim, monitor_particles=monitors)
     max_u = float(np.max(series.max_displacement_m)) if series.max_displacement_m.size else math.nan
-    ds.attrs.update(srf=float(srf), status=status, status_reason=reason)
-    return SrfRunResult(
+    result = SrfRunResult(
         srf=float(srf),
         status=status,
         status_reason=reason,
@@ -152,6 +167,10 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
         remesh_wall_s=float(sim.counters.remesh_wall_s - remesh_start),
         n_steps=int(series.n_steps),
         started_unix_s=started_unix_s,
-        finished_unix_s=time.time(),
-        dataset=ds,
+        finished_unix_s=math.nan,
     )
+    ds.attrs.update(srf=float(srf), status=status, status_reason=reason, run_key=run_key, gravity_key=gravity_key)
+    ds.attrs.update({f"run_{name}": getattr(result, name) for name in RESULT_SCALARS})
+    result.file_bytes = dataset_bytes(ds)
+    result.finished_unix_s = time.time()
+    return result

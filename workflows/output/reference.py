@@ -16,6 +16,9 @@ from workflows.output.variables import (
     STAGE_FILE_ATTRIBUTES,
     SUMMARY_FILE,
     SUMMARY_FILE_ATTRIBUTES,
+    SWEEP_AXIS_ATTRIBUTES,
+    SWEEP_FILE,
+    SWEEP_FILE_ATTRIBUTES,
     Attribute,
     Variable,
 )
@@ -39,6 +42,9 @@ notebooks in `studies/notebooks/`.
 | `OUT/srf_<F>.nc` | each strength-reduction run of an FOS study (a stage file of the last stage) |
 | `OUT/summary.nc` | an FOS study: one row per SRF run and the factor of safety |
 | `OUT/srf_curve.png`, `OUT/fields_srf_<F>.png` | an FOS study with `[output] figures = true` |
+| `OUT/study.nc` | a sweep: the FOS of every case over the sweep's dimensions |
+| `OUT/cases/<case>/` | a sweep: each case's files, as an FOS study's (`case.toml` its study text; no figures) |
+| `OUT/fos_<axis>.png`, `OUT/fos_map.png` | a sweep with `[output] figures = true`: FOS against each axis, and the map of a grid of two or more axes |
 """
 
 
@@ -69,6 +75,13 @@ def page() -> str:
     parts += ["## `summary.nc` of a strength-reduction study", "", *_variables(SUMMARY_FILE), "",
               "Attributes of `fos`:", "", *_attributes(FOS_ATTRIBUTES), "",
               "Global attributes:", "", *_attributes(SUMMARY_FILE_ATTRIBUTES), ""]
+    parts += ["## `study.nc` of a sweep", "",
+              "Dimensions `<sweep dims>`: one per axis of a grid, named by the axis label (the field's name, e.g. "
+              "`cohesion_pa`; with the entry or table before it, `soil_cohesion_pa`, where two axes share a name), "
+              "with the axis values as coordinate; a zip has the one dimension `case`, each axis a coordinate "
+              "over it.", "", *_variables(SWEEP_FILE), "",
+              "Attributes of each axis coordinate:", "", *_attributes(SWEEP_AXIS_ATTRIBUTES), "",
+              "Global attributes:", "", *_attributes(SWEEP_FILE_ATTRIBUTES), ""]
     return "\n".join(parts)
 
 

@@ -11,7 +11,9 @@ Files:
 - ``STAGE_FILE``: a stage's result (``run.nc``, ``<stage>.nc``, ``gravity.nc``, ``srf_<F>.nc``):
   monitor histories over ``time``, energies, the final particle state and its UGRID mesh;
 - ``COLLAPSE_METRICS``: added to the last stage's file of a study with ``[metrics]``;
-- ``SUMMARY_FILE``: ``summary.nc`` of a strength-reduction study, one row per SRF run and the FOS.
+- ``SUMMARY_FILE``: ``summary.nc`` of a strength-reduction study, one row per SRF run and the FOS;
+- ``SWEEP_FILE``: ``study.nc`` of a sweep, the FOS of every case over the sweep's dimensions
+  (``SWEEP_DIMS`` stands for them: one per axis of a grid, or ``case`` for a zip).
 """
 
 from __future__ import annotations
@@ -37,6 +39,10 @@ class Variable:
     def __call__(self, values, **extra) -> tuple:
         """(dims, values, attrs): what an xarray Dataset takes for a variable."""
         return self.dims, values, self.attrs(**extra)
+
+    def over(self, dims: tuple[str, ...], values, **extra) -> tuple:
+        """(dims, values, attrs) on the given dimensions (a variable declared over ``SWEEP_DIMS``)."""
+        return tuple(dims), values, self.attrs(**extra)
 
 
 @dataclass(frozen=True)
@@ -191,4 +197,38 @@ SUMMARY_FILE_ATTRIBUTES = (
               "runs guessed on idle workers ahead of the search, and how many the search then asked for"),
     Attribute("time_<part>_s", "wall time of gravity, srf_runs_elapsed, srf_runs_worker (summed over workers), "
               "remeshing, io and total (s)"),
+)
+
+SWEEP_DIMS = ("<sweep dims>",)
+"""The dimensions of a sweep: one per axis of a grid (named by the axis label, e.g. ``cohesion_pa``,
+with the axis values as its coordinate), or ``case`` for a zip (each axis a coordinate over it)."""
+
+SWEEP_FILE = _table(
+    Variable("case_folder", SWEEP_DIMS, "1",
+             "the folder under OUT/cases/ with the case's files (an identical case's, when two are the same)"),
+    Variable("fos", SWEEP_DIMS, "1",
+             "factor of safety of the case (NaN: none, see status; fos_low or fos_high may still bound it)"),
+    Variable("fos_low", SWEEP_DIMS, "1",
+             "lower end of the FOS bracket (above_srf_max: the highest stable SRF, the FOS is above it)"),
+    Variable("fos_high", SWEEP_DIMS, "1",
+             "upper end of the FOS bracket (below_srf_min: the lowest failed SRF, the FOS is below it)"),
+    Variable("status", SWEEP_DIMS, "1",
+             "found (a FOS), above_srf_max (no run failed), below_srf_min (every run failed), no_knee (runs "
+             "failed but the curve has no knee), gravity_diverged"),
+    Variable("criteria_agree", SWEEP_DIMS, "1", "1 when the run verdicts bracket the same FOS (summary.nc)"),
+    Variable("knee_srf", SWEEP_DIMS, "1", "SRF of maximum curvature of the case's sweep"),
+    Variable("n_particles", SWEEP_DIMS, "1", "particles of the case's slope"),
+)
+
+SWEEP_AXIS_ATTRIBUTES = (
+    Attribute("units, long_name", "of the swept field, as in the study-file reference"),
+    Attribute("sweep_path", "the field's path in the study file, e.g. materials.soil.cohesion_pa"),
+)
+
+SWEEP_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the sweep's study text)"),
+    Attribute("sweep_combination", "grid or zip"),
+    Attribute("sweep_axes", "the swept paths, comma separated, in the order of the dimensions"),
+    Attribute("n_cases, n_cases_distinct", "cases of the sweep, and how many of them differ "
+              "(identical cases share one computation)"),
 )

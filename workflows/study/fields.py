@@ -44,9 +44,11 @@ class Spec:
     """How one field of a study file is written, checked and documented.
 
     ``type`` is one of ``number`` (a float; an integer is accepted, a boolean is not),
-    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``table``
-    (one nested table, class ``of``) or ``tables`` (an array of tables: ``of`` is a
-    class, or a dict from the value of the ``key`` field to a class).
+    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``numbers``
+    (a list of numbers), ``values`` (a non-empty list of any TOML values, checked by whoever
+    uses them), ``table`` (one nested table, class ``of``) or ``tables`` (an array of tables:
+    ``of`` is a class, or a dict from the value of the ``key`` field to a class; entries need
+    unique values of the field ``unique``).
     """
 
     type: str
@@ -62,6 +64,7 @@ class Spec:
     key: str | None = None
     key_doc: str = ""
     min_items: int = 0
+    unique: str = "name"
 
     @property
     def bounds(self) -> list[tuple[str, float]]:
@@ -109,6 +112,16 @@ def name_field(doc):
     return text(doc, pattern=NAME_PATTERN)
 
 
+def numbers(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
+    """A list of finite numbers, each within the bounds, e.g. [5.0, 10.0]."""
+    return _declare(Spec("numbers", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
+
+
+def any_values(doc, *, default=REQUIRED):
+    """A non-empty list of TOML values of any type (their meaning is checked where they are used)."""
+    return _declare(Spec("values", "", doc), default)
+
+
 def point(unit, doc, *, default=REQUIRED):
     """A pair of numbers [x, y]."""
     return _declare(Spec("point", unit, doc), default)
@@ -131,13 +144,13 @@ def optional_table(of: type):
     return _declare(Spec("table", doc=_first_line(of.__doc__), of=of), default=None)
 
 
-def tables(of, doc, *, key=None, key_doc="", min_items=0):
-    """An array of tables ``[[name]]``; entries need unique ``name`` fields.
+def tables(of, doc, *, key=None, key_doc="", min_items=0, unique="name"):
+    """An array of tables ``[[name]]``; entries need unique values of the field ``unique``.
 
     ``of`` is a dataclass, or with ``key`` a dict from the value of that field to the
     dataclass of that kind of entry.
     """
-    spec = Spec("tables", doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items)
+    spec = Spec("tables", doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items, unique=unique)
     return _declare(spec, default=() if min_items == 0 else REQUIRED)
 
 
@@ -271,6 +284,15 @@ def check_value(spec: Spec, value):
             if not ok:
                 raise ValueError(f"must be {op} {bound:g}, got {show(value)}")
         return x
+    if spec.type == "numbers":
+        if not isinstance(value, (list, tuple)):
+            raise ValueError(f"must be a list of numbers, got {show(value)}")
+        element = dataclasses.replace(spec, type="number")
+        return tuple(check_value(element, v) for v in value)
+    if spec.type == "values":
+        if not isinstance(value, (list, tuple)) or not value:
+            raise ValueError(f"must be a non-empty list of values, got {show(value)}")
+        return tuple(value)
     if spec.type == "integer":
         if isinstance(value, bool) or not isinstance(value, int):
             raise ValueError(f"must be an integer, got {show(value)}")
@@ -350,10 +372,11 @@ class Record:
             raise StudyError(field_name, f"needs at least {spec.min_items} [[{field_name}]] entry, got {len(entries)}")
         seen: dict[str, int] = {}
         for i, entry in enumerate(entries):
-            if entry.name in seen:
-                also = f"{field_name}[{seen[entry.name]}]"
-                raise StudyError(f"{field_name}[{i}].name", f"duplicate name {show(entry.name)} (also {also})")
-            seen[entry.name] = i
+            key = getattr(entry, spec.unique)
+            if key in seen:
+                also = f"{field_name}[{seen[key]}]"
+                raise StudyError(f"{field_name}[{i}].{spec.unique}", f"duplicate {spec.unique} {show(key)} (also {also})")
+            seen[key] = i
         return entries
 
     def check(self) -> None:

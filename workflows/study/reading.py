@@ -7,14 +7,19 @@ the path of the field (``stages[1].duration_s``), before anything runs.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import difflib
+import itertools
 import re
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 
-from workflows.study.fields import REQUIRED, Spec, StudyError, field_default, show, specs
-from workflows.study.tables import Study
+from workflows.study import slope_form
+from workflows.study.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
+from workflows.study.tables import SlopeForm, Study
+from workflows.study.toml_text import to_toml
 
 
 def _join(path: str, key: str) -> str:
@@ -77,17 +82,143 @@ def _build_entries(spec: Spec, raw, path: str) -> tuple:
 _TOML_POSITION = re.compile(r"^(?P<problem>.*?)\s*\(at line (?P<line>\d+), column (?P<column>\d+)\)$")
 
 
-def parse_study(toml_text: str) -> Study:
-    """The :class:`Study` written in ``toml_text``; :class:`StudyError` if it is not valid."""
+def _loads(toml_text: str) -> dict:
     try:
-        raw = tomllib.loads(toml_text)
+        return tomllib.loads(toml_text)
     except tomllib.TOMLDecodeError as error:
         match = _TOML_POSITION.match(str(error))
         if match:
             raise StudyError(f"line {match['line']}, column {match['column']}", match["problem"]) from None
         raise StudyError("toml", str(error)) from None
-    study = _build(Study, raw, "")
-    return dataclasses.replace(study, source_text=toml_text)
+
+
+def _build_study(raw: dict) -> Study:
+    """The Study of a study dict, a slope form (``[geometry.slope]``) expanded first."""
+    geometry = raw.get("geometry") if isinstance(raw, dict) else None
+    if isinstance(geometry, dict) and "slope" in geometry:
+        raw = slope_form.expand(raw, _build(SlopeForm, geometry["slope"], "geometry.slope"))
+    return _build(Study, raw, "")
+
+
+def parse_study(toml_text: str) -> Study:
+    """The :class:`Study` written in ``toml_text``; :class:`StudyError` if it is not valid (a
+    sweep's cases are checked too, :func:`sweep_cases`)."""
+    study = dataclasses.replace(_build_study(_loads(toml_text)), source_text=toml_text)
+    if study.sweep is not None:
+        sweep_cases(study)
+    return study
+
+
+@dataclass(frozen=True)
+class SweepCase:
+    """One case of a sweep: its id (a folder name), the values of the axes, its own study."""
+
+    case_id: str
+    position: tuple[int, ...]  # index along each axis (grid), or (i,) the i-th case (zip)
+    values: dict  # axis label -> the value of this case
+    study: Study  # no sweep; source_text its own TOML text
+
+
+def axis_labels(sweep) -> list[str]:
+    """A short name per axis: the field's name, with the entry or table before it where two axes
+    would share one (``soil_cohesion_pa``)."""
+    leaves = [axis.path.split(".")[-1] for axis in sweep.axes]
+    return [leaf if leaves.count(leaf) == 1 else "_".join(axis.path.split(".")[-2:])
+            for leaf, axis in zip(leaves, sweep.axes)]
+
+
+def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
+    """(the dict that holds the field, its key, its declaration) of a sweep ``path`` in the study
+    dict ``raw``; a missing optional table is created.  StudyError (field ``path``) otherwise."""
+    parts = path.split(".")
+    cls, node, i = Study, raw, 0
+    while i < len(parts):
+        part = parts[i]
+        declared = specs(cls)
+        if part not in declared or (cls is Study and part == "sweep"):
+            raise _unknown(".".join(parts[:i]), part, [k for k in declared if k != "sweep"])
+        spec = declared[part]
+        if spec.type == "table":
+            if i == len(parts) - 1:
+                raise StudyError(path, "is a table: name one of its fields")
+            node = node.setdefault(part, {})
+            cls, i = spec.of, i + 1
+            continue
+        if spec.type == "tables":
+            if i + 2 >= len(parts):
+                raise StudyError(path, f"name an entry and a field: {part}.<{spec.unique}>.<field>")
+            entries = node.get(part, [])
+            names = [entry.get(spec.unique) for entry in entries if isinstance(entry, dict)]
+            if parts[i + 1] not in names:
+                known = (f"known: {', '.join(map(str, names))}" if names else
+                         f"the study file gives no [[{part}]]; those a [geometry.slope] makes cannot be swept")
+                raise StudyError(path, f"no [[{part}]] with {spec.unique} {parts[i + 1]!r} ({known})")
+            node = entries[names.index(parts[i + 1])]
+            cls = spec.variants.get(node.get(spec.key), spec.of) if spec.key else spec.of
+            if not isinstance(cls, type):
+                raise StudyError(path, f"the entry's {spec.key} is not valid")
+            i += 2
+            continue
+        if i != len(parts) - 1:
+            raise StudyError(path, f"{part} is a value, not a table")
+        return node, part, spec
+    raise StudyError(path, "is empty")
+
+
+def sweep_cases(study: Study) -> list[SweepCase]:
+    """The cases of ``study.sweep`` in order (grid: the last axis varies fastest), each its own
+    checked study.  StudyError naming the axis, value or case that fails."""
+    sweep = study.sweep
+    raw = _loads(study.source_text)
+    raw.pop("sweep", None)
+    labels = axis_labels(sweep)
+    axes_values = []
+    for a, axis in enumerate(sweep.axes):
+        try:
+            _, _, spec = resolve_sweep_path(copy.deepcopy(raw), axis.path)
+        except StudyError as error:
+            raise StudyError(f"sweep.axes[{a}].path", str(error)) from None
+        checked = []
+        for j, value in enumerate(axis.points):
+            try:
+                checked.append((value, check_value(spec, value)))
+            except ValueError as error:
+                raise StudyError(f"sweep.axes[{a}].values[{j}]", f"{axis.path}: {error}") from None
+        axes_values.append(checked)
+    if sweep.combination == "zip":
+        positions = [(i,) for i in range(len(axes_values[0]))]
+        combos = [tuple(values[i] for values in axes_values) for i in range(len(axes_values[0]))]
+    else:
+        positions = list(itertools.product(*(range(len(values)) for values in axes_values)))
+        combos = [tuple(values[i] for values, i in zip(axes_values, position)) for position in positions]
+    cases: dict[str, SweepCase] = {}
+    for position, combo in zip(positions, combos):
+        case_raw = copy.deepcopy(raw)
+        for axis, (value, _) in zip(sweep.axes, combo):
+            node, key, _ = resolve_sweep_path(case_raw, axis.path)
+            node[key] = list(value) if isinstance(value, tuple) else value
+        values = {label: stored for label, (_, stored) in zip(labels, combo)}
+        case_id = "__".join(f"{label}={_case_value(v)}" for label, v in values.items())
+        if case_id in cases:
+            raise StudyError("sweep", f"two cases would share the folder {case_id}: make the values differ more")
+        text = to_toml(case_raw, header=f"case {case_id} of the sweep of study {study.name}")
+        try:
+            case_study = dataclasses.replace(_build_study(case_raw), source_text=text)
+        except StudyError as error:
+            raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
+        cases[case_id] = SweepCase(case_id, position, values, case_study)
+    return list(cases.values())
+
+
+def _case_value(value) -> str:
+    """A value as it appears in a case id (a folder name)."""
+    if isinstance(value, float):
+        text = f"{value:.6g}" if float(f"{value:.6g}") == value else repr(value)
+    elif isinstance(value, tuple):
+        text = "_".join(_case_value(v) for v in value)
+    else:
+        text = str(value)
+    return re.sub(r"[^A-Za-z0-9_.+-]", "-", text)
 
 
 def decode_study_bytes(data: bytes) -> str:

@@ -38,6 +38,10 @@ def _value_schema(spec: Spec) -> dict:
         return {"type": "array", "items": pair, "minItems": 3}
     if spec.type == "names":
         return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
+    if spec.type == "values":
+        return {"type": "array", "minItems": 1}
+    if spec.type == "numbers":
+        return {"type": "array", "items": _value_schema(Spec("number", gt=spec.gt, ge=spec.ge, lt=spec.lt, le=spec.le))}
     schema: dict = {"type": _JSON_TYPES[spec.type]}
     for op, bound in spec.bounds:
         schema[_BOUND_KEYWORDS[op]] = bound
@@ -113,6 +117,8 @@ def _type_name(spec: Spec) -> str:
         "names": "`[name, ...]`",
         "point": "`[x, y]`",
         "polygon": "`[[x, y], ...]`",
+        "numbers": "`[float, ...]`",
+        "values": "`[value, ...]`",
     }[spec.type]
 
 
@@ -167,11 +173,53 @@ PAGE_INTRO = """\
 # Study-file reference
 
 A study file is a TOML file with the tables `[study]`, `[geometry]`, `[[materials]]`, `[loads]`,
-`[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]` and `[output]`.
+`[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]`, `[output]`
+and `[sweep]`.
 Stages run in order, each continuing from the state the previous one left; a study whose last
 stage is a `strength_reduction` stage computes a factor of safety.  Every field is checked before
 anything runs: a bad value is one line `error: <file>: <field>: <problem>` and exit code 2.
 Units are UDUNITS strings, as in the result files (`docs/result-files.md`).
+
+**Slope form.**  Instead of `geometry.polygon_m`, a `[geometry.slope]` table describes a slope
+by its dimensions: flat ground behind the crest, the face, flat ground beyond the toe, on a
+foundation down to a fixed base at y = 0, the crest on the left.  It makes the polygon and,
+when the study gives none, the supports (a fixed `base`, a roller `left` behind the crest and,
+with a foundation, a roller `right` at its far end) and the monitors `crest` and `toe`.  With
+`layer_depths_m`, the materials without `region_m` fill the layers from the top.
+
+```toml
+[geometry]
+spacing_m = 0.5
+
+[geometry.slope]
+height_m = 10.0
+angle_deg = 35.0           # or gradient = 2.0 (1V:2H)
+foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
+```
+
+**Sweeps.**  A `[sweep]` table turns a strength-reduction study into a parameter study: the
+study runs once per case, with the swept fields set to the case's values, and every case's
+FOS lands in `OUT/study.nc` over one dimension per axis (`docs/result-files.md`).  An axis names
+a field by its path: tables by their name (`solver.cfl`), entries of arrays of tables by their
+`name` (`materials.soil.cohesion_pa`, `stages.srf.duration_s`, `boundary.base.vx_m_s`), the
+slope form as `geometry.slope.<field>`.  Each value is checked as the field itself is, and so
+is each case as a whole study: an error names the axis, the value or the case.  `grid` runs
+every combination (the last axis varies fastest), `zip` the i-th values of all axes together.
+
+```toml
+[sweep]
+combination = "grid"
+
+[[sweep.axes]]
+path = "materials.soil.cohesion_pa"
+values = [5e3, 10e3, 15e3]
+
+[[sweep.axes]]
+path = "geometry.slope.angle_deg"
+start = 25.0
+stop = 45.0
+count = 5
+```
 """
 
 

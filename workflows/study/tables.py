@@ -8,17 +8,20 @@ Arrays of tables whose entries come in kinds (``[[stages]]`` with ``kind``,
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
 from workflows.study.fields import (
     Record,
     StudyError,
+    any_values,
     boolean,
     integer,
     name_field,
     names,
     number,
+    numbers,
     optional_table,
     point,
     point_in_polygon,
@@ -38,17 +41,83 @@ class StudyInfo(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
-class Geometry(Record):
-    """The domain and its particle cloud: a polygon filled with particles at spacing h."""
+class SlopeForm(Record):
+    """A slope from its dimensions: flat ground behind the crest, the face, flat ground beyond the
+    toe, on a foundation; it makes the polygon, and the supports and monitors a study leaves out."""
 
-    polygon_m: tuple = polygon("m", "outline of the domain, [[x, y], ...], either orientation, not closed")
+    height_m: float = number("m", "height H of the slope, toe to crest", gt=0.0)
+    angle_deg: float | None = number(
+        "degree", "inclination of the face from horizontal; give angle_deg or gradient", default=None, gt=0.0, le=90.0,
+    )
+    gradient: float | None = number(
+        "1", "horizontal run of the face per unit of height (2 for 1V:2H); give angle_deg or gradient",
+        default=None, ge=0.0,
+    )
+    crest_length_m: float | None = number(
+        "m", "length of the flat ground behind the crest; default 2 H", default=None, gt=0.0,
+    )
+    toe_length_m: float | None = number(
+        "m", "length of the flat ground beyond the toe (not used without a foundation); default 2 H", default=None,
+        gt=0.0,
+    )
+    foundation_depth_m: float | None = number(
+        "m", "depth of the ground below the toe down to the fixed base; 0: a rigid base at the toe; default H / 2",
+        default=None, ge=0.0,
+    )
+    layer_depths_m: tuple = numbers(
+        "m", "depths below the crest of horizontal boundaries between layers: the materials without region_m "
+        "fill the layers from the top, in file order", default=(), gt=0.0,
+    )
+
+    def check(self):
+        if (self.angle_deg is None) == (self.gradient is None):
+            raise StudyError("angle_deg", "give angle_deg or gradient (one of them)")
+        depths = list(self.layer_depths_m)
+        if depths != sorted(set(depths)):
+            raise StudyError("layer_depths_m", f"must increase, got {list(depths)}")
+        if depths and depths[-1] >= self.height_m + self.foundation_depth:
+            raise StudyError("layer_depths_m", f"must lie above the base, {self.height_m + self.foundation_depth:g} m "
+                             f"below the crest, got {depths[-1]:g}")
+
+    @property
+    def run_m(self) -> float:
+        """Horizontal run of the face."""
+        if self.gradient is not None:
+            return self.gradient * self.height_m
+        return 0.0 if self.angle_deg == 90.0 else self.height_m / math.tan(math.radians(self.angle_deg))
+
+    @property
+    def crest_length(self) -> float:
+        return 2.0 * self.height_m if self.crest_length_m is None else self.crest_length_m
+
+    @property
+    def toe_length(self) -> float:
+        return 2.0 * self.height_m if self.toe_length_m is None else self.toe_length_m
+
+    @property
+    def foundation_depth(self) -> float:
+        return 0.5 * self.height_m if self.foundation_depth_m is None else self.foundation_depth_m
+
+
+@dataclass(frozen=True, kw_only=True)
+class Geometry(Record):
+    """The domain and its particle cloud: a polygon (given, or made by [geometry.slope]) filled with
+    particles at spacing h."""
+
+    polygon_m: tuple | None = polygon(
+        "m", "outline of the domain, [[x, y], ...], either orientation, not closed; give polygon_m or "
+        "[geometry.slope]", default=None,
+    )
     spacing_m: float = number("m", "particle spacing h of the lattice clipped to the polygon", gt=0.0)
     jitter: float = number(  # lt: spfem_core.cloud.MAX_JITTER (not imported: it would import numba)
         "1", "random offset of interior particles, as a fraction of h", default=0.0, ge=0.0, lt=0.3
     )
     seed: int = integer("seed of the random jitter", default=0, ge=0)
+    slope: SlopeForm | None = optional_table(SlopeForm)
 
     def check(self):
+        if self.polygon_m is None:
+            raise StudyError("polygon_m", "required field missing (or give a [geometry.slope] table)")
         xs, ys = [x for x, _ in self.polygon_m], [y for _, y in self.polygon_m]
         extent = min(max(xs) - min(xs), max(ys) - min(ys))
         if self.spacing_m > 0.5 * extent:
@@ -422,6 +491,68 @@ class Output(Record):
     )
 
 
+MAX_SWEEP_CASES = 10000
+"""A sweep makes at most this many cases."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepAxis(Record):
+    """One swept parameter: its path in the study file and its values."""
+
+    path: str = text(
+        "the field to sweep, by its path, entries of arrays of tables by name: `materials.soil.cohesion_pa`, "
+        "`geometry.slope.angle_deg`, `stages.srf.duration_s`"
+    )
+    values: tuple | None = any_values(
+        "the values, each checked like the field itself; or give start, stop and count", default=None,
+    )
+    start: float | None = number("1", "first value of an evenly spaced range (in the field's unit)", default=None)
+    stop: float | None = number("1", "last value of the range", default=None)
+    count: int | None = integer("number of values of the range, start and stop included", default=None, ge=2,
+                                le=1000)
+
+    def check(self):
+        ranged = (self.start, self.stop, self.count)
+        if self.values is not None and any(v is not None for v in ranged):
+            raise StudyError("values", "give values, or start, stop and count, not both")
+        if self.values is None and any(v is None for v in ranged):
+            missing = next(name for name, v in zip(("start", "stop", "count"), ranged) if v is None)
+            raise StudyError(missing, "required field missing (give values, or start, stop and count)")
+        if self.values is not None:
+            for j, value in enumerate(self.values):
+                if value in self.values[:j]:
+                    raise StudyError(f"values[{j}]", f"{value!r} appears twice (each value is one case)")
+        elif self.start == self.stop:
+            raise StudyError("stop", "must differ from start")
+
+    @property
+    def points(self) -> tuple:
+        """The values of the axis: ``values``, or ``count`` evenly spaced from ``start`` to ``stop``."""
+        if self.values is not None:
+            return self.values
+        step = (self.stop - self.start) / (self.count - 1)
+        return tuple(self.start + i * step for i in range(self.count - 1)) + (self.stop,)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Sweep(Record):
+    """A parameter study: the study runs once per combination of its axes' values (a case each)."""
+
+    combination: str = text(
+        "`grid`: every combination of the axes' values; `zip`: the i-th values of all axes together (axes of "
+        "equal length)", default="grid", choices=("grid", "zip"),
+    )
+    axes: tuple = tables(SweepAxis, "the swept parameters", min_items=1, unique="path")
+
+    def check(self):
+        sizes = [len(axis.points) for axis in self.axes]
+        if self.combination == "zip" and len(set(sizes)) > 1:
+            raise StudyError("axes", f"zip needs axes of equal length, got {sizes} values")
+        cases = sizes[0] if self.combination == "zip" else math.prod(sizes)
+        if cases > MAX_SWEEP_CASES:
+            raise StudyError("axes", f"make {cases} cases, more than {MAX_SWEEP_CASES}")
+
+
 @dataclass(frozen=True, kw_only=True)
 class Study(Record):
     """A whole study file."""
@@ -443,6 +574,7 @@ class Study(Record):
     monitors: tuple = tables(Monitor, "points recorded during every stage")
     metrics: Metrics | None = optional_table(Metrics)
     output: Output = table(Output, required=False)
+    sweep: Sweep | None = optional_table(Sweep)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -468,6 +600,8 @@ class Study(Record):
                     )
                 if not any(m.model != "elastic" for m in self.materials):
                     raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
+        if self.sweep is not None and self.strength_reduction is None:
+            raise StudyError("sweep", "a sweep computes a FOS per case: the last stage must be a strength_reduction stage")
         if self.metrics is not None and self.strength_reduction is not None:
             raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
         known = {b.name for b in self.boundary}

@@ -1,0 +1,286 @@
+"""Parameter studies: sweep tables and the slope form as the study file gives them, bad sweeps
+refused before anything runs, and sweeps end to end (study.nc, shared gravity, identical cases,
+a killed sweep resumed on fewer workers, a separately started cluster), with the physics they
+must reproduce: FOS proportional to cu for phi = 0, and Taylor's (1937) chart."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from verification import stability_chart
+from workflows.fos.keys import case_key
+from workflows.study import StudyError, parse_study
+from workflows.study.reading import sweep_cases
+from workflows.study.toml_text import to_toml
+from workflows.sweep.run import run_sweep
+
+REPO = Path(__file__).resolve().parents[1]
+SWEEP = (REPO / "studies" / "sweep_strength.toml").read_text()
+TAYLOR = (REPO / "studies" / "published" / "taylor_phi0.toml").read_text()
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "workflows.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=REPO)
+
+
+def with_sweep(text: str, sweep: str) -> str:
+    """``text`` (a study with or without a sweep) with its [sweep] replaced by ``sweep``."""
+    head = text.split("[sweep]")[0]
+    return head.rstrip() + "\n\n" + sweep
+
+
+# ------------------------------------------------------------------ the sweep table
+
+
+def test_grid_cases_in_order_each_with_its_own_study():
+    cases = sweep_cases(parse_study(SWEEP))
+    assert [c.case_id for c in cases[:4]] == [
+        "cohesion_pa=5000__friction_deg=15", "cohesion_pa=5000__friction_deg=20",
+        "cohesion_pa=5000__friction_deg=25", "cohesion_pa=10000__friction_deg=15",
+    ]
+    assert [c.position for c in cases] == [(i, j) for i in range(3) for j in range(3)]
+    for case in cases:
+        soil = case.study.materials[0]
+        assert (soil.cohesion_pa, soil.friction_deg) == (case.values["cohesion_pa"], case.values["friction_deg"])
+        assert case.study.sweep is None
+        assert parse_study(case.study.source_text) == case.study  # the case text is a study of its own
+    assert len({case_key(c.study) for c in cases}) == 9
+
+
+def test_zip_and_evenly_spaced_axes():
+    sweep = ('[sweep]\ncombination = "zip"\n[[sweep.axes]]\npath = "geometry.slope.angle_deg"\n'
+             'start = 50.0\nstop = 80.0\ncount = 3\n[[sweep.axes]]\npath = "materials.clay.cohesion_pa"\n'
+             'values = [10e3, 20e3, 30e3]\n')
+    cases = sweep_cases(parse_study(with_sweep(TAYLOR, sweep)))
+    assert [(c.values["angle_deg"], c.values["cohesion_pa"]) for c in cases] == [
+        (50.0, 10e3), (65.0, 20e3), (80.0, 30e3)]
+    assert [c.position for c in cases] == [(0,), (1,), (2,)]
+    assert [c.study.geometry.slope.angle_deg for c in cases] == [50.0, 65.0, 80.0]
+
+
+BAD_SWEEPS = {
+    "unknown field": ('path = "materials.soil.cohesion"\nvalues = [1e3]',
+                      "sweep.axes[0].path: materials.soil.cohesion: unknown field (did you mean 'cohesion_pa'?)"),
+    "unknown entry": ('path = "materials.sand.cohesion_pa"\nvalues = [1e3]',
+                      "sweep.axes[0].path: materials.sand.cohesion_pa: no [[materials]] with name 'sand'"),
+    "a table": ('path = "materials.soil"\nvalues = [1e3]', "sweep.axes[0].path: materials.soil: name an entry"),
+    "wrong type": ('path = "materials.soil.cohesion_pa"\nvalues = [5e3, "ten"]',
+                   "sweep.axes[0].values[1]: materials.soil.cohesion_pa: must be a number"),
+    "out of range": ('path = "materials.soil.friction_deg"\nvalues = [20.0, 95.0]',
+                     "sweep.axes[0].values[1]: materials.soil.friction_deg: must be < 90"),
+    "twice": ('path = "materials.soil.friction_deg"\nvalues = [20.0, 25.0, 20.0]',
+              "sweep.axes[0].values[2]: 20.0 appears twice"),
+    "half a range": ('path = "materials.soil.friction_deg"\nstart = 10.0\nstop = 20.0', "sweep.axes[0].count: required"),
+    "the sweep itself": ('path = "sweep.combination"\nvalues = ["zip"]', "sweep.axes[0].path: sweep: unknown field"),
+    "a case as a whole": ('path = "materials.soil.friction_deg"\nvalues = [0.0]\n[[sweep.axes]]\n'
+                          'path = "materials.soil.cohesion_pa"\nvalues = [0.0]',
+                          "sweep: the case friction_deg=0, cohesion_pa=0: materials[0].cohesion_pa: a material with"),
+    "a coarse case": ('path = "geometry.spacing_m"\nvalues = [1.0, 4.0]',
+                      "sweep: the case spacing_m=4: geometry.spacing_m: 4 m: the slope height 10 m spans fewer than 4"),
+}
+
+
+@pytest.mark.parametrize("name", BAD_SWEEPS)
+def test_a_bad_sweep_is_one_line_exit_2_and_nothing_written(name, tmp_path):
+    axis, expected = BAD_SWEEPS[name]
+    path = tmp_path / "bad.toml"
+    path.write_text(with_sweep(SWEEP, f"[sweep]\n[[sweep.axes]]\n{axis}\n"))
+    run = cli(path, "--out", tmp_path / "out")
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith(f"error: {path}: {expected}"), run.stderr
+    assert run.stderr.count("\n") == 1 and "Traceback" not in run.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_zip_of_unequal_axes_and_a_sweep_without_strength_reduction_are_refused():
+    unequal = ('[sweep]\ncombination = "zip"\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [1e3, 2e3]\n'
+               '[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [20.0]\n')
+    with pytest.raises(StudyError, match=r"^sweep\.axes: zip needs axes of equal length, got \[2, 1\]"):
+        parse_study(with_sweep(SWEEP, unequal))
+    column = (REPO / "studies" / "elastic_column.toml").read_text()
+    sweep = '[sweep]\n[[sweep.axes]]\npath = "geometry.spacing_m"\nvalues = [0.1, 0.2]\n'
+    with pytest.raises(StudyError, match="^sweep: a sweep computes a FOS per case"):
+        parse_study(column + "\n" + sweep)
+
+
+# ------------------------------------------------------------------ the slope form
+
+
+def slope_study(slope: str, extra: str = "") -> str:
+    head = TAYLOR.split("[geometry.slope]")[0]
+    tail = TAYLOR.split("[[materials]]", 1)[1].split("[sweep]")[0]
+    return f"{head}[geometry.slope]\n{slope}\n{extra}\n[[materials]]{tail}"
+
+
+def test_slope_form_makes_the_polygon_supports_and_monitors():
+    study = parse_study(slope_study("height_m = 10.0\ngradient = 2.0"))  # D = H / 2, crest and toe 2 H
+    reference = parse_study(QUICKSTART)  # the same slope, written out
+    assert study.geometry.polygon_m == reference.geometry.polygon_m
+    assert study.boundary == reference.boundary
+    assert [(m.name, m.x_m, m.y_m) for m in study.monitors] == [(m.name, m.x_m, m.y_m) for m in reference.monitors]
+    steep = parse_study(slope_study("height_m = 4.0\nangle_deg = 60.0\nfoundation_depth_m = 0.0\ncrest_length_m = 6.0"))
+    run = 4.0 / math.tan(math.radians(60.0))
+    np.testing.assert_allclose(steep.geometry.polygon_m, [(0, 0), (6 + run, 0), (6, 4), (0, 4)], atol=1e-12)
+    assert [b.name for b in steep.boundary] == ["base", "left"]  # no roller on the free face
+    vertical = parse_study(slope_study("height_m = 5.0\nangle_deg = 90.0\nfoundation_depth_m = 0.0"))
+    assert vertical.geometry.polygon_m == ((0.0, 0.0), (10.0, 0.0), (10.0, 5.0), (0.0, 5.0))
+
+
+def test_slope_form_layers_take_the_materials_from_the_top():
+    two = TAYLOR.split("[[materials]]", 1)[1].split("[loads]")[0]
+    layered = slope_study("height_m = 10.0\ngradient = 2.0\nlayer_depths_m = [6.0]").replace(
+        "[[materials]]" + two, "[[materials]]" + two + "[[materials]]" + two.replace('"clay"', '"stiff"'))
+    study = parse_study(layered)
+    upper, lower = (np.array(m.region_m) for m in study.materials)
+    assert upper[:, 1].min() == pytest.approx(9.0) and lower[:, 1].max() == pytest.approx(9.0)  # 15 - 6
+
+
+@pytest.mark.parametrize("slope, expected", [
+    ("height_m = 10.0", "geometry.slope.angle_deg: give angle_deg or gradient"),
+    ("height_m = 10.0\nangle_deg = 30.0\ngradient = 2.0", "geometry.slope.angle_deg: give angle_deg or gradient"),
+    ("height_m = 10.0\nangle_deg = 30.0\nlayer_depths_m = [4.0, 2.0]", "geometry.slope.layer_depths_m: must increase"),
+    ("height_m = 10.0\nangle_deg = 30.0\nlayer_depths_m = [4.0]", "geometry.slope.layer_depths_m: makes 2 layers, for 1"),
+    ("height_m = -1.0\nangle_deg = 30.0", "geometry.slope.height_m: must be > 0"),
+])
+def test_slope_form_errors_name_the_field(slope, expected):
+    with pytest.raises(StudyError) as error:
+        parse_study(slope_study(slope))
+    assert str(error.value).startswith(expected), str(error.value)
+    both = slope_study("height_m = 10.0\nangle_deg = 30.0").replace("[geometry.slope]",
+                                                                      "polygon_m = [[0, 0], [1, 0], [1, 1]]\n[geometry.slope]")
+    with pytest.raises(StudyError, match="^geometry.polygon_m: give polygon_m or"):
+        parse_study(both)
+
+
+@pytest.mark.parametrize("name", ["quickstart", "sweep_strength", "sweep_geometry", "published/taylor_phi0",
+                                  "published/acads_1c", "collapse_granular"])
+def test_toml_text_reads_back_as_the_same_study(name):
+    text = (REPO / "studies" / f"{name}.toml").read_text()
+    assert parse_study(to_toml(tomllib.loads(text))) == parse_study(text)
+
+
+# ------------------------------------------------------------------ sweeps end to end
+
+
+def test_study_nc_holds_every_case_over_the_sweep_dimensions(strength_sweep):
+    study, out, outcome = strength_sweep
+    ds = xr.open_dataset(out / "study.nc")
+    assert ds["fos"].dims == ("cohesion_pa", "friction_deg")
+    assert ds["cohesion_pa"].attrs["units"] == "Pa" and ds["friction_deg"].attrs["units"] == "degree"
+    assert ds["cohesion_pa"].attrs["sweep_path"] == "materials.soil.cohesion_pa"
+    np.testing.assert_array_equal(ds["cohesion_pa"], [5e3, 10e3, 15e3])
+    assert ds.attrs["study"] == study.source_text and ds.attrs["n_cases"] == 9
+    for case in outcome.cases:
+        at = dict(cohesion_pa=case.values["cohesion_pa"], friction_deg=case.values["friction_deg"])
+        folder = out / "cases" / str(ds["case_folder"].sel(at).values)
+        summary = xr.open_dataset(folder / "summary.nc")
+        assert float(ds["fos"].sel(at)) == float(summary["fos"])  # the case's own answer
+        assert float(ds["fos_low"].sel(at)) == summary["fos"].attrs["fos_low"]
+        assert (folder / "case.toml").read_text() == case.study.source_text
+    assert (ds["status"] == "found").all()
+    # stronger soil, safer slope: along both axes
+    assert (ds["fos"].diff("cohesion_pa") > 0).all() and (ds["fos"].diff("friction_deg") > 0).all()
+    assert outcome.gravity_computed == 1  # an elastic gravity stage does not see the strength
+    assert [p.name for p in outcome.figures] == ["fos_cohesion_pa.png", "fos_friction_deg.png", "fos_map.png"]
+
+
+def test_cases_that_compute_the_same_thing_are_computed_once(tmp_path):
+    quick = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("figures = true", "figures = false")
+    study = parse_study(quick + '\n[sweep]\n[[sweep.axes]]\npath = "study.description"\nvalues = ["a", "b"]\n')
+    outcome = run_sweep(study, tmp_path, workers=1)
+    assert outcome.n_distinct == 1
+    ds = xr.open_dataset(tmp_path / "study.nc")
+    assert list(ds["case_folder"].values) == ["description=a", "description=a"]
+    assert ds["fos"][0] == ds["fos"][1] and not (tmp_path / "cases" / "description=b").exists()
+
+
+def test_a_changed_value_recomputes_only_its_case(tmp_path):
+    quick = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("figures = true", "figures = false")
+    axis = '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [{}]\n'
+    first = run_sweep(parse_study(quick + axis.format("8e3, 10e3")), tmp_path, workers=1)
+    assert first.runs_reused == 0 and first.gravity_computed == 1
+    kept = {p: p.stat().st_mtime_ns for p in (tmp_path / "cases" / "cohesion_pa=8000").glob("srf_*.nc")}
+    second = run_sweep(parse_study(quick + axis.format("8e3, 12e3")), tmp_path, workers=1)
+    assert second.runs_reused == first.results["cohesion_pa=8000"].n_runs
+    assert second.runs_made == second.results["cohesion_pa=12000"].n_runs
+    assert second.gravity_computed == 0  # the new case takes the gravity files of the case it shares them with
+    assert (tmp_path / "cases" / "cohesion_pa=12000" / "gravity.nc").is_file()
+    assert all(p.stat().st_mtime_ns == t for p, t in kept.items())
+    assert second.results["cohesion_pa=8000"] == first.results["cohesion_pa=8000"]
+
+
+def test_fos_is_proportional_to_cu_for_phi_0(tmp_path):
+    """phi = 0, fixed geometry: F = cu / (N gamma H), so F / cu is one number (verification.stability_chart)."""
+    ratios = stability_chart.fos_per_cu(tmp_path, workers=2)
+    assert list(ratios) == list(stability_chart.CU_VALUES_PA)
+    assert max(ratios.values()) / min(ratios.values()) - 1.0 < stability_chart.CU_BAND, ratios
+
+
+def test_taylor_chart_for_phi_0_within_3_percent(tmp_path):
+    """studies/published/taylor_phi0.toml: the toe-circle branch of Taylor's chart, 4 values."""
+    points = stability_chart.taylor_points(tmp_path, workers=2)
+    assert len(points) == 4
+    assert all(abs(p.error) < stability_chart.TAYLOR_BAND for p in points), points
+
+
+def test_killed_sweep_resumes_on_one_worker_with_the_same_study_nc(strength_sweep, tmp_path):
+    """Killed once three cases are done, rerun on one worker: finished runs are reused, not
+    rewritten, and study.nc holds the numbers of the uninterrupted run on two workers."""
+    _, first_out, _ = strength_sweep
+    path, out = tmp_path / "sweep.toml", tmp_path / "out"
+    path.write_text(SWEEP)
+    log = tmp_path / "first.log"
+    with log.open("w") as sink:
+        process = subprocess.Popen([sys.executable, "-m", "workflows.cli", str(path), "--out", str(out)],
+                                   stdout=sink, stderr=subprocess.STDOUT, cwd=REPO, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 240
+        while len(list(out.glob("cases/*/summary.nc"))) < 3:
+            assert process.poll() is None, log.read_text()
+            assert time.monotonic() < deadline, "no case finished in time"
+            time.sleep(0.05)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    assert not (out / "study.nc").exists()
+    finished = {p: p.stat().st_mtime_ns for p in out.glob("cases/*/srf_*.nc")}
+    rerun = cli(path, "--out", out, "--workers", "1")
+    assert rerun.returncode == 0, rerun.stderr
+    assert "reused" in rerun.stdout.splitlines()[0]
+    first, again = xr.open_dataset(first_out / "study.nc"), xr.open_dataset(out / "study.nc")
+    assert again.drop_attrs().identical(first.drop_attrs())
+    used = 0
+    for case_folder in again["case_folder"].values.flat:
+        summary = xr.open_dataset(out / "cases" / case_folder / "summary.nc")
+        for srf in summary["srf"].values:
+            run = out / "cases" / case_folder / f"srf_{srf:.4f}.nc"
+            if run in finished:
+                assert run.stat().st_mtime_ns == finished[run]  # reused, not recomputed
+                used += 1
+    assert used >= 20
+    assert "cohesion_pa  friction_deg" in rerun.stdout
+
+
+def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_dask_cluster, tmp_path):
+    _, local_out, _ = strength_sweep
+    path = tmp_path / "sweep.toml"
+    path.write_text(SWEEP)
+    run = cli(path, "--out", tmp_path / "out", "--scheduler", separate_dask_cluster, "--quiet")
+    assert run.returncode == 0, run.stderr
+    local, remote = xr.open_dataset(local_out / "study.nc"), xr.open_dataset(tmp_path / "out" / "study.nc")
+    assert remote.drop_attrs().identical(local.drop_attrs())
+    assert run.stdout.splitlines()[0].split() == ["cohesion_pa", "friction_deg", "FOS", "bracket", "runs", "status"]

@@ -1,0 +1,383 @@
+"""The SRF runs of one or many strength-reduction cases on one dask cluster.
+
+Every case (one study, or one case of a sweep) has its gravity state, its own search
+(``workflows.fos.search.SrfSearch``) and its own folder.  One loop in the client keeps the
+workers busy with all of them at once, with no barrier between cases:
+
+1. a case without a gravity state reuses the one on disk for its key (in its folder, or in
+   the folder of another case with the same key), or submits a gravity task
+   (``workflows.fos.gravity.run_gravity``) and writes its files when it returns; cases with
+   the same gravity key (a sweep over strength with an elastic gravity stage) share one task;
+2. every case with a gravity state asks its search for the next SRF values; each is reused
+   from disk when a file with its key exists, else queued.  With several cases running, a case
+   releases fewer sweep values at once (the search's ``n_parallel``), as the other cases keep
+   the workers busy;
+3. queued runs are submitted as tasks (``workflows.fos.task.run_srf``) only as workers free
+   up, earlier cases and lower SRF first: a task submitted ahead would be placed on a busy
+   worker's queue by the scheduler while the other worker idled;
+4. finished runs are written, runs above a case's first failure are cancelled or dropped from
+   the queue (they cannot move its knee), and a case whose search is done is concluded (its
+   ``summary.nc``);
+5. only when the queue is empty, an idle worker runs a guess: a value a case's search would
+   ask for next under either outcome of its one undecided run (``SrfSearch.speculative_values``),
+   used only if the search then asks for it.  A guess gives way (is stopped) as soon as a
+   queued run needs its worker.
+
+The runs a case uses, and its FOS, do not depend on the number of workers or on the other
+cases; runs of earlier cases go first, so cases finish roughly in order.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from distributed import Event, wait
+
+from spfem_core.divergence import DivergenceError
+from workflows.fos.gravity import GravityResult, copy_gravity, run_gravity, stored_gravity, write_gravity
+from workflows.fos.keys import gravity_key, run_key
+from workflows.fos.run_store import remove_stale_runs, run_file_name, run_scalars, stored_run, write_run
+from workflows.fos.search import RunOutcome, SrfSearch
+from workflows.fos.task import SrfRunResult, run_srf
+from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
+from workflows.output.writing import make_output_folder
+from workflows.study import Study
+
+
+@dataclass
+class FosProgress:
+    """Callbacks of a study run (all optional)."""
+
+    stage: Callable[[str, float], None] = lambda name, fraction: None  # gravity stage progress (single study)
+    runs: Callable[[int, int], None] = lambda done, planned: None  # SRF runs done / planned so far
+    message: Callable[[str], None] = lambda text: None  # one line of news (reuse, skips, warnings)
+    cases: Callable[[int, int], None] = lambda done, total: None  # cases concluded / all (sweeps)
+
+
+@dataclass
+class CaseSearch:
+    """One strength-reduction case in the engine: its study and folder, gravity, search and runs."""
+
+    index: int
+    study: Study
+    out_dir: Path
+    label: str = ""  # how messages name the case ("" for a single study)
+    gravity: tuple | None = None  # (stress, plastic strain) once known
+    gravity_reused: bool = False
+    gravity_wall_s: float = 0.0
+    n_particles: int = 0
+    search: SrfSearch | None = None
+    runs: dict = field(default_factory=dict)  # srf -> scalars (run_store.run_scalars / stored_run)
+    unwritten: list = field(default_factory=list)  # SrfRunResults, written on the next pass
+    unwritten_gravity: object = None  # a GravityResult, written on the next pass
+    reused_runs: int = 0
+    n_guessed: int = 0
+    n_guesses_used: int = 0
+    io_s: float = 0.0
+    error: str = ""  # the gravity stage diverged: no search
+    concluded: bool = False
+    shared: tuple = ()  # scattered (study text, stress, plastic) for the run tasks
+
+    @functools.cached_property
+    def gkey(self) -> str:
+        return gravity_key(self.study)
+
+    def say(self, text: str) -> str:
+        return f"{self.label}: {text}" if self.label else text
+
+
+@dataclass
+class _Task:
+    """A submitted task: what it is for."""
+
+    case: CaseSearch
+    kind: str  # "gravity", "run" (asked by the search) or "guess" (started ahead of it)
+    srf: float = math.nan
+    key: str = ""
+    event: str = ""
+
+
+class Engine:
+    """The loop of the module doc over ``cases`` on ``client``; :meth:`run` returns when every case
+    has concluded (``conclude`` is called with each case as soon as its search is done)."""
+
+    def __init__(self, client, cases: list[CaseSearch], progress: FosProgress, start_unix_s: float,
+                 conclude: Callable[[CaseSearch], None], force: bool = False):
+        self.client = client
+        self.cases = cases
+        self.progress = progress
+        self.start_unix_s = start_unix_s
+        self.conclude = conclude
+        self.force = force
+        self.n_workers = max(1, sum(client.nthreads().values()))
+        self.token = uuid.uuid4().hex[:12]
+        self.tasks: dict = {}  # future -> _Task
+        self.guesses: dict = {}  # (case index, srf) -> future of a guess still running
+        self.guesses_done: dict = {}  # (case index, srf) -> SrfRunResult
+        self.gravity_waiting: dict[str, list[CaseSearch]] = {}  # gravity key -> cases waiting for its task
+        self.queue: list[_Task] = []  # runs asked for, not yet submitted (step 3)
+        self.n_submitted = 0
+
+    # ------------------------------------------------------------------ submitting
+    def _submit(self, function, *args, priority: int, **kwargs):
+        self.n_submitted += 1
+        return self.client.submit(function, *args, priority=priority, pure=False, **kwargs)
+
+    def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: str):
+        name = f"{key}-{self.token}-{self.n_submitted + 1}"
+        event = f"spfem-fos-cancel-{name}"
+        future = self._submit(run_srf, *case.shared, srf, cancel_event=event, run_key=key, gravity_key=case.gkey,
+                              key=f"srf-{srf:.4f}-{name}", priority=-case.index)
+        self.tasks[future] = _Task(case, kind, srf, key, event)
+        return future
+
+    def _cancel(self, future) -> None:
+        """Stop a run at its next check (its worker is free then) and forget it."""
+        task = self.tasks.pop(future)
+        Event(task.event, client=self.client).set()
+        future.cancel()
+
+    # ------------------------------------------------------------------ one case
+    def _load_stored_gravity(self, case: CaseSearch) -> None:
+        """The case's gravity state from its folder, when its files and key are there."""
+        if case.gravity is None and not self.force:
+            state = stored_gravity(case.study, case.out_dir)
+            if state is not None:
+                case.gravity, case.gravity_reused = state, True
+                case.n_particles = int(state[0].shape[0])
+
+    def _start(self, case: CaseSearch) -> None:
+        """Gravity from the case, from another case with the same gravity key (its files copied),
+        or a gravity task (shared by the cases with its key)."""
+        if case.gravity is None:
+            donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey), None)
+            if donor is not None:
+                copy_gravity(donor.study, donor.out_dir, case.study, case.out_dir)
+                case.gravity, case.gravity_reused, case.n_particles = donor.gravity, True, donor.n_particles
+        if case.gravity is None:
+            waiting = self.gravity_waiting.get(case.gkey)
+            if waiting is not None:  # the same gravity state is on its way for an earlier case
+                waiting.append(case)
+                return
+            future = self._submit(run_gravity, case.study.source_text, priority=1_000_000 - case.index,
+                                  key=f"gravity-{case.gkey}-{self.token}-{case.index}")
+            self.tasks[future] = _Task(case, "gravity")
+            self.gravity_waiting[case.gkey] = [case]
+            return
+        self._prepare_search(case)
+
+    def _gravity_done(self, case: CaseSearch, result: GravityResult, computed: bool) -> None:
+        """``computed``: the task ran for this case (else it shares another case's state).  Its
+        files are written on the next pass, once the case's first runs are on their way."""
+        if computed:
+            for name in result.unconverged:
+                self.progress.message(case.say(f"warning: stage {name!r} reached max_duration_s before converging"))
+        case.unwritten_gravity = result
+        case.gravity = (result.stress_pa, result.plastic_strain)
+        case.n_particles, case.gravity_wall_s = result.n_particles, result.wall_time_s if computed else 0.0
+        self._prepare_search(case)
+
+    def _prepare_search(self, case: CaseSearch) -> None:
+        make_output_folder(case.out_dir)
+        if self.force:
+            for path in case.out_dir.glob("srf_*.nc"):
+                path.unlink()
+        removed = remove_stale_runs(case.out_dir, lambda srf: run_key(case.study, srf))
+        if removed:
+            self.progress.message(case.say(f"removed {removed} run files another study made"))
+        stage = case.study.strength_reduction
+        case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
+                                displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,
+                                failure_m=failure_displacement_m(case.study))
+        items = (case.study.source_text, *case.gravity)
+        case.shared = tuple(self.client.scatter([item], broadcast=True)[0] for item in items)
+
+    def _finished(self, case: CaseSearch, result: SrfRunResult) -> None:
+        case.runs[result.srf] = run_scalars(result, self.start_unix_s)
+        case.unwritten.append(result)
+        case.search.finished(RunOutcome(result.srf, result.max_displacement_m, result.status))
+        if result.status == DIVERGED:
+            self.progress.message(case.say(f"warning: SRF {result.srf:g} diverged: {result.status_reason}"))
+
+    def _pending(self, case: CaseSearch) -> list:
+        """The case's runs and gravity task not finished yet: running or queued."""
+        return ([f for f, t in self.tasks.items() if t.case is case and t.kind in ("run", "gravity")]
+                + [t for t in self.queue if t.case is case])
+
+    def _plan(self, case: CaseSearch, n_active: int) -> None:
+        """Ask the case's search for values until something runs or it has nothing more to ask;
+        conclude the case when its search is done."""
+        search = case.search
+        search.n_parallel = max(1, math.ceil(self.n_workers / max(n_active, 1)))
+        while True:
+            planned = search.next_values()
+            for srf in planned:
+                search.started(srf)
+                guess = (case.index, srf)
+                if guess in self.guesses_done:  # a guess that came true, already finished
+                    case.n_guesses_used += 1
+                    self._finished(case, self.guesses_done.pop(guess))
+                    continue
+                if guess in self.guesses:  # a guess that came true, still running
+                    case.n_guesses_used += 1
+                    self.tasks[self.guesses.pop(guess)].kind = "run"
+                    continue
+                key = run_key(case.study, srf)
+                stored = stored_run(case.out_dir / run_file_name(srf), key)
+                if stored is not None:
+                    case.runs[srf] = stored
+                    case.reused_runs += 1
+                    search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
+                    continue
+                self.queue.append(_Task(case, "run", srf, key))
+            if planned:  # the decision the case's guesses were made for is taken: stop the unused ones
+                for (index, srf), future in list(self.guesses.items()):
+                    if index == case.index:
+                        self._cancel(future)
+                        del self.guesses[(index, srf)]
+            if self._pending(case) or not planned:
+                break  # waiting for runs, or done
+        if not self._pending(case):
+            for (index, srf), future in list(self.guesses.items()):  # no decision left to guess ahead of
+                if index == case.index:
+                    self._cancel(future)
+                    del self.guesses[(index, srf)]
+            self._write(case)
+            case.concluded = True
+            self.conclude(case)
+
+    def _write(self, case: CaseSearch) -> None:
+        start = time.perf_counter()
+        if case.unwritten_gravity is not None:
+            write_gravity(case.study, case.out_dir, case.unwritten_gravity)
+            case.unwritten_gravity = None
+        for result in case.unwritten:  # the workers are busy with the next runs meanwhile
+            write_run(result, case.out_dir / run_file_name(result.srf))
+        case.unwritten.clear()
+        case.io_s += time.perf_counter() - start
+
+    def _cancel_above_failures(self) -> None:
+        reason = "cancelled: above the failed SRF {:g}, cannot move the knee"
+        for future, task in list(self.tasks.items()):
+            if task.kind == "gravity":
+                continue
+            ceiling = task.case.search.lowest_failed
+            if task.srf > ceiling:  # cannot change the answer: stop it, free its worker
+                self._cancel(future)
+                if task.kind == "run":
+                    task.case.search.cancelled(task.srf, reason.format(ceiling))
+                else:
+                    self.guesses.pop((task.case.index, task.srf), None)
+        for task in list(self.queue):
+            ceiling = task.case.search.lowest_failed
+            if task.srf > ceiling:
+                self.queue.remove(task)
+                task.case.search.cancelled(task.srf, reason.format(ceiling))
+
+    def _dispatch(self) -> None:
+        """Submit queued runs to free workers, earlier cases and lower SRF first (step 3); a
+        running guess is stopped when a queued run needs its worker."""
+        self.queue.sort(key=lambda task: (task.case.index, task.srf))
+        while self.queue:
+            if len(self.tasks) >= self.n_workers:
+                guesses = [f for f, t in self.tasks.items() if t.kind == "guess"]
+                if not guesses:
+                    return
+                task = self.tasks[guesses[-1]]
+                self._cancel(guesses[-1])
+                self.guesses.pop((task.case.index, task.srf), None)
+            task = self.queue.pop(0)
+            self._submit_run(task.case, task.srf, task.key, "run")
+
+    def _guess(self, active: list[CaseSearch]) -> None:
+        """Guesses on idle workers, for cases with one undecided run (module doc, step 5)."""
+        idle = self.n_workers - len(self.tasks) if not self.queue else 0
+        for case in active:
+            if idle <= 0:
+                return
+            if case.search is None:
+                continue
+            known = {srf for (index, srf) in list(self.guesses) + list(self.guesses_done) if index == case.index}
+            for srf in [f for f in case.search.speculative_values(idle + len(known)) if f not in known][:idle]:
+                key = run_key(case.study, srf)
+                if stored_run(case.out_dir / run_file_name(srf), key) is not None:
+                    continue  # on disk already: reused when asked for
+                self.guesses[(case.index, srf)] = self._submit_run(case, srf, key, "guess")
+                case.n_guessed += 1
+                idle -= 1
+
+    # ------------------------------------------------------------------ the loop
+    def run(self) -> None:
+        for case in self.cases:
+            self._load_stored_gravity(case)
+        for case in self.cases:
+            self._start(case)
+        idle_passes = 0
+        while True:
+            active = [case for case in self.cases if not case.concluded]
+            for case in active:
+                if case.search is not None and not case.error:
+                    self._plan(case, len(active))
+            self._cancel_above_failures()
+            self._dispatch()
+            active = [case for case in self.cases if not case.concluded]
+            if active:
+                self._guess(active)
+            for case in self.cases:  # the workers are busy with the next runs meanwhile
+                if case.unwritten or case.unwritten_gravity is not None:
+                    self._write(case)
+            self.progress.cases(sum(case.concluded for case in self.cases), len(self.cases))
+            self._report_runs(active)
+            if not active:
+                break
+            if not self.tasks:  # runs were dropped from the queue above a failure: plan again
+                idle_passes += 1
+                if idle_passes > 3:
+                    raise RuntimeError("spfem-fos engine: cases are waiting with no task running (a bug)")
+                continue
+            idle_passes = 0
+            finished, _ = wait(list(self.tasks), return_when="FIRST_COMPLETED")
+            for future in finished:
+                task = self.tasks.pop(future, None)
+                if task is None:
+                    continue  # cancelled meanwhile
+                if task.kind == "gravity":
+                    self._gravity_result(task.case, future)
+                elif task.kind == "run":
+                    self._finished(task.case, future.result())  # a task's exception stops the study
+                else:
+                    self.guesses.pop((task.case.index, task.srf), None)
+                    self.guesses_done[(task.case.index, task.srf)] = future.result()
+        for future in list(self.tasks):
+            self._cancel(future)
+
+    def _gravity_result(self, case: CaseSearch, future) -> None:
+        """The gravity task of ``case`` returned: every case waiting for its key goes on."""
+        waiting = self.gravity_waiting.pop(case.gkey)
+        try:
+            result = future.result()
+        except DivergenceError as error:  # a diverged gravity stage ends these cases only
+            if len(self.cases) == 1:
+                raise
+            for each in waiting:
+                each.error = f"the gravity stage diverged: {error}"
+                self.progress.message(each.say(f"warning: {each.error}"))
+                each.concluded = True
+                self.conclude(each)
+            return
+        for each in waiting:
+            self._gravity_done(each, result, computed=each is case)
+
+    def _report_runs(self, active: list[CaseSearch]) -> None:
+        done = sum(len(case.runs) for case in self.cases)
+        pending = sum(1 for task in self.tasks.values() if task.kind == "run")
+        finished_cases = [case for case in self.cases if case.concluded and not case.error]
+        per_case = sum(len(c.runs) for c in finished_cases) / len(finished_cases) if finished_cases else 8.0
+        waiting = sum(max(0.0, per_case - len(case.runs)) for case in active)
+        self.progress.runs(done, done + pending + int(round(waiting)))
