@@ -1,6 +1,6 @@
 """Sweeps against stability charts: Taylor's (1937) phi = 0 chart, and FOS proportional to cu.
 
-    python -m verification.stability_chart [--out DIR] [--workers N] [--foundation-depth D]
+    python -m verification.stability_chart [--out DIR] [--workers N] [--foundation-depth D] [--spacing H]
 
 1. ``studies/published/taylor_phi0.toml``: a 5 m slope of undrained clay on a firm base at the
    toe (D = 1), cu = 20 kPa, gamma = 20 kN/m3, swept over the face angle.  Steeper than 53 deg
@@ -10,8 +10,9 @@
    and a run of k cu at k F are the same problem, so F / cu is one number; what differs between
    the cases is the resolution of each FOS bracket (``fos_tolerance``).
 
-``--foundation-depth 0.5`` runs the chart on a foundation 0.5 H deep instead (no second
-table): the toe is then a re-entrant corner, and the circle may pass below it.
+``--foundation-depth 0.5`` runs the chart on a foundation 0.5 H deep instead, ``--spacing``
+at another particle spacing (m); either prints the chart table only.  On a foundation the toe
+is a re-entrant corner, and the circle may pass below it.
 
 Prints a table of each; the test suite asserts the bands (tests/test_sweep.py).
 """
@@ -58,14 +59,16 @@ def _unit_weight_height(study) -> tuple[float, float]:
     return clay.density_kg_m3 * abs(study.loads.gravity_m_s2[1]), study.geometry.slope.height_m
 
 
-def taylor_points(out_dir: Path, workers: int = 2, foundation_depth: float = 0.0) -> list[ChartPoint]:
-    """Run the Taylor sweep into ``out_dir``, with a foundation ``foundation_depth`` H deep;
-    one point per angle."""
+def taylor_points(out_dir: Path, workers: int = 2, foundation_depth: float = 0.0,
+                  spacing_m: float | None = None) -> list[ChartPoint]:
+    """Run the Taylor sweep into ``out_dir``, with a foundation ``foundation_depth`` H deep and
+    (if given) particle spacing ``spacing_m``; one point per angle."""
     study = load_study(TAYLOR_STUDY)
-    if foundation_depth:
-        text = study.source_text.replace("foundation_depth_m = 0.0",
-                                         f"foundation_depth_m = {foundation_depth * study.geometry.slope.height_m}")
-        study = parse_study(text)
+    text = study.source_text.replace("foundation_depth_m = 0.0",
+                                     f"foundation_depth_m = {foundation_depth * study.geometry.slope.height_m}")
+    if spacing_m is not None:
+        text = text.replace(f"spacing_m = {study.geometry.spacing_m}", f"spacing_m = {spacing_m}")
+    study = parse_study(text)
     run_sweep(study, out_dir, workers=workers)
     gamma, height = _unit_weight_height(study)
     cu = study.materials[0].cohesion_pa
@@ -95,15 +98,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--foundation-depth", type=float, default=0.0, metavar="D",
                         help="depth of a foundation below the toe, in slope heights (default 0: base at the toe)")
+    parser.add_argument("--spacing", type=float, default=None, metavar="H", help="particle spacing (m), default the study's")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp)
-        points = taylor_points(out / "taylor", args.workers, args.foundation_depth)
-        print(f"Taylor (1937), phi = 0, D = {1 + args.foundation_depth:g}: N = cu / (F gamma H)")
+        points = taylor_points(out / "taylor", args.workers, args.foundation_depth, args.spacing)
+        spacing_m = args.spacing or load_study(TAYLOR_STUDY).geometry.spacing_m
+        print(f"Taylor (1937), phi = 0, D = {1 + args.foundation_depth:g}, h = {spacing_m:g} m: N = cu / (F gamma H)")
         print(f"{'angle (deg)':>11}  {'FOS':>7}  {'N':>7}  {'Taylor N':>8}  {'error':>7}")
         for p in points:
             print(f"{p.angle_deg:11g}  {p.fos:7.4f}  {p.n:7.4f}  {p.chart_n:8.3f}  {100 * p.error:+6.1f}%")
-        if args.foundation_depth:
+        if args.foundation_depth or args.spacing is not None:
             return
         ratios = fos_per_cu(out / "cu", args.workers)
         print("\nphi = 0, 60 deg: F / cu")
