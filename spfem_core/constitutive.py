@@ -7,13 +7,16 @@ velocity gradient L over a step dt:
     Jaumann:  sigma += w sigma - sigma w
               s_xx += 2 omega s_xy,  s_yy -= 2 omega s_xy,  s_xy += omega (s_yy - s_xx)
     elastic:  sigma += lambda tr(d) I + 2 G d      (d_zz = 0, so s_zz += lambda tr(d))
-    plastic:  elastic trial, then the return map of the material's model (``plasticity``)
+    plastic:  elastic trial, then the return map of the material's model (``plasticity``), then
+              the tension cut-off where the material has a tensile strength
 """
 
 from __future__ import annotations
 
+import math
+
 from spfem_core.jit import inner_kernel, kernel
-from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update
+from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update, tension_cutoff
 from spfem_core.scene import MODEL_DRUCKER_PRAGER, MODEL_ELASTIC
 
 
@@ -77,6 +80,12 @@ def update_stress(
                 node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
                 mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
             )
+        tensile_strength = mat_params[m, 4]
+        if tensile_strength < math.inf:
+            d_eq_t, work_t = tension_cutoff(node_stress, k, model == MODEL_DRUCKER_PRAGER, tensile_strength,
+                                            mat_lambda[m], mat_shear[m])
+            d_eq += d_eq_t
+            work += work_t
         node_plastic_strain[k] += d_eq
         plastic_work += area * work
     return plastic_work

@@ -4,14 +4,16 @@ Three signs, checked between compiled calls from what the loop reports and recor
 
 - a velocity that is not finite (NaN or inf);
 - a particle faster than the P-wave speed of the fastest material (runaway kinetic energy);
-- energy created: kinetic + strain + gravity potential + everything dissipated has grown since
-  the stage start by more than ``ENERGY_CREATED_LIMIT`` of the largest energy scale
-  (kinetic + strain + |potential|) seen so far.  A stable run only loses energy (about 1-2%
+- energy created: kinetic + strain + gravity and load potentials + everything dissipated has
+  grown since the stage start by more than ``ENERGY_CREATED_LIMIT`` of the largest energy scale
+  (kinetic + strain + |gravity potential| + |load potential|) seen so far.  A stable run only loses energy (about 1-2%
   leapfrog wobble).  Only checked when no particle has a prescribed non-zero velocity (that
   work is not in the budget).
 """
 
 from __future__ import annotations
+
+from spfem_core.records import ENERGY_GRAVITY_POTENTIAL, ENERGY_KINETIC, ENERGY_LOAD_POTENTIAL, ENERGY_STRAIN
 
 ENERGY_CREATED_LIMIT = 0.25
 """Divergence when the energy budget has grown by more than this fraction of its scale (module doc)."""
@@ -50,8 +52,9 @@ class EnergyWatch:
         energy = records.energy_j_per_m
         n_filled = records.n_filled
         for row in range(self.checked, n_filled):
-            kinetic, strain, potential = energy[row, 0], energy[row, 1], energy[row, 2]
-            self.scale_j_per_m = max(self.scale_j_per_m, kinetic + strain + abs(potential))
+            scale = (energy[row, ENERGY_KINETIC] + energy[row, ENERGY_STRAIN]
+                     + abs(energy[row, ENERGY_GRAVITY_POTENTIAL]) + abs(energy[row, ENERGY_LOAD_POTENTIAL]))
+            self.scale_j_per_m = max(self.scale_j_per_m, scale)
             created = float(energy[row].sum()) - self.start_j_per_m
             if not created <= ENERGY_CREATED_LIMIT * self.scale_j_per_m:  # NaN too
                 self.checked = row + 1

@@ -85,6 +85,17 @@ def triangulate(node_xy_m, spacing_m: float, alpha: float = 1.5) -> Mesh:
     return mesh_from_elements(np.ascontiguousarray(elem_nodes), node_xy_m.shape[0])
 
 
+def boundary_edges(elem_nodes: np.ndarray) -> np.ndarray:
+    """Sides of exactly one triangle (the alpha shape's boundary, holes and cracks included), as
+    (a, b) int64 in that counter-clockwise triangle's order: the material lies on the left of a -> b."""
+    elem_nodes = np.asarray(elem_nodes, dtype=np.int64).reshape(-1, 3)
+    sides = np.concatenate([elem_nodes[:, [0, 1]], elem_nodes[:, [1, 2]], elem_nodes[:, [2, 0]]])
+    n = int(sides.max()) + 1 if sides.size else 1
+    keys = np.minimum(sides[:, 0], sides[:, 1]) * n + np.maximum(sides[:, 0], sides[:, 1])
+    _, first, count = np.unique(keys, return_index=True, return_counts=True)
+    return np.ascontiguousarray(sides[np.sort(first[count == 1])])
+
+
 def delaunay_triangles(node_xy_m: np.ndarray) -> np.ndarray:
     """All Delaunay triangles (n_tri, 3) int64 of the points, any orientation, unfiltered."""
     triangulation = Delaunay(node_xy_m, qhull_options=QHULL_OPTIONS)

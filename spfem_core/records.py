@@ -10,6 +10,8 @@ The compiled loop writes one row every record interval of stage time into growab
     gravity_potential   -sum_k m_k g . u_k   (relative to the initial positions, see NodeState)
     *_dissipated        the work removed by damping, stabilisation, plastic flow and the
                         walls since the stage start (``dissipated`` accumulators, >= 0)
+    load_potential      minus the work done on the skeleton by pore water, ponded water and
+                        surface loads since the stage start (``external_forces``); 0 without them
 
 so that a stable undamped run keeps the sum of all columns constant (the energy balance).
 """
@@ -33,20 +35,23 @@ ENERGY_COLUMNS = (
     "stabilisation_dissipated",
     "plastic_dissipated",
     "contact_dissipated",
+    "load_potential",
 )
 """Columns of the recorded energy array (J per metre of out-of-plane thickness)."""
 
 ENERGY_KINETIC = 0
 ENERGY_STRAIN = 1
 ENERGY_GRAVITY_POTENTIAL = 2
+ENERGY_LOAD_POTENTIAL = ENERGY_COLUMNS.index("load_potential")
 
-DISSIPATION_COLUMNS = ("damping", "stabilisation", "plastic", "contact")
-"""Slots of the ``dissipated`` accumulator array (J/m since the stage start, >= 0); slot i is
+DISSIPATION_COLUMNS = ("damping", "stabilisation", "plastic", "contact", "loads")
+"""Slots of the ``dissipated`` accumulator array (J/m since the stage start; >= 0 but the loads'); slot i is
 energy column ``DISSIPATED_FIRST_COLUMN + i``."""
 DISSIPATED_DAMPING = 0
 DISSIPATED_STABILISATION = 1
 DISSIPATED_PLASTIC = 2
 DISSIPATED_CONTACT = 3
+DISSIPATED_LOADS = 4  # minus the work of water and surface loads (external_forces): their potential
 DISSIPATED_FIRST_COLUMN = 3
 
 

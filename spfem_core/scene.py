@@ -19,9 +19,10 @@ MODEL_MOHR_COULOMB = 2
 
 MODEL_NAMES = {"elastic": MODEL_ELASTIC, "drucker_prager": MODEL_DRUCKER_PRAGER, "mohr_coulomb": MODEL_MOHR_COULOMB}
 
-N_MODEL_PARAMS = 4
+N_MODEL_PARAMS = 5
 """Columns of the compiled model constants (``MaterialTable.model_params``):
-Drucker-Prager (alpha, k in Pa, alpha_psi, 0); Mohr-Coulomb (c in Pa, sin phi, cos phi, sin psi)."""
+Drucker-Prager (alpha, k in Pa, alpha_psi, 0, tensile strength in Pa); Mohr-Coulomb (c in Pa, sin phi,
+cos phi, sin psi, tensile strength in Pa).  An infinite tensile strength: no tension cut-off."""
 
 
 @dataclass(frozen=True)
@@ -41,14 +42,16 @@ class MaterialTable:
     friction_deg: np.ndarray | None = None  # (n_mat,) phi
     dilation_deg: np.ndarray | None = None  # (n_mat,) psi
     dp_fit: tuple[str, ...] | None = None
+    tensile_strength_pa: np.ndarray | None = None  # (n_mat,) tension cut-off sigma_t; inf (default): none
 
     def __post_init__(self):
         n = len(self.name)
         for attr in ("model", "density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "cohesion_pa",
-                     "friction_deg", "dilation_deg"):
+                     "friction_deg", "dilation_deg", "tensile_strength_pa"):
             dtype = np.int64 if attr == "model" else np.float64
             raw = getattr(self, attr)
-            value = np.zeros(n, dtype=dtype) if raw is None else np.ascontiguousarray(raw, dtype=dtype).reshape(-1)
+            empty = np.full(n, np.inf) if attr == "tensile_strength_pa" else np.zeros(n, dtype=dtype)
+            value = empty if raw is None else np.ascontiguousarray(raw, dtype=dtype).reshape(-1)
             if value.shape != (n,):
                 raise ValueError(f"MaterialTable.{attr}: expected {n} values, got {value.shape[0]}")
             object.__setattr__(self, attr, value)
@@ -96,24 +99,27 @@ class MaterialTable:
     def model_params(self) -> np.ndarray:
         """(n_mat, N_MODEL_PARAMS) constants the compiled update reads (see N_MODEL_PARAMS)."""
         params = np.zeros((self.n_materials, N_MODEL_PARAMS))
+        params[:, 4] = self.tensile_strength_pa
         for m in range(self.n_materials):
             c, phi, psi = self.cohesion_pa[m], self.friction_deg[m], self.dilation_deg[m]
             if self.model[m] == MODEL_DRUCKER_PRAGER:
                 fit = self.dp_fit[m] or default_dp_fit(psi, phi)
                 params[m, :3] = dp_constants(c, phi, psi, fit)
             elif self.model[m] == MODEL_MOHR_COULOMB:
-                params[m] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
+                params[m, :4] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
         return params
 
     def with_strength_reduction(self, srf: float, associated: bool = False) -> "MaterialTable":
-        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, and
-        psi_F = min(psi, phi_F), or psi_F = phi_F with ``associated`` (normality: the flow rule
-        under which limit equilibrium and limit analysis give the factor of safety)."""
+        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, sigma_t,F = sigma_t / F
+        (the tension cut-off falls with the cohesion), and psi_F = min(psi, phi_F), or psi_F = phi_F with
+        ``associated`` (normality: the flow rule under which limit equilibrium and limit analysis give
+        the factor of safety)."""
         if not srf > 0:
             raise ValueError(f"srf: must be > 0, got {srf}")
         phi_f = np.degrees(np.arctan(np.tan(np.radians(self.friction_deg)) / srf))
         psi_f = phi_f if associated else np.minimum(self.dilation_deg, phi_f)
-        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f, dilation_deg=psi_f)
+        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f, dilation_deg=psi_f,
+                       tensile_strength_pa=self.tensile_strength_pa / srf)
 
     def as_elastic(self) -> "MaterialTable":
         """The same table with every material linear elastic (e.g. for a gravity stage)."""
@@ -139,6 +145,12 @@ class Scene:
     alpha: float = 1.5  # alpha-shape factor: drop triangles with circumradius > alpha * h
     wall_xy_m: np.ndarray | None = None  # (n_wall, 4) rigid segments (x1, y1, x2, y2); material on the left
     wall_friction: np.ndarray | None = None  # (n_wall,) Coulomb coefficient mu
+    node_density_kg_m3: np.ndarray | None = None  # (n,) mass density per particle; default its material's
+    node_load_n: np.ndarray | None = None  # (n, 2) constant forces on the particles (surface loads), N/m
+    node_pore_pressure_pa: np.ndarray | None = None  # (n,) pore pressure carried by the particle (ru), Pa
+    phreatic_xy_m: np.ndarray | None = None  # (n_points, 2) piezometric line, x strictly increasing
+    pond_level_m: float | None = None  # level of water standing on the ground surface (m)
+    water_unit_weight_n_m3: float = 9810.0  # gamma_w
 
     def __post_init__(self):
         self.node_xy_m = np.ascontiguousarray(self.node_xy_m, dtype=np.float64)
@@ -165,6 +177,35 @@ class Scene:
             raise ValueError("Scene.wall_friction: one coefficient per wall expected")
         if not self.spacing_m > 0:
             raise ValueError(f"Scene.spacing_m: must be > 0, got {self.spacing_m}")
+        for attr, shape in (("node_density_kg_m3", (n,)), ("node_load_n", (n, 2)), ("node_pore_pressure_pa", (n,))):
+            value = getattr(self, attr)
+            if value is not None:
+                value = np.ascontiguousarray(value, dtype=np.float64).reshape(shape)
+                if not np.all(np.isfinite(value)):
+                    raise ValueError(f"Scene.{attr}: values must be finite")
+                setattr(self, attr, value)
+        if self.node_density_kg_m3 is not None and not np.all(self.node_density_kg_m3 > 0):
+            raise ValueError("Scene.node_density_kg_m3: densities must be > 0")
+        if self.phreatic_xy_m is not None:
+            line = np.ascontiguousarray(self.phreatic_xy_m, dtype=np.float64).reshape(-1, 2)
+            if line.shape[0] < 2 or not np.all(np.diff(line[:, 0]) > 0):
+                raise ValueError("Scene.phreatic_xy_m: at least 2 points with x strictly increasing")
+            self.phreatic_xy_m = line
+        if not self.water_unit_weight_n_m3 > 0:
+            raise ValueError(f"Scene.water_unit_weight_n_m3: must be > 0, got {self.water_unit_weight_n_m3}")
+
+    @property
+    def has_external_loads(self) -> bool:
+        """Water or surface loads act (``external_forces``); otherwise their work is skipped."""
+        return (self.node_load_n is not None or self.node_pore_pressure_pa is not None
+                or self.phreatic_xy_m is not None or self.pond_level_m is not None)
+
+    @property
+    def particle_density_kg_m3(self) -> np.ndarray:
+        """Mass density of every particle (n,): ``node_density_kg_m3`` or its material's."""
+        if self.node_density_kg_m3 is not None:
+            return self.node_density_kg_m3
+        return self.materials.density_kg_m3[self.node_material]
 
     @property
     def n_particles(self) -> int:

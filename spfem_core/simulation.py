@@ -15,13 +15,13 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from spfem_core.divergence import DivergenceError, EnergyWatch, speed_reason
-from spfem_core.mesh import Mesh
+from spfem_core.mesh import Mesh, boundary_edges
 from spfem_core.records import RecordBuffers, TimeSeries, record_state
 from spfem_core.remeshing import ANGLE_MARGIN_RAD, Remesher
 from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.schedule import StageSchedule
 from spfem_core.smoothing import smooth_velocity_gradient
-from spfem_core.state import MaterialArrays, NodeState, StepParameters, StepScratch, Walls
+from spfem_core.state import ExternalLoads, MaterialArrays, NodeState, StepParameters, StepScratch, Walls
 from spfem_core.stepper import (
     LOOP_CONTACTS,
     LOOP_LAST_MAX_SPEED,
@@ -95,6 +95,17 @@ class Simulation:
             fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(),
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
+        self.gravity_m_s2 = scene.gravity_m_s2.copy()
+        self.loads = ExternalLoads(
+            active=scene.has_external_loads,
+            node_force_n=np.zeros((n, 2)) if scene.node_load_n is None else scene.node_load_n,
+            node_pore_pressure_pa=np.zeros(n) if scene.node_pore_pressure_pa is None else scene.node_pore_pressure_pa,
+            phreatic_xy_m=np.zeros((0, 2)) if scene.phreatic_xy_m is None else scene.phreatic_xy_m,
+            water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3),
+            pond_level_m=np.nan if scene.pond_level_m is None else float(scene.pond_level_m),
+            boundary_edges=np.zeros((0, 2), dtype=np.int64),
+            at_initial_positions=False,
+        )
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
@@ -114,7 +125,7 @@ class Simulation:
             )
         cell_area = self.scratch.area_m2.copy()
         cell_area[orphans] = scene.spacing_m**2
-        self.nodes.mass_kg[:] = scene.materials.density_kg_m3[self.nodes.material] * cell_area
+        self.nodes.mass_kg[:] = scene.particle_density_kg_m3 * cell_area
         self._choose_time_step()
         self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
 
@@ -125,8 +136,11 @@ class Simulation:
         self.speed_limit_m_s = float(materials.p_wave_speed_m_s[self.nodes.material].max())
 
     def _set_mesh(self, mesh: Mesh):
-        """Use ``mesh`` from now on: element scratch sized for it, cell areas and gradients on it."""
+        """Use ``mesh`` from now on: element scratch sized for it, cell areas and gradients on it
+        (and its boundary, when ponded water loads it)."""
         self.mesh = mesh
+        if self.scene.pond_level_m is not None:
+            self.loads = self.loads._replace(boundary_edges=boundary_edges(mesh.elem_nodes))
         self.n_orphans = int(mesh.orphan_nodes.size)
         self.scratch = self.scratch.with_elements(mesh.n_elem)
         smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, self.scratch.elem_geom,
@@ -157,6 +171,13 @@ class Simulation:
             raise ValueError(f"materials: expected {self.materials.n_materials} rows, got {materials.n_materials}")
         self._set_material_arrays(materials)
         self._choose_time_step()
+
+    def set_gravity(self, gravity_m_s2):
+        """Body acceleration (m/s^2) from now on, e.g. gravity with a pseudo-static seismic part."""
+        gravity = np.asarray(gravity_m_s2, dtype=np.float64).reshape(2)
+        if not np.all(np.isfinite(gravity)):
+            raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
+        self.gravity_m_s2 = np.ascontiguousarray(gravity)
 
     def set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
         """Prescribed velocities from now on (e.g. release a retaining side for a collapse)."""
@@ -225,7 +246,8 @@ class Simulation:
         snapshot: Snapshot | None = None,
         periodic: PeriodicAction | None = None,
     ) -> TimeSeries:
-        """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``.
+        """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``; water
+        pressures at the current positions.
 
         ``stop`` is asked between compiled calls whether the outcome is decided (see
         :data:`StopRule`); the stage then ends early and its notes say why.  ``snapshot``
@@ -233,6 +255,7 @@ class Simulation:
         and at its end, with the state of that moment in this object.  ``periodic`` (see
         :data:`PeriodicAction`) may change the simulation every interval.
         """
+        self.loads = self.loads._replace(at_initial_positions=False)
         return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop, snapshot,
                            periodic)
 
@@ -246,6 +269,7 @@ class Simulation:
         progress: Callable[[float], None] | None = None,
         snapshot: Snapshot | None = None,
         stop: StopRule | None = None,
+        water_at_initial_positions: bool = False,
     ) -> TimeSeries:
         """Dynamic relaxation: locally damped steps until |f_unbalanced| / |m g| < ``tolerance``.
 
@@ -258,11 +282,16 @@ class Simulation:
         keep those).  On the reference slope: 2,758 steps instead of 4,938 at cfl 0.5, with
         the relaxed stresses equal within 3.4e-6 of their largest value (tolerance 1e-5).
         ``max_duration_s`` is pseudo-time at that step.
+
+        ``water_at_initial_positions``: the water pressures act as at the initial positions
+        (``external_forces``), for a gravity stage whose displacement the next stage discards;
+        ``pore_pressure_pa`` reports them so until the next stage starts.
         """
         if not tolerance > 0.0:
             raise ValueError(f"tolerance must be > 0, got {tolerance}")
         self._relaxing = True
         self.dt_s = self.time_step.relaxation(self.critical_dt_s)
+        self.loads = self.loads._replace(at_initial_positions=bool(water_at_initial_positions))
         try:
             return self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop,
                                snapshot)
@@ -272,7 +301,7 @@ class Simulation:
 
     def _parameters(self, damping: float, tolerance: float) -> StepParameters:
         return StepParameters(
-            self.scene.gravity_m_s2, self.dt_s, float(damping), float(self.settings.stabilisation_beta),
+            self.gravity_m_s2, self.dt_s, float(damping), float(self.settings.stabilisation_beta),
             self.scene.spacing_m, self.speed_limit_m_s, float(tolerance), self.remesher.threshold_rad,
             ANGLE_MARGIN_RAD,
         )
@@ -316,7 +345,7 @@ class Simulation:
             call_start = time.perf_counter()
             status, done = advance(
                 self.nodes, self.scratch, self.mesh.elem_nodes, self.mesh.edge_nodes, self.material_arrays,
-                self.walls, self._parameters(damping, tolerance), n_want, stage_time, interval, monitor_nodes,
+                self.walls, self.loads, self._parameters(damping, tolerance), n_want, stage_time, interval, monitor_nodes,
                 records, self.dissipated, self.loop,
             )
             schedule.adapt(done, time.perf_counter() - call_start)
@@ -375,7 +404,7 @@ class Simulation:
 
     def _record(self, records: RecordBuffers, time_s: float, monitor_nodes: np.ndarray):
         slot = records.n_filled
-        record_state(slot, time_s, self.nodes, self.scratch.area_m2, self.material_arrays, self.scene.gravity_m_s2,
+        record_state(slot, time_s, self.nodes, self.scratch.area_m2, self.material_arrays, self.gravity_m_s2,
                      monitor_nodes, self.dissipated, records)
         records.count[0] = slot + 1
 
@@ -399,6 +428,7 @@ class Simulation:
                 f"{self.counters.remesh_wall_s - start.remesh_wall_s:.2f} s rebuilding"
             ),
             "plasticity": "on" if plastic else "off (all materials elastic)",
+            "water_and_loads": "on" if self.loads.active else "off (no water, no surface loads): skipped",
             "particles_outside_mesh": f"{self.n_orphans} at the end",
         }
         series = TimeSeries.from_records(
@@ -424,6 +454,19 @@ class Simulation:
     def node_area_m2(self) -> np.ndarray:
         """Smoothing-cell areas A_k on the current mesh (as of the last step), a copy."""
         return self.scratch.area_m2.copy()
+
+    @property
+    def pore_pressure_pa(self) -> np.ndarray:
+        """Pore pressure u of every particle at its current position (n,), Pa, compression positive
+        (``external_forces``; at the initial positions, x - u, within a relaxation that asks for it);
+        zeros without water."""
+        u = self.loads.node_pore_pressure_pa.copy()
+        line = self.loads.phreatic_xy_m
+        if line.shape[0]:
+            xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
+            head = np.interp(xy[:, 0], line[:, 0], line[:, 1]) - xy[:, 1]
+            u += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
+        return u
 
     @property
     def node_contact(self) -> np.ndarray:

@@ -42,12 +42,14 @@ class StepScratch(NamedTuple):
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
     elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
     leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) see integration.leapfrog
+    pore_pressure_pa: np.ndarray  # (n,) u_k of the last step (compression positive); 0 without water
+    external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
 
     @classmethod
     def for_nodes(cls, n: int) -> "StepScratch":
         """Scratch for ``n`` particles and an empty mesh (``with_elements`` sizes it)."""
         return cls(np.zeros((n, 4)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
-                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros(LEAPFROG_OUT_WIDTH))
+                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
 
     def with_elements(self, n_elem: int) -> "StepScratch":
         """The same arrays with an element table for ``n_elem`` triangles."""
@@ -70,6 +72,22 @@ class Walls(NamedTuple):
 
     xy_m: np.ndarray  # (n_wall, 4) x1, y1, x2, y2; material on the left of 1 -> 2
     friction: np.ndarray  # (n_wall,) Coulomb coefficient mu
+
+
+class ExternalLoads(NamedTuple):
+    """Forces on the soil skeleton besides gravity and its effective stress (``external_forces``).
+
+    ``active`` False skips all of them (a dry, unloaded scene pays nothing).
+    """
+
+    active: bool
+    node_force_n: np.ndarray  # (n, 2) constant forces carried by the particles (surface loads), N/m
+    node_pore_pressure_pa: np.ndarray  # (n,) pore pressure carried by the particle (ru), Pa
+    phreatic_xy_m: np.ndarray  # (n_points, 2) piezometric line, x increasing; (0, 2): none
+    water_unit_weight_n_m3: float  # gamma_w
+    pond_level_m: float  # level of water standing on the surface; NaN: none
+    boundary_edges: np.ndarray  # (n_edges, 2) int64 edges of the current mesh's boundary, material on the left
+    at_initial_positions: bool  # water pressures from x - u (a gravity stage, whose displacement is discarded)
 
 
 class StepParameters(NamedTuple):

@@ -5,6 +5,8 @@ One step (method notes, section 1), all on the current mesh:
   2. Jaumann rotation + constitutive update of every particle (constitutive.update_stress)
   3. internal force f_I = sum_e A_e B_I^e^T sigma_bar_e       (smoothing.add_internal_force)
   4. rank-deficiency bond forces, only when beta > 0          (stabilisation.add_stabilisation_force)
+     pore and ponded water, surface loads, only when the scene   (external_forces.add_external_forces)
+     has them
   5. leapfrog with local damping, prescribed velocities and   (integration.leapfrog)
      rigid walls (only when the scene has walls)              (contact.wall_contact_velocity)
 
@@ -21,12 +23,14 @@ import math
 import numpy as np
 
 from spfem_core.constitutive import update_stress
+from spfem_core.external_forces import add_external_forces, external_power
 from spfem_core.integration import leapfrog
 from spfem_core.jit import kernel
 from spfem_core.mesh import element_quality_min_angle
 from spfem_core.records import (
     DISSIPATED_CONTACT,
     DISSIPATED_DAMPING,
+    DISSIPATED_LOADS,
     DISSIPATED_PLASTIC,
     DISSIPATED_STABILISATION,
     DISSIPATION_COLUMNS,
@@ -60,14 +64,14 @@ def new_accumulators() -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
-def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, params, n_steps, time_start_s,
+def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, params, n_steps, time_start_s,
             record_interval_s, monitor_nodes, records, dissipated, loop):
     """Run up to ``n_steps`` steps from stage time ``time_start_s``; return (status, steps done).
 
     ``nodes`` (``state.NodeState``) and ``scratch`` (``state.StepScratch``) are updated in place
     on the mesh ``elem_nodes`` (counter-clockwise triangles) with bonds ``edge_nodes``;
-    ``materials``, ``walls``, ``params`` are ``state.MaterialArrays``, ``state.Walls``,
-    ``state.StepParameters``.  A row of ``records`` (``records.RecordBuffers``) is written every
+    ``materials``, ``walls``, ``loads``, ``params`` are ``state.MaterialArrays``, ``state.Walls``,
+    ``state.ExternalLoads``, ``state.StepParameters``.  A row of ``records`` (``records.RecordBuffers``) is written every
     ``record_interval_s`` of stage time for the particles ``monitor_nodes``; ``dissipated`` and
     ``loop`` are the accumulators of :func:`new_accumulators`.  See the module doc for when it
     returns early.
@@ -101,6 +105,9 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, params, n_
                 node_force,
             )
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
+        if loads.active:
+            add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads, scratch.pore_pressure_pa,
+                                scratch.external_force_n, node_force)
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.fixed, nodes.fixed_velocity_m_s,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
@@ -108,6 +115,8 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, params, n_
         )
         dissipated[DISSIPATED_DAMPING] -= step_out[3] * dt
         dissipated[DISSIPATED_CONTACT] += step_out[4]
+        if loads.active:
+            dissipated[DISSIPATED_LOADS] -= external_power(node_v, scratch.external_force_n) * dt
         loop[LOOP_CONTACTS] = step_out[5]
         max_speed_sq = step_out[0]
         loop[LOOP_LAST_MAX_SPEED] = math.sqrt(max_speed_sq) if max_speed_sq >= 0.0 else max_speed_sq

@@ -76,6 +76,7 @@ def fake_run(study_text: str, n_rec: int = 6, **series_options):
         scene=scene,
         initial_xy_m=node_xy_m,
         node_area_m2=np.full(n, 0.5 * 0.5),
+        pore_pressure_pa=np.linspace(0.0, 1e3, n),
         mesh=SimpleNamespace(elem_nodes=np.array([[0, 1, 5], [0, 5, 4]], dtype=np.int32)),
     )
     monitors = np.array([scene.nearest_particle(m.x_m, m.y_m) for m in study.monitors], dtype=np.int64)

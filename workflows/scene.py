@@ -7,10 +7,13 @@ like the file checks, before anything is run or written.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from spfem_core.cloud import particles_in_polygon, points_in_polygon
 from spfem_core.scene import MODEL_NAMES, MaterialTable, Scene, SolverSettings
+from workflows.loading import body_acceleration_m_s2, surface_load_forces, water_scene_fields
 from workflows.study import DEFAULT_CFL, Study, StudyError
 
 
@@ -27,6 +30,8 @@ def build_material_table(study: Study) -> MaterialTable:
         friction_deg=[getattr(m, "friction_deg", 0.0) for m in materials],
         dilation_deg=[getattr(m, "dilation_deg", 0.0) for m in materials],
         dp_fit=tuple(_core_dp_fit(getattr(m, "dp_fit", "")) for m in materials),
+        tensile_strength_pa=[math.inf if getattr(m, "tensile_strength_pa", None) is None else m.tensile_strength_pa
+                             for m in materials],
     )
 
 
@@ -35,14 +40,20 @@ def _core_dp_fit(fit: str) -> str:
     return "" if fit in ("", "mohr_coulomb_match") else fit
 
 
-def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
-    """Material row of every particle: the last material whose region holds it."""
-    node_material = np.full(node_xy_m.shape[0], -1, dtype=np.int64)
+def material_rows(study: Study, points_xy_m: np.ndarray) -> np.ndarray:
+    """Material row of every point: the last material whose region holds it (-1: none)."""
+    rows = np.full(points_xy_m.shape[0], -1, dtype=np.int64)
     for i, material in enumerate(study.materials):
         if material.region_m is None:
-            node_material[:] = i
+            rows[:] = i
         else:
-            node_material[points_in_polygon(node_xy_m, np.array(material.region_m))] = i
+            rows[points_in_polygon(points_xy_m, np.array(material.region_m))] = i
+    return rows
+
+
+def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
+    """Material row of every particle: the last material whose region holds it."""
+    node_material = material_rows(study, node_xy_m)
     orphans = np.flatnonzero(node_material < 0)
     if orphans.size:
         x, y = node_xy_m[orphans[0]]
@@ -55,20 +66,24 @@ def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
 
 
 def build_scene(study: Study) -> Scene:
-    """The particle cloud of ``study`` with its materials, supports and gravity."""
+    """The particle cloud of ``study`` with its materials, supports, gravity (with the seismic part when
+    it acts from the first stage), water and surface loads."""
     geometry = study.geometry
     node_xy_m = particles_in_polygon(
         np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter, seed=geometry.seed
     )
     if node_xy_m.shape[0] < 3:
         raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
+    node_material = assign_materials(study, node_xy_m)
     scene = Scene(
         node_xy_m=node_xy_m,
-        node_material=assign_materials(study, node_xy_m),
+        node_material=node_material,
         materials=build_material_table(study),
         spacing_m=geometry.spacing_m,
-        gravity_m_s2=np.array(study.loads.gravity_m_s2),
+        gravity_m_s2=body_acceleration_m_s2(study, strength_reduction=False),
         alpha=study.solver.alpha,
+        node_load_n=surface_load_forces(study, node_xy_m, geometry.spacing_m, study.solver.alpha),
+        **water_scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points)),
     )
     for wall in study.walls:
         scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)

@@ -59,8 +59,11 @@ def snapshots(study: Study, stage: StageBase, sim: Simulation, out_dir: Path):
     return interval, SnapshotWriter(Path(out_dir) / "paraview", stage.name, sim)
 
 
-def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None, snapshot=None):
-    """Run one stage on ``sim`` (which continues from its current state); the stage's TimeSeries."""
+def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None, snapshot=None,
+              displacement_discarded: bool = False):
+    """Run one stage on ``sim`` (which continues from its current state); the stage's TimeSeries.
+    ``displacement_discarded``: the next stage starts from the original positions, so a relaxation
+    balances the water pressures of those positions (``Simulation.relax``)."""
     match stage:
         case DynamicStage():
             return sim.run(
@@ -80,6 +83,7 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
                 monitor_nodes=monitor_nodes,
                 progress=progress,
                 snapshot=snapshot,
+                water_at_initial_positions=displacement_discarded,
             )
     raise TypeError(f"no runner for a stage of kind {stage.kind!r}")
 
@@ -135,7 +139,9 @@ def run_stage_result(study: Study, sim: Simulation, index: int, monitor_nodes: n
         prepare_stage(sim, study, stage, index)
     except UnstableTimeStepError as error:
         raise StudyError(f"stages[{index}]", str(error)) from None
-    series = run_stage(sim, stage, monitor_nodes, progress, snapshot)
+    following = study.stages[index + 1] if index + 1 < len(study.stages) else None
+    discarded = following is not None and following.start == "original_positions"
+    series = run_stage(sim, stage, monitor_nodes, progress, snapshot, displacement_discarded=discarded)
     dataset = stage_dataset(study=study, stage_index=index, series=series, sim=sim, monitor_particles=monitor_nodes)
     if index == len(study.stages) - 1:
         dataset = add_metrics(dataset, study.metrics, sim)

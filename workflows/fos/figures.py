@@ -6,7 +6,8 @@ which is serial time at the end of every study.
 - ``srf_curve.png``: largest displacement against SRF (log scale), each run coloured by its
   verdict, the knee (maximum curvature of the sweep) and the FOS bracket marked;
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
-  equivalent plastic strain and displacement magnitude on the final particle positions.
+  equivalent plastic strain and displacement magnitude on the final particle positions, with the
+  water (piezometric line dashed, ponded water solid), the surface loads and the seismic coefficient.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import numpy as np
 import xarray as xr
 
 from workflows.fos.run_store import run_file_name
+from workflows.loading import surface_height_m
+from workflows.study import parse_study
 
 COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
 
@@ -73,6 +76,7 @@ def run_fields(run_path: Path, path: Path) -> Path:
         plastic = ds["particle_plastic_strain"].values
         u = np.hypot(ds["particle_ux"].values, ds["particle_uy"].values)
         srf, status = float(ds.attrs["srf"]), ds.attrs["status"]
+        study_text = ds.attrs.get("study", "")
     mesh = mtri.Triangulation(x, y, triangles)
     # panels as tall as the domain's aspect asks (equal axes), within 1-3.5 in each
     aspect = (np.ptp(y) or 1.0) / (np.ptp(x) or 1.0)
@@ -85,11 +89,40 @@ def run_fields(run_path: Path, path: Path) -> Path:
         fig.colorbar(shading, ax=ax, label=label)
         ax.set_aspect("equal")
         ax.set_ylabel("y (m)")
+        if study_text:
+            draw_water_and_loads(ax, parse_study(study_text))
     axes[0].set_title(f"SRF {srf:g} ({status}), final state")
     axes[1].set_xlabel("x (m)")
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def draw_water_and_loads(ax, study) -> None:
+    """The piezometric line (dashed) and ponded water (solid) in blue, surface loads as red arrows
+    and the seismic coefficient as a note, over a field plot of ``study``'s domain."""
+    polygon = np.array(study.geometry.polygon_m)
+    x_lo, x_hi = polygon[:, 0].min(), polygon[:, 0].max()
+    x = np.linspace(x_lo, x_hi, 400)
+    ground = surface_height_m(polygon, x)
+    water = study.water
+    if water is not None and water.phreatic_line is not None:
+        line = np.array(water.phreatic_line)
+        ax.plot(x, np.minimum(np.interp(x, line[:, 0], line[:, 1]), ground), "--", color="tab:blue", lw=1.2)
+    if water is not None and water.pond_level_m is not None:
+        ax.plot(x, np.where(ground < water.pond_level_m, water.pond_level_m, np.nan), "-", color="tab:blue", lw=1.5)
+    reach = 0.06 * (polygon[:, 1].max() - polygon[:, 1].min() or 1.0)
+    arrows = [(xs, load.pressure_pa) for load in study.loads.strip
+              for xs in np.linspace(load.x_start_m, load.x_end_m, 5)]
+    arrows += [(load.x_m, load.force_n_m) for load in study.loads.line]
+    for x_load, _ in arrows:
+        y_top = float(surface_height_m(polygon, np.array([x_load]))[0])
+        ax.annotate("", xy=(x_load, y_top), xytext=(x_load, y_top + reach),
+                    arrowprops=dict(arrowstyle="->", color="tab:red", lw=1.2), annotation_clip=False)
+    seismic = study.loads.seismic
+    if seismic is not None:
+        ax.text(0.01, 0.03, f"kh = {seismic.horizontal_coefficient:g}, kv = {seismic.vertical_coefficient:g}",
+                transform=ax.transAxes, fontsize=8, color="tab:red")
 
 
 def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:

@@ -1,10 +1,11 @@
 """Keys of the cached states of a strength-reduction study: what a stored file was made from.
 
 A gravity file carries ``gravity_key``, a hash over everything that shapes the gravity state
-(geometry, materials, loads, supports, solver, the stages before the strength reduction, and
+(geometry, materials, loads, water, supports, solver, the stages before the strength reduction, and
 the core's sources; not the materials' strength when every stage before the strength
-reduction is elastic, so that a sweep over strength relaxes gravity once); a run file carries ``run_key``, a hash over the gravity key, what the run
-does and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
+reduction is elastic, so that a sweep over strength relaxes gravity once; not the seismic load
+when it acts in the runs only); a run file carries ``run_key``, a hash over the gravity key, what
+the run does (the seismic load too) and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
 The search's own settings are left out of the run key: refining the search reuses every run.
 """
 
@@ -20,7 +21,7 @@ from workflows.study import Study
 SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
 """Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
 
-STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit")
+STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit", "tensile_strength_pa")
 """Material fields an elastic stage does not use."""
 
 
@@ -36,6 +37,9 @@ def gravity_key(study: Study) -> str:
         raw.pop(key, None)
     raw["study"].pop("description", None)
     raw["stages"] = raw["stages"][:-1]
+    seismic = study.loads.seismic
+    if seismic is not None and not seismic.in_gravity:
+        raw["loads"].pop("seismic")  # it acts in the runs only: in the run key
     if all(stage.elastic for stage in study.stages[:-1]):
         raw["materials"] = [{k: v for k, v in material.items() if k not in STRENGTH_FIELDS}
                             for material in raw["materials"]]
@@ -50,7 +54,9 @@ def run_key(study: Study, srf: float) -> str:
     for key in SEARCH_FIELDS:
         stage.pop(key)
     materials = [{"model": material.model, **dataclasses.asdict(material)} for material in study.materials]
-    return _digest({"gravity": gravity_key(study), "materials": materials, "stage": stage, "srf": f"{srf:.4f}"})
+    seismic = study.loads.seismic
+    return _digest({"gravity": gravity_key(study), "materials": materials, "stage": stage, "srf": f"{srf:.4f}",
+                    "seismic": None if seismic is None else dataclasses.asdict(seismic)})
 
 
 def case_key(study: Study) -> str:

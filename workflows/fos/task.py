@@ -36,6 +36,7 @@ from spfem_core.divergence import DivergenceError
 from spfem_core.simulation import Simulation
 from workflows.fos.scales import response_time_s
 from workflows.fos.verdict import DIVERGED, verdict_for
+from workflows.loading import body_acceleration_m_s2
 from workflows.output.stage_file import stage_dataset
 from workflows.output.writing import dataset_bytes
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
@@ -142,6 +143,7 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     sim = Simulation(scene, solver_settings(study))
     sim.set_initial_stress(gravity_stress_pa, gravity_plastic_strain)
     sim.set_supports(*supports(study, scene, stage.boundary))
+    sim.set_gravity(body_acceleration_m_s2(study, strength_reduction=True))
     verdict = verdict_for(study)
     remesh_start = sim.counters.remesh_wall_s
     stop = verdict.stop_rule() if stage.early_stop else None

@@ -5,8 +5,8 @@
 Every result file of ``OUT_DIR`` holding a particle mesh (``gravity.nc``, ``srf_<F>.nc``,
 ``run.nc``, ``<stage>.nc``) becomes ``<name>.vtu``: an XML UnstructuredGrid of the final
 particle positions (points, z = 0) and triangles, with point data ``displacement`` (m),
-``velocity`` (m s-1), ``stress`` (Pa, 4 components xx, yy, zz, xy, tension positive),
-``plastic_strain``, ``material`` and ``initial_position`` (m).  ``results.pvd`` lists them:
+``velocity`` (m s-1), ``stress`` (Pa, effective, 4 components xx, yy, zz, xy, tension positive),
+``pore_pressure`` (Pa), ``plastic_strain``, ``material`` and ``initial_position`` (m).  ``results.pvd`` lists them:
 SRF runs at "timestep" = F, stage files at their stage index, so ParaView's time slider
 steps through the SRF values or the stages.  Data are ASCII: simple to read back and check.
 
@@ -36,8 +36,8 @@ def _array(name: str, values: np.ndarray, components: int, vtk_type: str) -> str
             f'format="ascii">{text}</DataArray>')
 
 
-def vtu_text(xy, triangles, displacement, velocity, stress, plastic_strain, material, initial_xy) -> str:
-    """The VTU text of a particle state: (n, 2) arrays in m and m/s, stress (n, 4) in Pa."""
+def vtu_text(xy, triangles, displacement, velocity, stress, pore_pressure, plastic_strain, material, initial_xy) -> str:
+    """The VTU text of a particle state: (n, 2) arrays in m and m/s, stress (n, 4) and pore pressure (n,) in Pa."""
     n = xy.shape[0]
     triangles = np.asarray(triangles, dtype=np.int64)
     zeros = np.zeros(n)
@@ -49,6 +49,7 @@ def vtu_text(xy, triangles, displacement, velocity, stress, plastic_strain, mate
         _array("displacement", vector(displacement), 3, "Float64"),
         _array("velocity", vector(velocity), 3, "Float64"),
         _array("stress", stress, 4, "Float64"),
+        _array("pore_pressure", pore_pressure, 1, "Float64"),
         _array("plastic_strain", plastic_strain, 1, "Float64"),
         _array("material", material, 1, "Int64"),
         _array("initial_position", vector(initial_xy), 3, "Float64"),
@@ -77,9 +78,11 @@ def dataset_to_vtu(ds: xr.Dataset) -> str:
         return np.column_stack([ds[a].values, ds[b].values])
 
     stress = particle_stress(ds)
+    n = ds["particle_x"].size
+    pore_pressure = ds["particle_pore_pressure"].values if "particle_pore_pressure" in ds else np.zeros(n)
     return vtu_text(
         pair("particle_x", "particle_y"), ds["mesh2d_face_nodes"].values, pair("particle_ux", "particle_uy"),
-        pair("particle_vx", "particle_vy"), stress, ds["particle_plastic_strain"].values,
+        pair("particle_vx", "particle_vy"), stress, pore_pressure, ds["particle_plastic_strain"].values,
         ds["particle_material"].values, pair("particle_x0", "particle_y0"),
     )
 
@@ -115,7 +118,7 @@ class SnapshotWriter:
         name = f"{self.stage_name}_{len(self.entries):04d}.vtu"
         _write_text(self.folder / name, vtu_text(
             sim.nodes.xy_m, sim.mesh.elem_nodes, sim.nodes.displacement_m, sim.nodes.velocity_m_s, sim.nodes.stress_pa,
-            sim.nodes.plastic_strain, sim.nodes.material, sim.initial_xy_m,
+            sim.pore_pressure_pa, sim.nodes.plastic_strain, sim.nodes.material, sim.initial_xy_m,
         ))
         self.entries.append((float(time_s), name))
         _write_text(self.folder / f"{self.stage_name}.pvd", _pvd_text(self.entries))

@@ -92,6 +92,7 @@ def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_partic
     ds["particle_plastic_strain"] = var["particle_plastic_strain"](np.asarray(sim.nodes.plastic_strain, dtype=np.float64))
     ds["particle_area"] = var["particle_area"](np.asarray(sim.node_area_m2, dtype=np.float64))
     ds["particle_mass"] = var["particle_mass"](np.asarray(sim.nodes.mass_kg, dtype=np.float64))
+    ds["particle_pore_pressure"] = var["particle_pore_pressure"](sim.pore_pressure_pa)
     material_names = sim.scene.materials.name
     ds["particle_material"] = var["particle_material"](
         np.asarray(sim.scene.node_material, dtype=np.int64),

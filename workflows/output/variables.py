@@ -65,6 +65,8 @@ _ENERGY_LONG_NAMES = {
     "stabilisation_dissipated": "energy removed by the stabilisation since the stage start, per metre of thickness",
     "plastic_dissipated": "energy dissipated by plastic flow since the stage start, per metre of thickness",
     "contact_dissipated": "kinetic energy removed by the rigid walls since the stage start, per metre of thickness",
+    "load_potential": "minus the work done on the soil by pore water, ponded water and surface loads since the "
+                      "stage start, per metre of thickness",
 }
 
 
@@ -86,9 +88,9 @@ STAGE_FILE = _table(
     Variable("monitor_uy", _MONITOR, "m", "y displacement of the monitored particle"),
     Variable("monitor_vx", _MONITOR, "m s-1", "x velocity of the monitored particle"),
     Variable("monitor_vy", _MONITOR, "m s-1", "y velocity of the monitored particle"),
-    Variable("monitor_sxx", _MONITOR, "Pa", "stress xx at the monitored particle (tension positive)"),
-    Variable("monitor_syy", _MONITOR, "Pa", "stress yy at the monitored particle (tension positive)"),
-    Variable("monitor_szz", _MONITOR, "Pa", "out-of-plane stress zz at the monitored particle"),
+    Variable("monitor_sxx", _MONITOR, "Pa", "effective stress xx at the monitored particle (tension positive)"),
+    Variable("monitor_syy", _MONITOR, "Pa", "effective stress yy at the monitored particle (tension positive)"),
+    Variable("monitor_szz", _MONITOR, "Pa", "out-of-plane effective stress zz at the monitored particle"),
     Variable("monitor_sxy", _MONITOR, "Pa", "shear stress xy at the monitored particle"),
     *(Variable(energy_variable_name(c), ("time",), "J m-1", _ENERGY_LONG_NAMES[c]) for c in ENERGY_COLUMNS),
     Variable("max_displacement", ("time",), "m", "largest displacement magnitude of any particle"),
@@ -98,9 +100,10 @@ STAGE_FILE = _table(
     Variable("particle_uy", ("particle",), "m", "y displacement of the particle during the stage"),
     Variable("particle_vx", ("particle",), "m s-1", "x velocity of the particle at the end of the stage"),
     Variable("particle_vy", ("particle",), "m s-1", "y velocity of the particle at the end of the stage"),
-    Variable("particle_sxx", ("particle",), "Pa", "stress xx at the particle (tension positive)"),
-    Variable("particle_syy", ("particle",), "Pa", "stress yy at the particle (tension positive)"),
-    Variable("particle_szz", ("particle",), "Pa", "out-of-plane stress zz at the particle"),
+    Variable("particle_sxx", ("particle",), "Pa", "effective stress xx at the particle (tension positive; the "
+             "total stress is this minus particle_pore_pressure)"),
+    Variable("particle_syy", ("particle",), "Pa", "effective stress yy at the particle (tension positive)"),
+    Variable("particle_szz", ("particle",), "Pa", "out-of-plane effective stress zz at the particle"),
     Variable("particle_sxy", ("particle",), "Pa", "shear stress xy at the particle"),
     Variable("particle_x0", ("particle",), "m", "initial x of the particle"),
     Variable("particle_y0", ("particle",), "m", "initial y of the particle"),
@@ -108,6 +111,8 @@ STAGE_FILE = _table(
              "equivalent plastic strain, sum of sqrt(2/3 de_p:de_p) since the start"),
     Variable("particle_area", ("particle",), "m2", "smoothing-cell area of the particle on the final mesh"),
     Variable("particle_mass", ("particle",), "kg m-1", "particle mass per metre of thickness (fixed at the start)"),
+    Variable("particle_pore_pressure", ("particle",), "Pa",
+             "pore pressure u at the particle's final position (compression positive; 0 without [water])"),
     Variable("particle_material", ("particle",), "1",
              "material of the particle (row of [[materials]]; flag_meanings holds the names)"),
     Variable("mesh2d", (), "1", "triangle mesh of the particles at the end of the stage (UGRID mesh topology)"),

@@ -44,7 +44,8 @@ class Spec:
     """How one field of a study file is written, checked and documented.
 
     ``type`` is one of ``number`` (a float; an integer is accepted, a boolean is not),
-    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``numbers``
+    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``polyline`` ([[x, y], ...]
+    with x increasing), ``numbers``
     (a list of numbers), ``values`` (a non-empty list of any TOML values, checked by whoever
     uses them), ``table`` (one nested table, class ``of``) or ``tables`` (an array of tables:
     ``of`` is a class, or a dict from the value of the ``key`` field to a class; entries need
@@ -130,6 +131,11 @@ def point(unit, doc, *, default=REQUIRED):
 def polygon(unit, doc, *, default=REQUIRED):
     """A simple polygon [[x, y], ...]: at least 3 vertices, non-zero area, no crossing edges."""
     return _declare(Spec("polygon", unit, doc), default)
+
+
+def polyline(unit, doc, *, default=REQUIRED):
+    """A line y(x) [[x, y], ...]: at least 2 points, x strictly increasing."""
+    return _declare(Spec("polyline", unit, doc), default)
 
 
 def table(of: type, *, required: bool = True):
@@ -275,6 +281,19 @@ def _as_polygon(value) -> tuple[tuple[float, float], ...]:
     return vertices
 
 
+def _as_polyline(value) -> tuple[tuple[float, float], ...]:
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"must be a list of [x, y] points, got {show(value)}")
+    points = tuple(_as_pair(v, f"point {i}") for i, v in enumerate(value))
+    if len(points) < 2:
+        raise ValueError(f"needs at least 2 points, got {len(points)}")
+    for i in range(1, len(points)):
+        if not points[i][0] > points[i - 1][0]:
+            raise ValueError(f"x must increase from point to point: point {i} has x = {points[i][0]:g} after "
+                             f"{points[i - 1][0]:g}")
+    return points
+
+
 def check_value(spec: Spec, value):
     """``value`` converted to its stored form (float, int, str, tuples); ValueError if invalid."""
     if spec.type == "number":
@@ -326,6 +345,8 @@ def check_value(spec: Spec, value):
         return (_as_number(value[0]), _as_number(value[1]))
     if spec.type == "polygon":
         return _as_polygon(value)
+    if spec.type == "polyline":
+        return _as_polyline(value)
     raise AssertionError(f"check_value does not handle {spec.type!r}")
 
 

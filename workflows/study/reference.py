@@ -36,6 +36,8 @@ def _value_schema(spec: Spec) -> dict:
         return dict(pair)
     if spec.type == "polygon":
         return {"type": "array", "items": pair, "minItems": 3}
+    if spec.type == "polyline":
+        return {"type": "array", "items": pair, "minItems": 2}
     if spec.type == "names":
         return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
     if spec.type == "values":
@@ -105,6 +107,8 @@ def _allowed(spec: Spec) -> str:
         return "letters, digits, `_` `.` `-`"
     if spec.type == "polygon":
         return ">= 3 vertices, simple, area > 0"
+    if spec.type == "polyline":
+        return ">= 2 points, x increasing"
     return ", ".join(f"{op} {bound:g}" for op, bound in spec.bounds)
 
 
@@ -117,6 +121,7 @@ def _type_name(spec: Spec) -> str:
         "names": "`[name, ...]`",
         "point": "`[x, y]`",
         "polygon": "`[[x, y], ...]`",
+        "polyline": "`[[x, y], ...]`",
         "numbers": "`[float, ...]`",
         "values": "`[value, ...]`",
     }[spec.type]
@@ -173,8 +178,8 @@ PAGE_INTRO = """\
 # Study-file reference
 
 A study file is a TOML file with the tables `[study]`, `[geometry]`, `[[materials]]`, `[loads]`,
-`[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]`, `[output]`
-and `[sweep]`.
+`[water]`, `[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]`,
+`[output]` and `[sweep]`.
 Stages run in order, each continuing from the state the previous one left; a study whose last
 stage is a `strength_reduction` stage computes a factor of safety.  Every field is checked before
 anything runs: a bad value is one line `error: <file>: <field>: <problem>` and exit code 2.
@@ -197,12 +202,39 @@ angle_deg = 35.0           # or gradient = 2.0 (1V:2H)
 foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
 ```
 
+**Water and loads.**  `[water]` sets the pore pressure u in the ground from a piezometric line
+(`phreatic_line_m`, or a horizontal `phreatic_level_m`) or from `ru`, and `pond_level_m` puts
+water on the ground surface (drained, steady water: the line stays where it is while the ground
+deforms).  The particles carry the effective stress, which the yield function sees; equilibrium
+is in total stress, with the weight of each particle from `density_kg_m3` above the line and
+`saturated_density_kg_m3` at or below it.  Strength reduction divides c' and tan(phi') only.
+`[[loads.strip]]` and `[[loads.line]]` put vertical loads on the ground surface from the first
+stage on; `[loads.seismic]` adds the pseudo-static body force kh g (towards the free face by
+default) and kv g (upward for kv > 0) in the strength-reduction runs.
+
+```toml
+[water]
+phreatic_level_m = 6.0       # or phreatic_line_m = [[0.0, 9.0], [30.0, 6.0], [60.0, 5.0]]
+pond_level_m = 6.0           # water standing on the face below 6 m
+
+[[loads.strip]]
+name = "surcharge"
+x_start_m = 2.0
+x_end_m = 8.0
+pressure_pa = 20e3
+
+[loads.seismic]
+horizontal_coefficient = 0.1
+```
+
 **Sweeps.**  A `[sweep]` table turns a strength-reduction study into a parameter study: the
 study runs once per case, with the swept fields set to the case's values, and every case's
 FOS lands in `OUT/study.nc` over one dimension per axis (`docs/result-files.md`).  An axis names
 a field by its path: tables by their name (`solver.cfl`), entries of arrays of tables by their
-`name` (`materials.soil.cohesion_pa`, `stages.srf.duration_s`, `boundary.base.vx_m_s`), the
-slope form as `geometry.slope.<field>`.  Each value is checked as the field itself is, and so
+`name` (`materials.soil.cohesion_pa`, `stages.srf.duration_s`, `boundary.base.vx_m_s`,
+`loads.strip.surcharge.pressure_pa`), the slope form as `geometry.slope.<field>`, the water level
+as `water.phreatic_level_m` (with `water.pond_level_m` in a `zip`), the seismic coefficient as
+`loads.seismic.horizontal_coefficient`.  Each value is checked as the field itself is, and so
 is each case as a whole study: an error names the axis, the value or the case.  `grid` runs
 every combination (the last axis varies fastest), `zip` the i-th values of all axes together.
 

@@ -26,6 +26,7 @@ from workflows.study.fields import (
     point,
     point_in_polygon,
     polygon,
+    polyline,
     table,
     tables,
     text,
@@ -138,6 +139,10 @@ class MaterialBase(Record):
         "m", "polygon of the particles that get this material; default: the whole domain; "
         "later materials override earlier ones", default=None
     )
+    saturated_density_kg_m3: float | None = number(
+        "kg m-3", "mass density below the piezometric line ([water]); default density_kg_m3 (one total unit "
+        "weight above and below)", default=None, ge=1.0,
+    )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -154,6 +159,11 @@ class StrengthMixin(Record):
     cohesion_pa: float = number("Pa", "cohesion c", ge=0.0)
     friction_deg: float = number("degree", "friction angle phi", ge=0.0, lt=90.0)
     dilation_deg: float = number("degree", "dilation angle psi (<= phi); 0: no plastic volume change", default=0.0, ge=0.0)
+    tensile_strength_pa: float | None = number(
+        "Pa", "tension cut-off sigma_t: Mohr-Coulomb caps the largest principal stress, Drucker-Prager the mean "
+        "stress, at sigma_t (reduced with c in strength reduction); default: none (the yield surface's own apex, "
+        "c cot phi)", default=None, ge=0.0,
+    )
 
     def check(self):
         if self.dilation_deg > self.friction_deg:
@@ -192,10 +202,98 @@ MATERIAL_MODELS: dict[str, type[MaterialBase]] = {
 
 
 @dataclass(frozen=True, kw_only=True)
+class Seismic(Record):
+    """Pseudo-static earthquake load: body forces kh g horizontally and kv g vertically (g = |gravity|),
+    from the first stage on (or in the strength-reduction runs only)."""
+
+    horizontal_coefficient: float = number("1", "kh: horizontal body force kh g per unit mass, towards direction",
+                                           ge=0.0, lt=1.0)
+    vertical_coefficient: float = number(
+        "1", "kv: vertical body force kv g per unit mass, upward for kv > 0 (the soil weighs (1 - kv) g), downward "
+        "for kv < 0", default=0.0, gt=-1.0, lt=1.0,
+    )
+    direction: str = text(
+        "direction of the horizontal force: `out_of_slope` (towards the side where the ground surface is lower, "
+        "the free face), `+x` or `-x`", default="out_of_slope", choices=("out_of_slope", "+x", "-x"),
+    )
+    in_gravity: bool = boolean(
+        "apply it in the stages before the strength reduction too, so that every SRF run starts in equilibrium "
+        "with it and moves by the strength reduction alone; false: only in the SRF runs, which then also carry "
+        "the elastic response to the load suddenly applied", default=True,
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class StripLoad(Record):
+    """A uniform vertical pressure on the ground surface between two abscissae (a footing, a surcharge),
+    carried by the surface particles from the first stage on."""
+
+    name: str = name_field("name of the load")
+    x_start_m: float = number("m", "left end of the loaded strip")
+    x_end_m: float = number("m", "right end of the loaded strip")
+    pressure_pa: float = number("Pa", "pressure q, downward, per metre of horizontal length", gt=0.0)
+
+    def check(self):
+        if not self.x_end_m > self.x_start_m:
+            raise StudyError("x_end_m", f"must be > x_start_m = {self.x_start_m:g}, got {self.x_end_m:g}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LineLoad(Record):
+    """A vertical force at one point of the ground surface (per metre of thickness), carried by the
+    surface particles there from the first stage on."""
+
+    name: str = name_field("name of the load")
+    x_m: float = number("m", "abscissa of the point on the ground surface")
+    force_n_m: float = number("N m-1", "force, downward, per metre of out-of-plane thickness", gt=0.0)
+
+
+@dataclass(frozen=True, kw_only=True)
 class Loads(Record):
-    """Body forces applied from the start of the first stage."""
+    """Body forces and surface loads, applied from the start of the first stage (the seismic load:
+    see [loads.seismic])."""
 
     gravity_m_s2: tuple = point("m s-2", "gravitational acceleration [gx, gy]", default=(0.0, -9.81))
+    seismic: Seismic | None = optional_table(Seismic)
+    strip: tuple = tables(StripLoad, "uniform pressures on the ground surface")
+    line: tuple = tables(LineLoad, "point forces on the ground surface")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Water(Record):
+    """Ground water, drained and steady: a piezometric line (or ru) sets the pore pressure in the ground,
+    ponded water loads its surface.  The line is fixed in space while the ground deforms."""
+
+    unit_weight_n_m3: float = number("N m-3", "unit weight gamma_w of water", default=9810.0, gt=0.0)
+    phreatic_line_m: tuple | None = polyline(
+        "m", "piezometric line [[x, y], ...], x increasing, spanning the domain: u = gamma_w (y_line - y) below "
+        "it, 0 above; give phreatic_line_m, phreatic_level_m or ru", default=None,
+    )
+    phreatic_level_m: float | None = number(
+        "m", "a horizontal piezometric line at this height, instead of phreatic_line_m", default=None,
+    )
+    ru: float | None = number(
+        "1", "pore pressure ratio: u = ru sigma_v0, the vertical total stress of the overburden at the "
+        "particle's initial position (carried by the particle)", default=None, ge=0.0, lt=1.0,
+    )
+    pond_level_m: float | None = number(
+        "m", "level of water standing on the ground surface: the submerged surface carries gamma_w (level - y) "
+        "normal to it, on the current boundary; default: none", default=None,
+    )
+
+    def check(self):
+        given = [name for name in ("phreatic_line_m", "phreatic_level_m", "ru") if getattr(self, name) is not None]
+        if len(given) > 1:
+            raise StudyError(given[1], f"give one of phreatic_line_m, phreatic_level_m and ru, not {given[0]} too")
+        if not given and self.pond_level_m is None:
+            raise StudyError("phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m")
+
+    @property
+    def phreatic_line(self) -> tuple | None:
+        """The piezometric line as points, or None (a level spans any domain: its ends at +-1e9 m)."""
+        if self.phreatic_level_m is not None:
+            return ((-1e9, self.phreatic_level_m), (1e9, self.phreatic_level_m))
+        return self.phreatic_line_m
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -564,6 +662,7 @@ class Study(Record):
         key="model", key_doc="constitutive model", min_items=1,
     )
     loads: Loads = table(Loads, required=False)
+    water: Water | None = optional_table(Water)
     boundary: tuple = tables(Boundary, "prescribed velocities (supports), applied in order")
     walls: tuple = tables(Wall, "rigid walls (segments with friction); none: no contact work at all")
     solver: Solver = table(Solver, required=False)
@@ -609,8 +708,36 @@ class Study(Record):
             for name in stage.boundary or ():
                 if name not in known:
                     raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
+        self._check_water_and_loads()
         for i, monitor in enumerate(self.monitors):
             if not point_in_polygon((monitor.x_m, monitor.y_m), self.geometry.polygon_m):
                 raise StudyError(
                     f"monitors[{i}]", f"point ({monitor.x_m:g}, {monitor.y_m:g}) lies outside geometry.polygon_m"
                 )
+
+    def _check_water_and_loads(self):
+        xs = [x for x, _ in self.geometry.polygon_m]
+        x_min, x_max = min(xs), max(xs)
+        water = self.water
+        if water is not None and water.phreatic_line_m is not None:
+            line = water.phreatic_line_m
+            if line[0][0] > x_min or line[-1][0] < x_max:
+                raise StudyError("water.phreatic_line_m", f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
+                                 f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
+        if water is None or water.phreatic_line is None:
+            for i, material in enumerate(self.materials):
+                if material.saturated_density_kg_m3 is not None:
+                    raise StudyError(f"materials[{i}].saturated_density_kg_m3",
+                                     "applies below a piezometric line: give [water] phreatic_line_m or phreatic_level_m")
+        for kind, loads in (("strip", self.loads.strip), ("line", self.loads.line)):
+            for i, load in enumerate(loads):
+                ends = (load.x_start_m, load.x_end_m) if kind == "strip" else (load.x_m,)
+                for end in ends:
+                    if not x_min <= end <= x_max:
+                        field = "x_m" if kind == "line" else ("x_start_m" if end == load.x_start_m else "x_end_m")
+                        raise StudyError(f"loads.{kind}[{i}].{field}", f"{end:g} m is off the ground surface, which "
+                                         f"spans x = {x_min:g} to {x_max:g} m")
+        seismic = self.loads.seismic
+        if seismic is not None and not seismic.in_gravity and self.strength_reduction is None:
+            raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
+                             "and this study has none")
