@@ -7,8 +7,9 @@ in compression).  The internal force of the total stress is that of sigma' plus
 
     f_I^u = sum_e A_e B_I^e^T (u_bar_e I) = sum_e A_e u_bar_e (b_I^e, c_I^e),   u_bar_e the vertex mean.
 
-The pore pressure of particle k, from a piezometric line y_w(x) fixed in space (drained,
-steady water: a particle that moves takes the pore pressure of where it is now):
+The pore pressure of particle k, from its piezometric line y_w(x) (the study's, or its
+material's own) fixed in space (drained, steady water: a particle that moves takes the pore
+pressure of where it is now):
 
     u_k = gamma_w max(y_w(x_k) - y_k, 0)      (beyond the line's ends, the end heights)
 
@@ -21,7 +22,8 @@ the inward normal (-dy, dx) / |ab|:
 
     f_a = (-dy, dx) int_0^1 p(t) (1 - t) dt,     f_b = (-dy, dx) int_0^1 p(t) t dt.
 
-**Surface loads** are constant forces carried by the particles (``surface_loads``).
+**Surface loads** are forces carried by the particles (``node_force_n``), constant, or grown
+linearly from zero over ``ramp_time_s`` of stage time.
 
 **Gravity stages** (``at_initial_positions``) evaluate both water pressures at the particles'
 initial positions x - u: the settlement of a relaxation from zero stress is an artefact that the
@@ -39,17 +41,16 @@ from spfem_core.jit import inner_kernel
 
 
 @inner_kernel
-def phreatic_height(line_xy, x):
-    """y_w(x) of the polyline ``line_xy`` (x increasing), constant beyond its ends."""
-    n = line_xy.shape[0]
-    if x <= line_xy[0, 0]:
-        return line_xy[0, 1]
-    for i in range(1, n):
+def phreatic_height(line_xy, first, end, x):
+    """y_w(x) of the polyline ``line_xy[first:end]`` (x increasing), constant beyond its ends."""
+    if x <= line_xy[first, 0]:
+        return line_xy[first, 1]
+    for i in range(first + 1, end):
         if x <= line_xy[i, 0]:
             x0 = line_xy[i - 1, 0]
             t = (x - x0) / (line_xy[i, 0] - x0)
             return line_xy[i - 1, 1] + t * (line_xy[i, 1] - line_xy[i - 1, 1])
-    return line_xy[n - 1, 1]
+    return line_xy[end - 1, 1]
 
 
 @inner_kernel
@@ -69,26 +70,31 @@ def _edge_pressure_integrals(pa, pb, ya, yb, level):
 
 
 @inner_kernel
-def add_external_forces(node_xy, node_disp, elem_nodes, elem_geom, loads, node_pore_pressure, node_force_ext,
+def add_external_forces(node_xy, node_disp, elem_nodes, elem_geom, loads, time_s, node_pore_pressure, node_force_ext,
                         node_force):
     """Fill ``node_pore_pressure`` (u_k, Pa) and ``node_force_ext`` (the loads' forces, N/m) and add
     the latter to ``node_force`` (module doc); ``loads`` a ``state.ExternalLoads``, ``node_disp`` the
-    displacement since the initial positions (used with ``loads.at_initial_positions``)."""
+    displacement since the initial positions (used with ``loads.at_initial_positions``), ``time_s`` the
+    stage time of the step (for the load ramp)."""
     n = node_xy.shape[0]
     gamma_w = loads.water_unit_weight_n_m3
-    line = loads.phreatic_xy_m
-    has_line = line.shape[0] > 0
+    lines = loads.phreatic_xy_m
+    start = loads.phreatic_start
     shift = 1.0 if loads.at_initial_positions else 0.0
+    factor = 1.0
+    if loads.ramp_time_s > 0.0 and time_s < loads.ramp_time_s:
+        factor = time_s / loads.ramp_time_s
     for k in range(n):
         u = loads.node_pore_pressure_pa[k]
-        if has_line:
-            head = (phreatic_height(line, node_xy[k, 0] - shift * node_disp[k, 0])
+        line = loads.node_phreatic_line[k]
+        if line >= 0:
+            head = (phreatic_height(lines, start[line], start[line + 1], node_xy[k, 0] - shift * node_disp[k, 0])
                     - (node_xy[k, 1] - shift * node_disp[k, 1]))
             if head > 0.0:
                 u += gamma_w * head
         node_pore_pressure[k] = u
-        node_force_ext[k, 0] = loads.node_force_n[k, 0]
-        node_force_ext[k, 1] = loads.node_force_n[k, 1]
+        node_force_ext[k, 0] = factor * loads.node_force_n[k, 0]
+        node_force_ext[k, 1] = factor * loads.node_force_n[k, 1]
     third = 1.0 / 3.0
     for e in range(elem_nodes.shape[0]):
         i = elem_nodes[e, 0]

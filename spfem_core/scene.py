@@ -148,7 +148,8 @@ class Scene:
     node_density_kg_m3: np.ndarray | None = None  # (n,) mass density per particle; default its material's
     node_load_n: np.ndarray | None = None  # (n, 2) constant forces on the particles (surface loads), N/m
     node_pore_pressure_pa: np.ndarray | None = None  # (n,) pore pressure carried by the particle (ru), Pa
-    phreatic_xy_m: np.ndarray | None = None  # (n_points, 2) piezometric line, x strictly increasing
+    phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x strictly increasing
+    node_phreatic_line: np.ndarray | None = None  # (n,) int64 line of each particle in phreatic_lines_m; -1: none
     pond_level_m: float | None = None  # level of water standing on the ground surface (m)
     water_unit_weight_n_m3: float = 9810.0  # gamma_w
 
@@ -186,11 +187,19 @@ class Scene:
                 setattr(self, attr, value)
         if self.node_density_kg_m3 is not None and not np.all(self.node_density_kg_m3 > 0):
             raise ValueError("Scene.node_density_kg_m3: densities must be > 0")
-        if self.phreatic_xy_m is not None:
-            line = np.ascontiguousarray(self.phreatic_xy_m, dtype=np.float64).reshape(-1, 2)
-            if line.shape[0] < 2 or not np.all(np.diff(line[:, 0]) > 0):
-                raise ValueError("Scene.phreatic_xy_m: at least 2 points with x strictly increasing")
-            self.phreatic_xy_m = line
+        lines = []
+        for i, line in enumerate(self.phreatic_lines_m):
+            line = np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2)
+            if line.shape[0] < 2 or not np.all(np.diff(line[:, 0]) > 0) or not np.all(np.isfinite(line)):
+                raise ValueError(f"Scene.phreatic_lines_m[{i}]: at least 2 finite points with x strictly increasing")
+            lines.append(line)
+        self.phreatic_lines_m = tuple(lines)
+        if self.node_phreatic_line is None:
+            self.node_phreatic_line = np.full(n, 0 if lines else -1, dtype=np.int64)
+        self.node_phreatic_line = np.ascontiguousarray(self.node_phreatic_line, dtype=np.int64).reshape(-1)
+        if self.node_phreatic_line.shape != (n,) or (n and (self.node_phreatic_line.min() < -1
+                                                          or self.node_phreatic_line.max() >= len(lines))):
+            raise ValueError("Scene.node_phreatic_line: one index into phreatic_lines_m (or -1) per particle expected")
         if not self.water_unit_weight_n_m3 > 0:
             raise ValueError(f"Scene.water_unit_weight_n_m3: must be > 0, got {self.water_unit_weight_n_m3}")
 
@@ -198,7 +207,7 @@ class Scene:
     def has_external_loads(self) -> bool:
         """Water or surface loads act (``external_forces``); otherwise their work is skipped."""
         return (self.node_load_n is not None or self.node_pore_pressure_pa is not None
-                or self.phreatic_xy_m is not None or self.pond_level_m is not None)
+                or bool(np.any(self.node_phreatic_line >= 0)) or self.pond_level_m is not None)
 
     @property
     def particle_density_kg_m3(self) -> np.ndarray:

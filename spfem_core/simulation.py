@@ -100,11 +100,14 @@ class Simulation:
             active=scene.has_external_loads,
             node_force_n=np.zeros((n, 2)) if scene.node_load_n is None else scene.node_load_n,
             node_pore_pressure_pa=np.zeros(n) if scene.node_pore_pressure_pa is None else scene.node_pore_pressure_pa,
-            phreatic_xy_m=np.zeros((0, 2)) if scene.phreatic_xy_m is None else scene.phreatic_xy_m,
+            phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *scene.phreatic_lines_m])),
+            phreatic_start=np.cumsum([0] + [line.shape[0] for line in scene.phreatic_lines_m], dtype=np.int64),
+            node_phreatic_line=scene.node_phreatic_line,
             water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3),
             pond_level_m=np.nan if scene.pond_level_m is None else float(scene.pond_level_m),
             boundary_edges=np.zeros((0, 2), dtype=np.int64),
             at_initial_positions=False,
+            ramp_time_s=0.0,
         )
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
@@ -178,6 +181,13 @@ class Simulation:
         if not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
         self.gravity_m_s2 = np.ascontiguousarray(gravity)
+
+    def set_load_ramp(self, ramp_time_s: float):
+        """From the next stage on, the surface loads grow linearly from zero over ``ramp_time_s`` of
+        stage time (0: applied at once); a relaxation does not converge before the ramp ends."""
+        if not ramp_time_s >= 0.0:
+            raise ValueError(f"ramp_time_s: must be >= 0, got {ramp_time_s}")
+        self.loads = self.loads._replace(ramp_time_s=float(ramp_time_s))
 
     def set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
         """Prescribed velocities from now on (e.g. release a retaining side for a collapse)."""
@@ -461,11 +471,11 @@ class Simulation:
         (``external_forces``; at the initial positions, x - u, within a relaxation that asks for it);
         zeros without water."""
         u = self.loads.node_pore_pressure_pa.copy()
-        line = self.loads.phreatic_xy_m
-        if line.shape[0]:
-            xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
-            head = np.interp(xy[:, 0], line[:, 0], line[:, 1]) - xy[:, 1]
-            u += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
+        xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
+        for i, line in enumerate(self.scene.phreatic_lines_m):
+            on = self.loads.node_phreatic_line == i
+            head = np.interp(xy[on, 0], line[:, 0], line[:, 1]) - xy[on, 1]
+            u[on] += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
         return u
 
     @property

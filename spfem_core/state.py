@@ -83,11 +83,14 @@ class ExternalLoads(NamedTuple):
     active: bool
     node_force_n: np.ndarray  # (n, 2) constant forces carried by the particles (surface loads), N/m
     node_pore_pressure_pa: np.ndarray  # (n,) pore pressure carried by the particle (ru), Pa
-    phreatic_xy_m: np.ndarray  # (n_points, 2) piezometric line, x increasing; (0, 2): none
+    phreatic_xy_m: np.ndarray  # (n_points, 2) the piezometric lines one after another, x increasing in each
+    phreatic_start: np.ndarray  # (n_lines + 1,) int64: line i is phreatic_xy_m[start[i]:start[i + 1]]
+    node_phreatic_line: np.ndarray  # (n,) int64 line of each particle; -1: none (no pore pressure from a line)
     water_unit_weight_n_m3: float  # gamma_w
     pond_level_m: float  # level of water standing on the surface; NaN: none
     boundary_edges: np.ndarray  # (n_edges, 2) int64 edges of the current mesh's boundary, material on the left
     at_initial_positions: bool  # water pressures from x - u (a gravity stage, whose displacement is discarded)
+    ramp_time_s: float  # the surface loads grow as min(t / ramp_time_s, 1) over the stage time t; 0: at once
 
 
 class StepParameters(NamedTuple):

@@ -106,8 +106,8 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, par
             )
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
         if loads.active:
-            add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads, scratch.pore_pressure_pa,
-                                scratch.external_force_n, node_force)
+            add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads,
+                                time_start_s + s * dt, scratch.pore_pressure_pa, scratch.external_force_n, node_force)
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.fixed, nodes.fixed_velocity_m_s,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
@@ -144,6 +144,6 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, par
                 return STATUS_MESH_CHECK, s + 1
             loop[LOOP_ANGLE_USED] = 0.0
             loop[LOOP_ANGLE_BUDGET] = max(min_angle - params.angle_threshold_rad - params.angle_margin_rad, 0.0)
-        if params.tolerance > 0.0 and ratio < params.tolerance:
-            return STATUS_CONVERGED, s + 1
+        if params.tolerance > 0.0 and ratio < params.tolerance and time_now >= loads.ramp_time_s:
+            return STATUS_CONVERGED, s + 1  # (not while the loads are still growing)
     return STATUS_DONE, n_steps

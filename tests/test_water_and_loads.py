@@ -311,3 +311,43 @@ def test_line_load_goes_to_the_surface_particles_around_its_point():
     assert scene.node_load_n.sum(axis=0) == pytest.approx([0.0, -40e3])
     assert sorted(scene.node_xy_m[loaded, 0].tolist()) == pytest.approx([11.0, 11.25])
     assert (scene.node_load_n[:, 1] * scene.node_xy_m[:, 0]).sum() == pytest.approx(-40e3 * 11.1)
+
+
+def test_a_material_with_its_own_piezometric_line_takes_its_pore_pressure_from_it():
+    """A perched water table: the upper layer (y > 3 m) has its own line at 4.5 m, the ground below
+    the study's line at 2 m; pore pressure and saturated density follow each particle's line."""
+    text = SATURATED_GROUND.replace("phreatic_level_m = 5.0", "phreatic_level_m = 2.0") + """
+[[materials]]
+name = "upper"
+model = "elastic"
+density_kg_m3 = 1700.0
+saturated_density_kg_m3 = 1900.0
+youngs_modulus_pa = 20e6
+poisson_ratio = 0.3
+region_m = [[-1.0, 3.0], [11.0, 3.0], [11.0, 6.0], [-1.0, 6.0]]
+phreatic_line_m = [[0.0, 4.5], [10.0, 4.5]]
+"""
+    # the [[materials]] table appended after the stages is still the materials array of tables
+    scene = build_scene(parse_study(text))
+    y = scene.node_xy_m[:, 1]
+    upper = scene.node_material == 1
+    expected = np.where(upper, GAMMA_W * np.maximum(4.5 - y, 0.0), GAMMA_W * np.maximum(2.0 - y, 0.0))
+    np.testing.assert_allclose(Simulation(scene).pore_pressure_pa, expected, rtol=1e-12, atol=1e-9)
+    density = np.where(upper, np.where(y <= 4.5, 1900.0, 1700.0), np.where(y <= 2.0, 2000.0, 1800.0))
+    np.testing.assert_array_equal(scene.node_density_kg_m3, density)
+
+
+def test_load_ramp_grows_the_load_and_relaxation_waits_for_it(tmp_path):
+    """With loads.ramp_time_s the strip load grows from zero over the first stage: the gravity state
+    is the one of the load applied at once (elastic, to the tolerance), and the relaxation does not
+    stop before the ramp ends."""
+    text = (REPO / "studies" / "strip_load.toml").read_text().replace("spacing_m = 0.25", "spacing_m = 0.5")
+    gravity_only = text.split('[[stages]]\nname = "srf"')[0].split("[[monitors]]")[0]
+    states = []
+    for name, study_text in (("at_once", gravity_only),
+                             ("ramped", gravity_only.replace("[loads]\n", "[loads]\nramp_time_s = 3.0\n"))):
+        run = run_study(parse_study(study_text), tmp_path / name)
+        with xr.open_dataset(run.paths[0]) as gravity:
+            states.append((gravity["particle_syy"].values, float(gravity["time"].values[-1])))
+    assert states[1][1] >= 3.0 > states[0][1]
+    assert np.abs(states[1][0] - states[0][0]).max() < 1e-3 * np.abs(states[0][0]).max()

@@ -35,16 +35,34 @@ def surface_height_m(polygon, x: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(y), y, np.nan)
 
 
+def phreatic_lines(study: Study, node_material: np.ndarray) -> tuple[tuple, np.ndarray]:
+    """(the piezometric lines as (n_points, 2) arrays, the line of every particle: its material's own,
+    else the study's, else -1)."""
+    lines, material_line = [], np.full(len(study.materials), -1, dtype=np.int64)
+    water = study.water
+    if water is not None and water.phreatic_line is not None:
+        lines.append(np.array(water.phreatic_line))
+        material_line[:] = 0
+    for i, material in enumerate(study.materials):
+        if material.phreatic_line_m is not None:
+            material_line[i] = len(lines)
+            lines.append(np.array(material.phreatic_line_m))
+    return tuple(lines), material_line[node_material]
+
+
 def particle_densities(study: Study, node_xy_m: np.ndarray, node_material: np.ndarray) -> np.ndarray | None:
-    """Density of every particle (kg/m3): its material's saturated density at or below the piezometric
+    """Density of every particle (kg/m3): its material's saturated density at or below its piezometric
     line, its density above; None when no material has a saturated density."""
     if all(m.saturated_density_kg_m3 is None for m in study.materials):
         return None
     dry = np.array([m.density_kg_m3 for m in study.materials])
     wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
                     for m in study.materials])
-    line = np.array(study.water.phreatic_line)
-    below = node_xy_m[:, 1] <= np.interp(node_xy_m[:, 0], line[:, 0], line[:, 1])
+    lines, node_line = phreatic_lines(study, node_material)
+    below = np.zeros(node_xy_m.shape[0], dtype=bool)
+    for i, line in enumerate(lines):
+        on = node_line == i
+        below[on] = node_xy_m[on, 1] <= np.interp(node_xy_m[on, 0], line[:, 0], line[:, 1])
     return np.where(below, wet[node_material], dry[node_material])
 
 
@@ -125,14 +143,17 @@ def body_acceleration_m_s2(study: Study, strength_reduction: bool) -> np.ndarray
 
 
 def water_scene_fields(study: Study, node_xy_m: np.ndarray, node_material: np.ndarray, material_at) -> dict:
-    """Keyword arguments of ``Scene`` for the study's water (empty without ``[water]``)."""
+    """Keyword arguments of ``Scene`` for the study's water (empty without ``[water]`` and without a
+    material's own piezometric line)."""
     water = study.water
-    if water is None:
+    if water is None and all(m.phreatic_line_m is None for m in study.materials):
         return {}
-    fields = dict(water_unit_weight_n_m3=water.unit_weight_n_m3, pond_level_m=water.pond_level_m,
+    lines, node_line = phreatic_lines(study, node_material)
+    fields = dict(phreatic_lines_m=lines, node_phreatic_line=node_line,
                   node_density_kg_m3=particle_densities(study, node_xy_m, node_material))
-    if water.phreatic_line is not None:
-        fields["phreatic_xy_m"] = np.array(water.phreatic_line)
+    if water is None:
+        return fields
+    fields.update(water_unit_weight_n_m3=water.unit_weight_n_m3, pond_level_m=water.pond_level_m)
     if water.ru is not None:
         g = float(np.hypot(*study.loads.gravity_m_s2))
         fields["node_pore_pressure_pa"] = ru_pore_pressure_pa(study, node_xy_m, material_at, g)

@@ -42,10 +42,12 @@ class StudyRun:
 
 
 def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -> None:
-    """Set the stage's materials (elastic or as declared), its active supports and its start."""
+    """Set the stage's materials (elastic or as declared), its active supports, the load ramp (first
+    stage only) and its start."""
     materials = sim.scene.materials.as_elastic() if stage.elastic else sim.scene.materials
     sim.set_materials(materials)
     sim.set_supports(*supports(study, sim.scene, stage.boundary))
+    sim.set_load_ramp((study.loads.ramp_time_s or 0.0) if index == 0 else 0.0)
     if index > 0 and stage.start == "original_positions":
         sim.discard_displacement()
 

@@ -106,8 +106,9 @@ def draw_water_and_loads(ax, study) -> None:
     x = np.linspace(x_lo, x_hi, 400)
     ground = surface_height_m(polygon, x)
     water = study.water
-    if water is not None and water.phreatic_line is not None:
-        line = np.array(water.phreatic_line)
+    lines = [] if water is None or water.phreatic_line is None else [water.phreatic_line]
+    lines += [m.phreatic_line_m for m in study.materials if m.phreatic_line_m is not None]
+    for line in map(np.array, lines):
         ax.plot(x, np.minimum(np.interp(x, line[:, 0], line[:, 1]), ground), "--", color="tab:blue", lw=1.2)
     if water is not None and water.pond_level_m is not None:
         ax.plot(x, np.where(ground < water.pond_level_m, water.pond_level_m, np.nan), "-", color="tab:blue", lw=1.5)

@@ -203,7 +203,8 @@ foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
 ```
 
 **Water and loads.**  `[water]` sets the pore pressure u in the ground from a piezometric line
-(`phreatic_line_m`, or a horizontal `phreatic_level_m`) or from `ru`, and `pond_level_m` puts
+(`phreatic_line_m`, or a horizontal `phreatic_level_m`; a material may have its own
+`phreatic_line_m`) or from `ru`, and `pond_level_m` puts
 water on the ground surface (drained, steady water: the line stays where it is while the ground
 deforms).  The particles carry the effective stress, which the yield function sees; equilibrium
 is in total stress, with the weight of each particle from `density_kg_m3` above the line and

@@ -140,8 +140,12 @@ class MaterialBase(Record):
         "later materials override earlier ones", default=None
     )
     saturated_density_kg_m3: float | None = number(
-        "kg m-3", "mass density below the piezometric line ([water]); default density_kg_m3 (one total unit "
+        "kg m-3", "mass density at or below the piezometric line; default density_kg_m3 (one total unit "
         "weight above and below)", default=None, ge=1.0,
+    )
+    phreatic_line_m: tuple | None = polyline(
+        "m", "this material's own piezometric line [[x, y], ...] (a perched water table), instead of [water]'s; "
+        "x increasing, spanning the domain", default=None,
     )
 
 
@@ -257,6 +261,10 @@ class Loads(Record):
     seismic: Seismic | None = optional_table(Seismic)
     strip: tuple = tables(StripLoad, "uniform pressures on the ground surface")
     line: tuple = tables(LineLoad, "point forces on the ground surface")
+    ramp_time_s: float | None = number(
+        "s", "the strip and line loads grow linearly from zero over this time at the start of the first stage "
+        "(a relaxation does not converge before it ends); default: applied at once", default=None, gt=0.0,
+    )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -719,16 +727,19 @@ class Study(Record):
         xs = [x for x, _ in self.geometry.polygon_m]
         x_min, x_max = min(xs), max(xs)
         water = self.water
-        if water is not None and water.phreatic_line_m is not None:
-            line = water.phreatic_line_m
-            if line[0][0] > x_min or line[-1][0] < x_max:
-                raise StudyError("water.phreatic_line_m", f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
+        lines = [("water.phreatic_line_m", water.phreatic_line_m if water is not None else None)]
+        lines += [(f"materials[{i}].phreatic_line_m", m.phreatic_line_m) for i, m in enumerate(self.materials)]
+        for field, line in lines:
+            if line is not None and (line[0][0] > x_min or line[-1][0] < x_max):
+                raise StudyError(field, f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
                                  f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
-        if water is None or water.phreatic_line is None:
-            for i, material in enumerate(self.materials):
-                if material.saturated_density_kg_m3 is not None:
-                    raise StudyError(f"materials[{i}].saturated_density_kg_m3",
-                                     "applies below a piezometric line: give [water] phreatic_line_m or phreatic_level_m")
+        study_line = water is not None and water.phreatic_line is not None
+        for i, material in enumerate(self.materials):
+            if material.saturated_density_kg_m3 is not None and not study_line and material.phreatic_line_m is None:
+                raise StudyError(f"materials[{i}].saturated_density_kg_m3", "applies below a piezometric line: give "
+                                 "[water] phreatic_line_m or phreatic_level_m, or the material's phreatic_line_m")
+            if material.phreatic_line_m is not None and water is not None and water.ru is not None:
+                raise StudyError(f"materials[{i}].phreatic_line_m", "give a piezometric line or [water] ru, not both")
         for kind, loads in (("strip", self.loads.strip), ("line", self.loads.line)):
             for i, load in enumerate(loads):
                 ends = (load.x_start_m, load.x_end_m) if kind == "strip" else (load.x_m,)
@@ -737,6 +748,11 @@ class Study(Record):
                         field = "x_m" if kind == "line" else ("x_start_m" if end == load.x_start_m else "x_end_m")
                         raise StudyError(f"loads.{kind}[{i}].{field}", f"{end:g} m is off the ground surface, which "
                                          f"spans x = {x_min:g} to {x_max:g} m")
+        first = self.stages[0]
+        ramp = self.loads.ramp_time_s
+        if ramp is not None and ramp > getattr(first, first.duration_field):
+            raise StudyError("loads.ramp_time_s", f"must be <= the first stage's {first.duration_field} = "
+                             f"{getattr(first, first.duration_field):g}, got {ramp:g}")
         seismic = self.loads.seismic
         if seismic is not None and not seismic.in_gravity and self.strength_reduction is None:
             raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
