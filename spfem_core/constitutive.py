@@ -7,8 +7,9 @@ velocity gradient L over a step dt:
     Jaumann:  sigma += w sigma - sigma w
               s_xx += 2 omega s_xy,  s_yy -= 2 omega s_xy,  s_xy += omega (s_yy - s_xx)
     elastic:  sigma += lambda tr(d) I + 2 G d      (d_zz = 0, so s_zz += lambda tr(d))
-    plastic:  elastic trial, then the return map of the material's model (``plasticity``), then
-              the tension cut-off where the material has a tensile strength
+    plastic:  elastic trial, then the return map of the material's model (``plasticity``) with the
+              strength softened by the particle's plastic strain where the material softens
+              (``softened_strength``), then the tension cut-off where it has a tensile strength
 """
 
 from __future__ import annotations
@@ -40,6 +41,25 @@ def elastic_increment(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus):
     stress[k, 1] += volumetric + 2.0 * shear_modulus * dyy
     stress[k, 2] += volumetric
     stress[k, 3] += 2.0 * shear_modulus * dxy
+
+
+@inner_kernel
+def softened_strength(mat_params, m, plastic_strain):
+    """(c, sin phi, cos phi, sin psi) of a softening Mohr-Coulomb material ``m`` at equivalent plastic
+    strain ``plastic_strain``: c and phi move from peak to residual by the share s(eps) of the
+    material's law (``scene.SOFTENING_LAWS``); psi stays as declared, at most phi."""
+    start = mat_params[m, 8]
+    span = mat_params[m, 9] - start
+    share = 0.0
+    if plastic_strain > start:
+        if mat_params[m, 10] == 1.0:
+            share = min((plastic_strain - start) / span, 1.0)
+        else:
+            share = 1.0 - math.exp(-3.0 * (plastic_strain - start) / span)
+    cohesion = mat_params[m, 0] + share * (mat_params[m, 5] - mat_params[m, 0])
+    phi = mat_params[m, 7] + share * (mat_params[m, 6] - mat_params[m, 7])
+    sin_phi = math.sin(phi)
+    return cohesion, sin_phi, math.cos(phi), min(mat_params[m, 3], sin_phi)
 
 
 @inner_kernel
@@ -75,10 +95,15 @@ def update_stress(
                 node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
                 mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
             )
-        else:
+        elif mat_params[m, 10] == 0.0:
             d_eq, work = mohr_coulomb_update(
                 node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
                 mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
+            )
+        else:
+            cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, m, node_plastic_strain[k])
+            d_eq, work = mohr_coulomb_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m], cohesion, sin_phi, cos_phi, sin_psi,
             )
         tensile_strength = mat_params[m, 4]
         if tensile_strength < math.inf:

@@ -64,6 +64,7 @@ class RecordBuffers(NamedTuple):
     monitor_stress_pa: np.ndarray  # (capacity, n_monitor, 4) xx, yy, zz, xy
     energy_j_per_m: np.ndarray  # (capacity, len(ENERGY_COLUMNS))
     max_displacement_m: np.ndarray  # (capacity,) largest |u| of any particle
+    max_speed_m_s: np.ndarray  # (capacity,) largest |v| of any particle
     count: np.ndarray  # (1,) int64 rows filled
 
     @classmethod
@@ -75,6 +76,7 @@ class RecordBuffers(NamedTuple):
             np.zeros((capacity, n_monitor, 2)),
             np.zeros((capacity, n_monitor, 4)),
             np.zeros((capacity, len(ENERGY_COLUMNS))),
+            np.zeros(capacity),
             np.zeros(capacity),
             np.zeros(1, dtype=np.int64),
         )
@@ -120,6 +122,7 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
     strain = 0.0
     potential = 0.0
     max_u_sq = 0.0
+    max_v_sq = 0.0
     for k in range(node_u.shape[0]):
         mass = nodes.mass_kg[k]
         vx = node_v[k, 0]
@@ -136,6 +139,9 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
         u_sq = ux * ux + uy * uy
         if u_sq > max_u_sq:
             max_u_sq = u_sq
+        v_sq = vx * vx + vy * vy
+        if v_sq > max_v_sq:
+            max_v_sq = v_sq
     energy = records.energy_j_per_m
     energy[slot, ENERGY_KINETIC] = kinetic
     energy[slot, ENERGY_STRAIN] = strain
@@ -143,6 +149,7 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
     for i in range(dissipated.shape[0]):
         energy[slot, DISSIPATED_FIRST_COLUMN + i] = dissipated[i]
     records.max_displacement_m[slot] = math.sqrt(max_u_sq)
+    records.max_speed_m_s[slot] = math.sqrt(max_v_sq)
 
 
 @dataclass
@@ -155,6 +162,7 @@ class TimeSeries:
     monitor_stress_pa: np.ndarray  # (n_rec, n_monitor, 4) xx, yy, zz, xy
     energy_j_per_m: np.ndarray  # (n_rec, len(ENERGY_COLUMNS)), see energy()
     max_displacement_m: np.ndarray  # (n_rec,)
+    max_speed_m_s: np.ndarray  # (n_rec,)
     dt_s: float
     n_steps: int
     n_remesh: int
@@ -171,7 +179,8 @@ class TimeSeries:
         return cls(
             time_s=rows.time_s, monitor_displacement_m=rows.monitor_displacement_m,
             monitor_velocity_m_s=rows.monitor_velocity_m_s, monitor_stress_pa=rows.monitor_stress_pa,
-            energy_j_per_m=rows.energy_j_per_m, max_displacement_m=rows.max_displacement_m, **counters,
+            energy_j_per_m=rows.energy_j_per_m, max_displacement_m=rows.max_displacement_m,
+            max_speed_m_s=rows.max_speed_m_s, **counters,
         )
 
     def energy(self, name: str) -> np.ndarray:

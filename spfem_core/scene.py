@@ -19,10 +19,20 @@ MODEL_MOHR_COULOMB = 2
 
 MODEL_NAMES = {"elastic": MODEL_ELASTIC, "drucker_prager": MODEL_DRUCKER_PRAGER, "mohr_coulomb": MODEL_MOHR_COULOMB}
 
-N_MODEL_PARAMS = 5
+N_MODEL_PARAMS = 11
 """Columns of the compiled model constants (``MaterialTable.model_params``):
 Drucker-Prager (alpha, k in Pa, alpha_psi, 0, tensile strength in Pa); Mohr-Coulomb (c in Pa, sin phi,
-cos phi, sin psi, tensile strength in Pa).  An infinite tensile strength: no tension cut-off."""
+cos phi, sin psi, tensile strength in Pa).  An infinite tensile strength: no tension cut-off.
+Columns 5-10, strain softening of Mohr-Coulomb (``SOFTENING_*``): residual c (Pa), residual phi (rad),
+peak phi (rad), plastic strain where softening starts, where it ends, the law code."""
+
+SOFTENING_NONE = 0
+SOFTENING_LINEAR = 1
+SOFTENING_EXPONENTIAL = 2
+SOFTENING_LAWS = {"linear": SOFTENING_LINEAR, "exponential": SOFTENING_EXPONENTIAL}
+"""Strain-softening laws: with eps the equivalent plastic strain, s(eps) the share of the drop from
+peak to residual: linear s = clip((eps - eps_1) / (eps_2 - eps_1), 0, 1); exponential
+s = 1 - exp(-3 (eps - eps_1) / (eps_2 - eps_1)) above eps_1 (95% of the drop at eps_2)."""
 
 
 @dataclass(frozen=True)
@@ -43,12 +53,18 @@ class MaterialTable:
     dilation_deg: np.ndarray | None = None  # (n_mat,) psi
     dp_fit: tuple[str, ...] | None = None
     tensile_strength_pa: np.ndarray | None = None  # (n_mat,) tension cut-off sigma_t; inf (default): none
+    softening_law: np.ndarray | None = None  # (n_mat,) int64 SOFTENING_* code (Mohr-Coulomb only); 0: none
+    residual_cohesion_pa: np.ndarray | None = None  # (n_mat,) c once softened
+    residual_friction_deg: np.ndarray | None = None  # (n_mat,) phi once softened
+    softening_start_strain: np.ndarray | None = None  # (n_mat,) equivalent plastic strain where it starts
+    softening_end_strain: np.ndarray | None = None  # (n_mat,) where it ends (exponential: 95% of the drop)
 
     def __post_init__(self):
         n = len(self.name)
         for attr in ("model", "density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "cohesion_pa",
-                     "friction_deg", "dilation_deg", "tensile_strength_pa"):
-            dtype = np.int64 if attr == "model" else np.float64
+                     "friction_deg", "dilation_deg", "tensile_strength_pa", "softening_law", "residual_cohesion_pa",
+                     "residual_friction_deg", "softening_start_strain", "softening_end_strain"):
+            dtype = np.int64 if attr in ("model", "softening_law") else np.float64
             raw = getattr(self, attr)
             empty = np.full(n, np.inf) if attr == "tensile_strength_pa" else np.zeros(n, dtype=dtype)
             value = empty if raw is None else np.ascontiguousarray(raw, dtype=dtype).reshape(-1)
@@ -103,23 +119,33 @@ class MaterialTable:
         for m in range(self.n_materials):
             c, phi, psi = self.cohesion_pa[m], self.friction_deg[m], self.dilation_deg[m]
             if self.model[m] == MODEL_DRUCKER_PRAGER:
+                if self.softening_law[m] != SOFTENING_NONE:
+                    raise ValueError(f"MaterialTable: strain softening of material {self.name[m]!r} needs mohr_coulomb")
                 fit = self.dp_fit[m] or default_dp_fit(psi, phi)
                 params[m, :3] = dp_constants(c, phi, psi, fit)
             elif self.model[m] == MODEL_MOHR_COULOMB:
                 params[m, :4] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
+                if self.softening_law[m] != SOFTENING_NONE:
+                    if not self.softening_end_strain[m] > self.softening_start_strain[m] >= 0.0:
+                        raise ValueError(f"MaterialTable: material {self.name[m]!r} needs 0 <= softening start < end")
+                    params[m, 5:] = (self.residual_cohesion_pa[m], np.radians(self.residual_friction_deg[m]),
+                                     np.radians(phi), self.softening_start_strain[m], self.softening_end_strain[m],
+                                     self.softening_law[m])
         return params
 
     def with_strength_reduction(self, srf: float, associated: bool = False) -> "MaterialTable":
         """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, sigma_t,F = sigma_t / F
-        (the tension cut-off falls with the cohesion), and psi_F = min(psi, phi_F), or psi_F = phi_F with
+        (the tension cut-off falls with the cohesion), the residual strength alike, and psi_F = min(psi, phi_F), or psi_F = phi_F with
         ``associated`` (normality: the flow rule under which limit equilibrium and limit analysis give
         the factor of safety)."""
         if not srf > 0:
             raise ValueError(f"srf: must be > 0, got {srf}")
         phi_f = np.degrees(np.arctan(np.tan(np.radians(self.friction_deg)) / srf))
         psi_f = phi_f if associated else np.minimum(self.dilation_deg, phi_f)
+        residual_phi_f = np.degrees(np.arctan(np.tan(np.radians(self.residual_friction_deg)) / srf))
         return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f, dilation_deg=psi_f,
-                       tensile_strength_pa=self.tensile_strength_pa / srf)
+                       tensile_strength_pa=self.tensile_strength_pa / srf,
+                       residual_cohesion_pa=self.residual_cohesion_pa / srf, residual_friction_deg=residual_phi_f)
 
     def as_elastic(self) -> "MaterialTable":
         """The same table with every material linear elastic (e.g. for a gravity stage)."""

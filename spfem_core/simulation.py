@@ -42,7 +42,8 @@ from spfem_core.timestep import DT_COLLAPSE_FACTOR, TimeStepPolicy, critical_tim
 
 StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
 """Asked between compiled calls with the records so far (time_s, max_displacement_m,
-kinetic_energy_j_per_m; read-only views): a reason (one line) to end the stage now, or None."""
+energy_j_per_m with the columns of ``records.ENERGY_COLUMNS``; read-only views): a reason (one
+line) to end the stage now, or None."""
 
 Snapshot = tuple[float, Callable[[float], None]]
 """(interval in s, callback(stage time in s)): the callback reads the state from the simulation."""
@@ -389,7 +390,7 @@ class Simulation:
             if schedule.stop_check_due(stage_time, self.dt_s):
                 n_rec = records.n_filled
                 early = stop(records.time_s[:n_rec], records.max_displacement_m[:n_rec],
-                             records.energy_j_per_m[:n_rec, 0])
+                             records.energy_j_per_m[:n_rec])
                 if early:
                     stop_reason = str(early)
                     break

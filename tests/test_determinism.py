@@ -30,7 +30,7 @@ def run(wall_seconds_per_call, monkeypatch):
     sim = falling_particle_on_a_plastic_block()
     asked = []
 
-    def stop(time_s, max_u_m, kinetic):
+    def stop(time_s, max_u_m, energy):
         asked.append(float(time_s[-1]))
         return "moved 0.55 m" if max_u_m.max() > 0.55 else None
 

@@ -50,6 +50,7 @@ class FakeTimeSeries:
         self.monitor_stress_pa = np.stack([ramp + k for k in range(4)], axis=-1)
         self.energy_j_per_m = np.column_stack([np.linspace(0.0, k + 1.0, self.n_rec) for k in range(len(ENERGY_COLUMNS))])
         self.max_displacement_m = np.linspace(0.0, 0.1, self.n_rec)
+        self.max_speed_m_s = np.linspace(0.0, 0.5, self.n_rec)
 
 
 def fake_run(study_text: str, n_rec: int = 6, **series_options):

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from spfem_core.cloud import particles_in_polygon, points_in_polygon
-from spfem_core.scene import MODEL_NAMES, MaterialTable, Scene, SolverSettings
+from spfem_core.scene import MODEL_NAMES, SOFTENING_LAWS, SOFTENING_NONE, MaterialTable, Scene, SolverSettings
 from workflows.loading import body_acceleration_m_s2, surface_load_forces, water_scene_fields
 from workflows.study import DEFAULT_CFL, Study, StudyError
 
@@ -32,6 +32,11 @@ def build_material_table(study: Study) -> MaterialTable:
         dp_fit=tuple(_core_dp_fit(getattr(m, "dp_fit", "")) for m in materials),
         tensile_strength_pa=[math.inf if getattr(m, "tensile_strength_pa", None) is None else m.tensile_strength_pa
                              for m in materials],
+        softening_law=[SOFTENING_LAWS.get(getattr(m, "softening", "none"), SOFTENING_NONE) for m in materials],
+        residual_cohesion_pa=[getattr(m, "residual_cohesion_or_peak", 0.0) for m in materials],
+        residual_friction_deg=[getattr(m, "residual_friction_or_peak", 0.0) for m in materials],
+        softening_start_strain=[getattr(m, "softening_start_strain", 0.0) for m in materials],
+        softening_end_strain=[getattr(m, "softening_end_strain", None) or 0.0 for m in materials],
     )
 
 

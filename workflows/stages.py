@@ -17,12 +17,15 @@ import numpy as np
 from spfem_core.simulation import DetachedParticlesError, Simulation
 from spfem_core.timestep import UnstableTimeStepError
 from workflows.memory_guard import check_memory
-from workflows.output.metrics import add_metrics
+from workflows.output.animation import AnimationRecorder
+from workflows.output.metrics import add_metrics, add_runout_metrics
 from workflows.output.paraview import SnapshotWriter
 from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
 from workflows.output.writing import make_output_folder, write_dataset
+from workflows.runout.figures import runout_fields
+from workflows.runout.rest import rest_rule
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
-from workflows.study import DynamicStage, RelaxationStage, StageBase, Study, StudyError
+from workflows.study import DynamicStage, RelaxationStage, RunoutStage, StageBase, Study, StudyError
 
 StageProgress = Callable[[StageBase, float], None]
 """Called with the running stage and the fraction of it done (0 to 1)."""
@@ -45,6 +48,8 @@ def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -
     """Set the stage's materials (elastic or as declared), its active supports, the load ramp (first
     stage only) and its start."""
     materials = sim.scene.materials.as_elastic() if stage.elastic else sim.scene.materials
+    if isinstance(stage, RunoutStage) and stage.strength_factor != 1.0:
+        materials = materials.with_strength_reduction(stage.strength_factor)
     sim.set_materials(materials)
     sim.set_supports(*supports(study, sim.scene, stage.boundary))
     sim.set_load_ramp((study.loads.ramp_time_s or 0.0) if index == 0 else 0.0)
@@ -53,12 +58,37 @@ def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -
 
 
 def snapshots(study: Study, stage: StageBase, sim: Simulation, out_dir: Path):
-    """The ``snapshot`` argument of a stage run: ParaView files every ``[output]
-    snapshot_interval_s`` into ``out_dir/paraview``, or None when the study asks for none."""
-    interval = study.output.snapshot_interval_s
-    if interval is None:
-        return None
-    return interval, SnapshotWriter(Path(out_dir) / "paraview", stage.name, sim)
+    """The ``snapshot`` argument of a stage run and the animation recorder of the stage (or None):
+    ParaView files every ``[output] snapshot_interval_s`` into ``out_dir/paraview``, animation frames
+    every ``animation_interval_s`` of a dynamic or runout stage; (None, None) when the study asks for
+    neither."""
+    output = study.output
+    callbacks = []
+    if output.snapshot_interval_s is not None:
+        callbacks.append((output.snapshot_interval_s, SnapshotWriter(Path(out_dir) / "paraview", stage.name, sim)))
+    recorder = None
+    if output.animation_interval_s is not None and isinstance(stage, (DynamicStage, RunoutStage)):
+        recorder = AnimationRecorder(Path(out_dir) / f"{stage.name}.gif", sim, output.animation_colour)
+        callbacks.append((output.animation_interval_s, recorder))
+    if not callbacks:
+        return None, None
+    if len(callbacks) == 1:
+        return callbacks[0], recorder
+    return (min(interval for interval, _ in callbacks), _Every(callbacks)), recorder
+
+
+class _Every:
+    """Snapshot callbacks with their own intervals behind one (called at the smallest interval)."""
+
+    def __init__(self, callbacks):
+        self.callbacks = callbacks
+        self.next_s = [0.0] * len(callbacks)
+
+    def __call__(self, time_s: float) -> None:
+        for i, (interval, callback) in enumerate(self.callbacks):
+            if time_s >= self.next_s[i] - 1e-9 * interval:
+                callback(time_s)
+                self.next_s[i] = time_s + interval
 
 
 def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, progress=None, snapshot=None,
@@ -75,6 +105,16 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
                 monitor_nodes=monitor_nodes,
                 progress=progress,
                 snapshot=snapshot,
+            )
+        case RunoutStage():
+            return sim.run(
+                stage.max_duration_s,
+                damping=stage.damping,
+                record_interval_s=stage.record_interval_s,
+                monitor_nodes=monitor_nodes,
+                progress=progress,
+                snapshot=snapshot,
+                stop=rest_rule(stage.rest_fraction, stage.rest_window_s),
             )
         case RelaxationStage():
             return sim.relax(
@@ -145,6 +185,8 @@ def run_stage_result(study: Study, sim: Simulation, index: int, monitor_nodes: n
     discarded = following is not None and following.start == "original_positions"
     series = run_stage(sim, stage, monitor_nodes, progress, snapshot, displacement_discarded=discarded)
     dataset = stage_dataset(study=study, stage_index=index, series=series, sim=sim, monitor_particles=monitor_nodes)
+    if isinstance(stage, RunoutStage):
+        dataset = add_runout_metrics(dataset, study, stage, series, sim)
     if index == len(study.stages) - 1:
         dataset = add_metrics(dataset, study.metrics, sim)
     return series, dataset
@@ -156,10 +198,15 @@ def run_and_write_stage(
 ):
     """:func:`run_stage_result` with the study's snapshots, the dataset (``attrs`` added) written to
     ``path``; the stage's TimeSeries."""
-    snapshot = snapshots(study, study.stages[index], sim, out_dir)
+    snapshot, recorder = snapshots(study, study.stages[index], sim, out_dir)
     series, dataset = run_stage_result(study, sim, index, monitor_nodes, progress=progress, snapshot=snapshot)
     dataset.attrs.update(attrs or {})
     write_dataset(dataset, path)
+    if recorder is not None:
+        recorder.write()
+    stage = study.stages[index]
+    if isinstance(stage, RunoutStage) and study.output.figures:
+        runout_fields(path, Path(out_dir) / f"{stage.name}.png", stage.strength_factor)
     return series
 
 

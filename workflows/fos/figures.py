@@ -66,18 +66,21 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     return path
 
 
-def run_fields(run_path: Path, path: Path) -> Path:
+def final_state_figure(result_path: Path, path: Path, title, decorate=None) -> Path:
+    """Equivalent plastic strain and displacement on the final particle positions of a result file,
+    into ``path``; ``title(ds)`` gives the title, ``decorate(ax, study)`` draws over each panel."""
     plt = pyplot()
     import matplotlib.tri as mtri  # with pyplot, see pyplot
 
-    with xr.open_dataset(run_path, engine="netcdf4") as ds:
+    with xr.open_dataset(result_path, engine="netcdf4") as ds:
         x, y = ds["particle_x"].values, ds["particle_y"].values
         triangles = ds["mesh2d_face_nodes"].values
         plastic = ds["particle_plastic_strain"].values
         u = np.hypot(ds["particle_ux"].values, ds["particle_uy"].values)
-        srf, status = float(ds.attrs["srf"]), ds.attrs["status"]
+        heading = title(ds)
         study_text = ds.attrs.get("study", "")
     mesh = mtri.Triangulation(x, y, triangles)
+    study = parse_study(study_text) if study_text else None
     # panels as tall as the domain's aspect asks (equal axes), within 1-3.5 in each
     aspect = (np.ptp(y) or 1.0) / (np.ptp(x) or 1.0)
     panel_in = min(max(5.6 * aspect, 1.0), 3.5)
@@ -89,13 +92,19 @@ def run_fields(run_path: Path, path: Path) -> Path:
         fig.colorbar(shading, ax=ax, label=label)
         ax.set_aspect("equal")
         ax.set_ylabel("y (m)")
-        if study_text:
-            draw_water_and_loads(ax, parse_study(study_text))
-    axes[0].set_title(f"SRF {srf:g} ({status}), final state")
+        if study is not None and decorate is not None:
+            decorate(ax, study)
+    axes[0].set_title(heading)
     axes[1].set_xlabel("x (m)")
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def run_fields(run_path: Path, path: Path) -> Path:
+    """The final state of an SRF run, with its water and loads."""
+    return final_state_figure(run_path, path, lambda ds: f"SRF {float(ds.attrs['srf']):g} ({ds.attrs['status']}), "
+                              "final state", draw_water_and_loads)
 
 
 def draw_water_and_loads(ax, study) -> None:

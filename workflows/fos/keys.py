@@ -21,7 +21,8 @@ from workflows.study import Study
 SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
 """Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
 
-STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit", "tensile_strength_pa")
+STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit", "tensile_strength_pa", "softening",
+                   "residual_cohesion_pa", "residual_friction_deg", "softening_start_strain", "softening_end_strain")
 """Material fields an elastic stage does not use."""
 
 

@@ -48,10 +48,10 @@ def _cancellable(rule, event_name: str):
     trip to the scheduler per check, about 50 per run)."""
     event = Event(event_name)
 
-    def checked(time_s, max_u_m, kinetic):
+    def checked(time_s, max_u_m, energy):
         if event.is_set():
             return "cancelled by the client: the run can no longer change the answer"
-        return rule(time_s, max_u_m, kinetic)
+        return rule(time_s, max_u_m, energy)
 
     return checked
 

@@ -107,7 +107,7 @@ class Verdict:
         """The early-stop rule handed to the simulation: slid past ``slide_stop_m``, or (undamped)
         at rest.  A quasi-static run also ends by itself once the unbalanced force converges."""
 
-        def rule(time_s, max_u_m, kinetic):
+        def rule(time_s, max_u_m, energy):
             if self.past(max_u_m, self.slide_stop_m):
                 return f"slid: largest displacement {float(np.max(max_u_m)):.3g} m > {self.slide_stop_m:g} m"
             if not self.quasi_static and self.at_rest(time_s, max_u_m):

@@ -12,8 +12,10 @@ import numpy as np
 import xarray as xr
 
 from workflows.collapse.metrics import cohesive_summary, granular_summary, surface_profile
-from workflows.output.variables import COLLAPSE_METRICS
-from workflows.study import Metrics
+from workflows.fos.scales import slope_height_m
+from workflows.output.variables import COLLAPSE_METRICS, RUNOUT_METRICS
+from workflows.runout.metrics import final_surface, runout_summary
+from workflows.study import Metrics, RunoutStage, Study
 
 
 def metrics_variables(metrics: Metrics, sim) -> dict[str, tuple]:
@@ -44,4 +46,32 @@ def add_metrics(dataset: xr.Dataset, metrics: Metrics | None, sim) -> xr.Dataset
     for name, (dims, values, attrs) in metrics_variables(metrics, sim).items():
         dataset[name] = xr.Variable(dims, values, attrs)
     dataset.attrs["metrics_kind"] = metrics.kind
+    return dataset
+
+
+DEFAULT_DEPOSIT_THICKNESS = 0.02
+"""Default deposit thickness of a runout stage, as a fraction of the slope height."""
+DEFAULT_MOVED_FRACTION = 0.01
+"""Default moved threshold of a runout stage, as a fraction of the slope height."""
+
+
+def add_runout_metrics(dataset: xr.Dataset, study: Study, stage: RunoutStage, series, sim) -> xr.Dataset:
+    """``dataset`` with the runout metrics (``workflows.runout.metrics``) of ``stage`` added."""
+    meshed = np.ones(sim.n_particles, dtype=bool)
+    meshed[sim.mesh.orphan_nodes] = False
+    height = slope_height_m(study)
+    thickness = stage.deposit_thickness_m or DEFAULT_DEPOSIT_THICKNESS * height
+    moved = stage.moved_threshold_m or DEFAULT_MOVED_FRACTION * height
+    initial_area = sim.nodes.mass_kg / sim.scene.particle_density_kg_m3
+    summary = runout_summary(
+        study.geometry.polygon_m, sim.nodes.xy_m[meshed], sim.nodes.displacement_m, initial_area, sim.scene.spacing_m,
+        series.time_s, series.energy_j_per_m, series.max_speed_m_s, deposit_thickness_m=thickness,
+        moved_threshold_m=moved, rest_fraction=stage.rest_fraction, rest_window_s=stage.rest_window_s,
+    )
+    for key, value in summary.items():
+        dataset[key] = xr.Variable(*RUNOUT_METRICS[key](value))
+    x_m, height_m = final_surface(sim.nodes.xy_m[meshed], sim.scene.spacing_m)
+    dataset["surface_x"] = xr.Variable(*RUNOUT_METRICS["surface_x"](x_m))
+    dataset["surface_height"] = xr.Variable(*RUNOUT_METRICS["surface_height"](height_m))
+    dataset.attrs["metrics_kind"] = "runout"
     return dataset

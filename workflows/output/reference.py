@@ -12,6 +12,7 @@ import sys
 from workflows.output.variables import (
     COLLAPSE_METRICS,
     FOS_ATTRIBUTES,
+    RUNOUT_METRICS,
     STAGE_FILE,
     STAGE_FILE_ATTRIBUTES,
     SUMMARY_FILE,
@@ -72,6 +73,10 @@ def page() -> str:
               "With `[metrics]`, the last stage's file also holds these scalars (granular or cohesive, by "
               "`metrics.kind`; attribute `metrics_kind`), computed on the final state of the particles inside "
               "the mesh (`workflows/collapse/metrics.py` defines each):", "", *_variables(COLLAPSE_METRICS), ""]
+    parts += ["## Runout metrics", "",
+              "The file of a `runout` stage also holds these (attribute `metrics_kind` = `runout`; "
+              "`workflows/runout/metrics.py` defines each, x measured down the slope):", "",
+              *_variables(RUNOUT_METRICS), ""]
     parts += ["## `summary.nc` of a strength-reduction study", "", *_variables(SUMMARY_FILE), "",
               "Attributes of `fos`:", "", *_attributes(FOS_ATTRIBUTES), "",
               "Global attributes:", "", *_attributes(SUMMARY_FILE_ATTRIBUTES), ""]

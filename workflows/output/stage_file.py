@@ -84,6 +84,7 @@ def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_partic
         name = energy_variable_name(energy_name)
         ds[name] = var[name](energy[:, column])
     ds["max_displacement"] = var["max_displacement"](np.asarray(series.max_displacement_m, dtype=np.float64))
+    ds["max_speed"] = var["max_speed"](np.asarray(series.max_speed_m_s, dtype=np.float64))
 
     for name, (field, component) in _PARTICLE_COMPONENTS.items():
         ds[name] = var[name](np.asarray(getattr(sim.nodes, field), dtype=np.float64)[:, component])

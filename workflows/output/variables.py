@@ -94,6 +94,7 @@ STAGE_FILE = _table(
     Variable("monitor_sxy", _MONITOR, "Pa", "shear stress xy at the monitored particle"),
     *(Variable(energy_variable_name(c), ("time",), "J m-1", _ENERGY_LONG_NAMES[c]) for c in ENERGY_COLUMNS),
     Variable("max_displacement", ("time",), "m", "largest displacement magnitude of any particle"),
+    Variable("max_speed", ("time",), "m s-1", "largest speed of any particle"),
     Variable("particle_x", ("particle",), "m", "x of the particle at the end of the stage"),
     Variable("particle_y", ("particle",), "m", "y of the particle at the end of the stage"),
     Variable("particle_ux", ("particle",), "m", "x displacement of the particle during the stage"),
@@ -160,6 +161,26 @@ COLLAPSE_METRICS = _table(
     Variable("toe_thickness_m", (), "m", "cohesive: deposit thickness that defines the toe (2 h)"),
     Variable("surface_x", ("surface",), "m", "x of the free-surface point"),
     Variable("surface_height", ("surface",), "m", "free-surface height (upper envelope of the particles)"),
+)
+
+RUNOUT_METRICS = _table(
+    Variable("runout_m", (), "m", "advance of the toe: the furthest point beyond the initial toe where the surface "
+             "rose more than deposit_thickness_m"),
+    Variable("retrogression_m", (), "m", "retreat of the scarp behind the initial crest: the point furthest back "
+             "where the surface fell more than deposit_thickness_m"),
+    Variable("sliding_mass_area_m2", (), "m2", "initial area of the particles that moved more than moved_threshold_m "
+             "(per metre of thickness)"),
+    Variable("max_speed_m_s", (), "m s-1", "largest particle speed recorded"),
+    Variable("max_speed_time_s", (), "s", "stage time of the largest speed"),
+    Variable("time_to_rest_s", (), "s", "start of the window over which the kinetic energy stayed below rest_fraction "
+             "of the potential energy released (NaN: still moving at the end)"),
+    Variable("potential_released_j_m", (), "J m-1", "gravity and load potential energy released by the end"),
+    Variable("energy_budget_error", (), "1", "change of the sum of every energy column over the stage, as a fraction "
+             "of the potential released"),
+    Variable("deposit_thickness_m", (), "m", "surface change that counts for runout and retrogression"),
+    Variable("moved_threshold_m", (), "m", "displacement above which a particle belongs to the sliding mass"),
+    Variable("surface_x", ("surface",), "m", "x of the final surface point"),
+    Variable("surface_height", ("surface",), "m", "final surface height (upper envelope of the particles)"),
 )
 
 SUMMARY_FILE = _table(

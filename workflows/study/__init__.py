@@ -14,12 +14,13 @@ from workflows.study.tables import (
     DynamicStage,
     Metrics,
     RelaxationStage,
+    RunoutStage,
     StageBase,
     StrengthReductionStage,
     Study,
 )
 
 __all__ = [
-    "DEFAULT_CFL", "DynamicStage", "Metrics", "RelaxationStage", "StageBase", "StrengthReductionStage", "Study",
+    "DEFAULT_CFL", "DynamicStage", "Metrics", "RelaxationStage", "RunoutStage", "StageBase", "StrengthReductionStage", "Study",
     "StudyError", "load_study", "parse_study",
 ]

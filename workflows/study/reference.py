@@ -181,7 +181,8 @@ A study file is a TOML file with the tables `[study]`, `[geometry]`, `[[material
 `[water]`, `[[boundary]]`, `[[walls]]`, `[solver]`, `[[stages]]`, `[[monitors]]`, `[metrics]`,
 `[output]` and `[sweep]`.
 Stages run in order, each continuing from the state the previous one left; a study whose last
-stage is a `strength_reduction` stage computes a factor of safety.  Every field is checked before
+stage is a `strength_reduction` stage computes a factor of safety; a `runout` stage follows a
+failure to rest and measures it.  Every field is checked before
 anything runs: a bad value is one line `error: <file>: <field>: <problem>` and exit code 2.
 Units are UDUNITS strings, as in the result files (`docs/result-files.md`).
 

@@ -193,9 +193,51 @@ class DruckerPragerMaterial(StrengthMixin, MaterialBase):
 
 @dataclass(frozen=True, kw_only=True)
 class MohrCoulombMaterial(StrengthMixin, MaterialBase):
-    """Mohr-Coulomb, perfectly plastic, plane strain (return map in principal stresses)."""
+    """Mohr-Coulomb, plane strain (return map in principal stresses), perfectly plastic or softening from
+    peak (cohesion_pa, friction_deg) to residual strength with the equivalent plastic strain."""
 
     model: ClassVar[str] = "mohr_coulomb"
+    softening: str = text(
+        "strain softening from peak to residual strength: `none`, `linear` (from softening_start_strain to "
+        "softening_end_strain) or `exponential` (1 - exp(-3 (eps - start) / (end - start)) of the drop)",
+        default="none", choices=("none", "linear", "exponential"),
+    )
+    residual_cohesion_pa: float | None = number("Pa", "*softening:* residual cohesion c_r; default cohesion_pa",
+                                                default=None, ge=0.0)
+    residual_friction_deg: float | None = number("degree", "*softening:* residual friction angle phi_r; default "
+                                                 "friction_deg", default=None, ge=0.0, lt=90.0)
+    softening_start_strain: float = number("1", "*softening:* equivalent plastic strain where the strength starts "
+                                           "to fall", default=0.0, ge=0.0)
+    softening_end_strain: float | None = number("1", "*softening:* equivalent plastic strain where it reaches the "
+                                                "residual (exponential: 95% of the drop)", default=None, gt=0.0)
+
+    def check(self):
+        super().check()
+        given = [name for name in ("residual_cohesion_pa", "residual_friction_deg", "softening_end_strain")
+                 if getattr(self, name) is not None]
+        if self.softening == "none":
+            if given:
+                raise StudyError(given[0], "applies with softening = linear or exponential only")
+            return
+        if self.softening_end_strain is None:
+            raise StudyError("softening_end_strain", "required with softening")
+        if self.softening_end_strain <= self.softening_start_strain:
+            raise StudyError("softening_end_strain", f"must be > softening_start_strain = "
+                             f"{self.softening_start_strain:g}, got {self.softening_end_strain:g}")
+        if self.residual_cohesion_or_peak > self.cohesion_pa:
+            raise StudyError("residual_cohesion_pa", f"must be <= cohesion_pa = {self.cohesion_pa:g}")
+        if self.residual_friction_or_peak > self.friction_deg:
+            raise StudyError("residual_friction_deg", f"must be <= friction_deg = {self.friction_deg:g}")
+        if self.residual_cohesion_or_peak == 0.0 and self.residual_friction_or_peak == 0.0:
+            raise StudyError("residual_cohesion_pa", "a residual strength of c = 0 and phi = 0 is no strength")
+
+    @property
+    def residual_cohesion_or_peak(self) -> float:
+        return self.cohesion_pa if self.residual_cohesion_pa is None else self.residual_cohesion_pa
+
+    @property
+    def residual_friction_or_peak(self) -> float:
+        return self.friction_deg if self.residual_friction_deg is None else self.residual_friction_deg
 
 
 MATERIAL_MODELS: dict[str, type[MaterialBase]] = {
@@ -423,6 +465,45 @@ class RelaxationStage(StageBase):
     damping: float = number("1", "local (Cundall) damping factor", default=0.7, gt=0.0, lt=1.0)
 
 
+DEFAULT_REST_KINETIC_FRACTION = 1e-3
+DEFAULT_RUNOUT_REST_WINDOW_S = 0.5
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunoutStage(StageBase):
+    """Runout after failure: explicit dynamics with the strength divided by a factor, from the previous
+    stage's stresses, until the flow is at rest or max_duration_s; the result file carries the runout
+    metrics (runout, retrogression, sliding mass, speeds, energy budget, final surface)."""
+
+    kind: ClassVar[str] = "runout"
+    duration_field: ClassVar[str] = "max_duration_s"
+    max_duration_s: float = number("s", "stop here if the flow has not come to rest", gt=0.0)
+    strength_factor: float = number(
+        "1", "the strength at the start of the stage is c / F and tan(phi) / F (dilation min(psi, phi_F)); "
+        "1: as declared (with softening, the flow comes from it)", default=1.0, gt=0.0,
+    )
+    damping: float = number("1", "local (Cundall) damping factor; 0 is undamped dynamics", default=0.0, ge=0.0,
+                            lt=1.0)
+    rest_fraction: float = number(
+        "1", "at rest: kinetic energy below this fraction of the potential energy released so far, sustained over "
+        "rest_window_s", default=DEFAULT_REST_KINETIC_FRACTION, gt=0.0, lt=1.0,
+    )
+    rest_window_s: float = number("s", "see rest_fraction", default=DEFAULT_RUNOUT_REST_WINDOW_S, gt=0.0)
+    deposit_thickness_m: float | None = number(
+        "m", "the surface counts as raised (runout) or lowered (retrogression) where it moved more than this from "
+        "the initial surface; default 2% of the slope height", default=None, gt=0.0,
+    )
+    moved_threshold_m: float | None = number(
+        "m", "a particle that moved more than this belongs to the sliding mass; default 1% of the slope height",
+        default=None, gt=0.0,
+    )
+
+    def check(self):
+        super().check()
+        if self.elastic:
+            raise StudyError("elastic", "must be false: a runout stage needs a plastic material")
+
+
 PROTOCOLS = ("quasi_static", "ramp", "sudden")
 FLOW_RULES = ("associated", "as_declared")
 DEFAULT_QUASI_STATIC_DAMPING = 0.7
@@ -552,6 +633,7 @@ class StrengthReductionStage(StageBase):
 STAGE_KINDS: dict[str, type[StageBase]] = {
     "dynamic": DynamicStage,
     "relaxation": RelaxationStage,
+    "runout": RunoutStage,
     "strength_reduction": StrengthReductionStage,
 }
 
@@ -594,6 +676,14 @@ class Output(Record):
         "s", "write ParaView snapshots of every stage at this interval (`OUT/paraview/<stage>_<k>.vtu` and "
         "`<stage>.pvd`); SRF runs are not snapshotted (`python -m workflows.output.paraview OUT` gives their "
         "final states); default: none", default=None, gt=0.0,
+    )
+    animation_interval_s: float | None = number(
+        "s", "draw an animation of every dynamic and runout stage, a frame per this interval of stage time "
+        "(`OUT/<stage>.gif`, 10 frames per second); default: none", default=None, gt=0.0,
+    )
+    animation_colour: str = text(
+        "what colours the particles of the animation", default="plastic_strain",
+        choices=("plastic_strain", "displacement"),
     )
 
 
@@ -707,6 +797,8 @@ class Study(Record):
                     )
                 if not any(m.model != "elastic" for m in self.materials):
                     raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
+        if self.strength_reduction is not None and any(isinstance(stage, RunoutStage) for stage in self.stages):
+            raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
         if self.sweep is not None and self.strength_reduction is None:
             raise StudyError("sweep", "a sweep computes a FOS per case: the last stage must be a strength_reduction stage")
         if self.metrics is not None and self.strength_reduction is not None:

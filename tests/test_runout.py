@@ -1,0 +1,120 @@
+"""Runout after failure: the at-rest rule, the runout metrics on a cloud with a known answer, strain
+softening that brings down a slope its peak strength holds, the energy budget and mass of a runout,
+the animation, and bad softening input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from spfem_core.records import ENERGY_COLUMNS
+from workflows.runout.metrics import runout_summary
+from workflows.runout.rest import time_to_rest_s
+from workflows.stages import run_study
+from workflows.study import StudyError, parse_study
+
+REPO = Path(__file__).resolve().parents[1]
+SOFTENING = (REPO / "studies" / "runout_softening.toml").read_text()
+REFERENCE = (REPO / "studies" / "runout_reference_slope.toml").read_text()
+
+
+def _energy(kinetic, released):
+    energy = np.zeros((len(kinetic), len(ENERGY_COLUMNS)))
+    energy[:, ENERGY_COLUMNS.index("kinetic")] = kinetic
+    energy[:, ENERGY_COLUMNS.index("gravity_potential")] = -np.asarray(released)
+    return energy
+
+
+def test_time_to_rest_is_the_start_of_the_last_quiet_window():
+    time_s = np.arange(0.0, 3.01, 0.1)
+    released = np.full(time_s.size, 1000.0)
+    kinetic = np.where(time_s < 1.45, 50.0, 0.5)  # quiet (< 1e-3 x 1000) from t = 1.5 s
+    assert time_to_rest_s(time_s, _energy(kinetic, released), 1e-3, 0.5) == pytest.approx(1.5)
+    assert np.isnan(time_to_rest_s(time_s[:18], _energy(kinetic[:18], released[:18]), 1e-3, 0.5))  # 1.5-1.7 s
+    moving_again = kinetic.copy()
+    moving_again[-1] = 50.0
+    assert np.isnan(time_to_rest_s(time_s, _energy(moving_again, released), 1e-3, 0.5))
+
+
+def test_runout_metrics_of_a_known_final_surface():
+    """The reference slope (crest x = 20 m at 15 m, toe x = 40 m at 5 m) with the face moved 3 m down and
+    out: the surface rises beyond the toe up to x = 46 m and falls behind the crest from x = 17 m."""
+    polygon = [[0.0, 0.0], [60.0, 0.0], [60.0, 5.0], [40.0, 5.0], [20.0, 15.0], [0.0, 15.0]]
+    h = 0.5
+    x = np.arange(0.0, 60.0 + 1e-9, h)
+    top = np.interp(x, [0.0, 17.0, 23.0, 43.0, 46.0, 60.0], [15.0, 15.0, 12.0, 6.0, 5.0, 5.0])
+    xy = np.column_stack([x, top])
+    displacement = np.zeros_like(xy)
+    displacement[(x > 17.0) & (x < 46.0), 0] = 3.0
+    area = np.full(x.size, 0.25)
+    time_s = np.linspace(0.0, 5.0, 11)
+    energy = _energy(np.linspace(10.0, 0.0, 11), np.full(11, 1e4))
+    summary = runout_summary(polygon, xy, displacement, area, h, time_s, energy, np.linspace(0.0, 2.0, 11),
+                             deposit_thickness_m=0.2, moved_threshold_m=0.1, rest_fraction=1e-3, rest_window_s=0.5)
+    # raised by more than 0.2 m until y_0 + 0.2 = 5.2 on 43 -> 46 m (y = 6 - (x - 43) / 3): x = 45.4 m
+    assert summary["runout_m"] == pytest.approx(5.0, abs=h)
+    # lowered by more than 0.2 m from 15 - 0.2 = 14.8 on 17 -> 23 m (y = 15 - (x - 17) / 2): x = 17.4 m
+    assert summary["retrogression_m"] == pytest.approx(2.5, abs=h)
+    assert summary["sliding_mass_area_m2"] == pytest.approx(0.25 * np.count_nonzero((x > 17.0) & (x < 46.0)))
+    assert summary["max_speed_m_s"] == 2.0 and summary["max_speed_time_s"] == 5.0
+
+
+def _coarse(text: str) -> str:
+    return text.replace("spacing_m = 0.5", "spacing_m = 1.0").replace("spacing_m = 0.3", "spacing_m = 1.0")
+
+
+def test_softening_brings_down_a_slope_its_peak_strength_holds(tmp_path):
+    """studies/runout_softening.toml at h = 1 m: with softening the slope slides and comes to rest;
+    without it the same stage moves a few centimetres (no sliding mass); energy budget within 1% of
+    the potential released, mass constant, and the animation written."""
+    softening = run_study(parse_study(_coarse(SOFTENING)), tmp_path / "softening")
+    peak_only = parse_study(_coarse(SOFTENING).replace('softening = "linear"', 'softening = "none"').replace(
+        "residual_cohesion_pa = 2e3\nresidual_friction_deg = 12.0\nsoftening_start_strain = 0.0\n"
+        "softening_end_strain = 0.05\n", ""))
+    held = run_study(peak_only, tmp_path / "peak_only")
+    with xr.open_dataset(softening.paths[1]) as slid, xr.open_dataset(held.paths[1]) as stood:
+        assert float(slid["runout_m"]) > 5.0 and float(slid["sliding_mass_area_m2"]) > 50.0
+        assert np.isfinite(float(slid["time_to_rest_s"]))
+        assert abs(float(slid["energy_budget_error"])) < 0.01
+        assert float(stood["sliding_mass_area_m2"]) == 0.0 and float(stood["max_displacement"].max()) < 0.1
+        with xr.open_dataset(softening.paths[0]) as gravity:
+            assert float(slid["particle_mass"].sum()) == float(gravity["particle_mass"].sum())
+    gif = tmp_path / "softening" / "softening.gif"
+    assert gif.is_file() and gif.stat().st_size > 10_000
+
+
+def test_reference_slope_runout_grows_with_the_strength_factor(tmp_path):
+    """studies/runout_reference_slope.toml at h = 1 m: more runout, retrogression and sliding mass at
+    SRF 3 than at 2, each with the energy budget closed within 1% of the potential released."""
+    run = run_study(parse_study(_coarse(REFERENCE).replace("animation_interval_s = 0.1", "animation_interval_s = 1.0")),
+                    tmp_path)
+    with xr.open_dataset(run.paths[1]) as srf2, xr.open_dataset(run.paths[2]) as srf3:
+        for name in ("runout_m", "retrogression_m", "sliding_mass_area_m2", "max_speed_m_s"):
+            assert float(srf3[name]) > float(srf2[name]) > 0.0
+        for ds in (srf2, srf3):
+            assert abs(float(ds["energy_budget_error"])) < 0.01
+
+
+BAD_SOFTENING = {
+    'model = "drucker_prager"\nsoftening = "linear"': "materials[0].softening",
+    "residual_friction_deg = 12.0": "materials[0].residual_friction_deg: must be <= friction_deg = 15.6",
+    "softening_end_strain = 0.05": "materials[0].softening_end_strain: must be > softening_start_strain",
+}
+
+
+@pytest.mark.parametrize("replacement", sorted(BAD_SOFTENING))
+def test_bad_softening_input_names_the_field(replacement):
+    text = SOFTENING
+    if replacement.startswith("model"):
+        text = text.replace('model = "mohr_coulomb"', 'model = "drucker_prager"')
+    elif replacement.startswith("residual"):
+        text = text.replace(replacement, "residual_friction_deg = 20.0")
+    else:
+        text = text.replace(replacement, "softening_end_strain = 0.0001").replace(
+            "softening_start_strain = 0.0", "softening_start_strain = 0.01")
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert str(error.value).startswith(BAD_SOFTENING[replacement])
