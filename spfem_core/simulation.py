@@ -97,6 +97,7 @@ class Simulation:
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
         self.gravity_m_s2 = scene.gravity_m_s2.copy()
+        self.water_lines_m = scene.phreatic_lines_m
         self.loads = ExternalLoads(
             active=scene.has_external_loads,
             node_force_n=np.zeros((n, 2)) if scene.node_load_n is None else scene.node_load_n,
@@ -143,7 +144,7 @@ class Simulation:
         """Use ``mesh`` from now on: element scratch sized for it, cell areas and gradients on it
         (and its boundary, when ponded water loads it)."""
         self.mesh = mesh
-        if self.scene.pond_level_m is not None:
+        if self.loads.pond_level_m == self.loads.pond_level_m:  # not NaN: ponded water follows the boundary
             self.loads = self.loads._replace(boundary_edges=boundary_edges(mesh.elem_nodes))
         self.n_orphans = int(mesh.orphan_nodes.size)
         self.scratch = self.scratch.with_elements(mesh.n_elem)
@@ -182,6 +183,25 @@ class Simulation:
         if not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
         self.gravity_m_s2 = np.ascontiguousarray(gravity)
+
+    def set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
+        """Pore and ponded water from now on (a water-level change): the piezometric lines, the line
+        of each particle (-1: none; default: the first line for all, or none), the ponded water level
+        (None: none); the scene's own water is what ``Simulation`` starts with."""
+        lines = tuple(np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2) for line in phreatic_lines_m)
+        if node_phreatic_line is None:
+            node_phreatic_line = np.full(self.n_particles, 0 if lines else -1, dtype=np.int64)
+        node_line = np.ascontiguousarray(node_phreatic_line, dtype=np.int64).reshape(self.n_particles)
+        pond = np.nan if pond_level_m is None else float(pond_level_m)
+        self.water_lines_m = lines
+        self.loads = self.loads._replace(
+            active=bool(self.scene.node_load_n is not None or self.scene.node_pore_pressure_pa is not None
+                        or np.any(node_line >= 0) or pond == pond),
+            phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *lines])),
+            phreatic_start=np.cumsum([0] + [line.shape[0] for line in lines], dtype=np.int64),
+            node_phreatic_line=node_line, pond_level_m=pond,
+            boundary_edges=boundary_edges(self.mesh.elem_nodes) if pond == pond else np.zeros((0, 2), dtype=np.int64),
+        )
 
     def set_load_ramp(self, ramp_time_s: float):
         """From the next stage on, the surface loads grow linearly from zero over ``ramp_time_s`` of
@@ -473,7 +493,7 @@ class Simulation:
         zeros without water."""
         u = self.loads.node_pore_pressure_pa.copy()
         xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
-        for i, line in enumerate(self.scene.phreatic_lines_m):
+        for i, line in enumerate(self.water_lines_m):
             on = self.loads.node_phreatic_line == i
             head = np.interp(xy[on, 0], line[:, 0], line[:, 1]) - xy[on, 1]
             u[on] += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)

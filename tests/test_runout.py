@@ -118,3 +118,31 @@ def test_bad_softening_input_names_the_field(replacement):
     with pytest.raises(StudyError) as error:
         parse_study(text)
     assert str(error.value).startswith(BAD_SOFTENING[replacement])
+
+
+def _triggered(trigger: str) -> str:
+    """The reference runout study at h = 1 m with one runout stage at full strength and ``trigger``."""
+    text = _coarse(REFERENCE).replace("animation_interval_s = 0.1", "animation_interval_s = 1.0")
+    head = text.split('[[stages]]\nname = "srf2"')[0]
+    return (head + f'[[stages]]\nname = "trig"\nkind = "runout"\nmax_duration_s = 3.0\nrecord_interval_s = 0.01\n'
+            f'{trigger}\n[[monitors]]' + text.split("[[monitors]]", 1)[1])
+
+
+def test_a_seismic_trigger_brings_down_the_slope_its_strength_holds(tmp_path):
+    quiet = run_study(parse_study(_triggered("")), tmp_path / "quiet")
+    shaken = run_study(parse_study(_triggered("horizontal_coefficient = 0.4\n")), tmp_path / "shaken")
+    with xr.open_dataset(quiet.paths[1]) as still, xr.open_dataset(shaken.paths[1]) as slid:
+        assert float(still["sliding_mass_area_m2"]) == 0.0
+        assert float(slid["sliding_mass_area_m2"]) > 100.0 and float(slid["runout_m"]) > 5.0
+
+
+def test_a_water_trigger_sets_the_pore_pressure_of_the_stage(tmp_path):
+    """A dry gravity stage, then a runout stage with the water at 8 m inside and outside the slope:
+    the stage's pore pressure is gamma_w (8 - y) below 8 m at the final positions, 0 above."""
+    run = run_study(parse_study(_triggered("phreatic_level_m = 8.0\npond_level_m = 8.0\n")), tmp_path)
+    with xr.open_dataset(run.paths[0]) as gravity, xr.open_dataset(run.paths[1]) as wet:
+        assert float(np.abs(gravity["particle_pore_pressure"]).max()) == 0.0
+        y = wet["particle_y"].values
+        np.testing.assert_allclose(wet["particle_pore_pressure"].values, 9810.0 * np.maximum(8.0 - y, 0.0),
+                                   rtol=1e-12, atol=1e-6)
+        assert float(wet["energy_load_potential"].values[-1]) != 0.0

@@ -6,8 +6,9 @@
 The studies are run through the command line (``python -m workflows.cli``), so the check sees
 only what a user sees and works on any version of the code:
 
-- ``studies/quickstart.toml`` (2 workers): every variable of ``summary.nc`` with the FOS and its
-  brackets, and the particle stresses of ``gravity.nc``;
+- ``studies/quickstart.toml`` (2 workers): every variable of ``summary.nc`` over the runs the search
+  decided with (:func:`decided_rows`), the FOS and its brackets, and the particle stresses of
+  ``gravity.nc``;
 - ``studies/cantilever_beam.toml``: every time series of ``run.nc`` (monitor displacement,
   velocity and stress, energies, largest displacement).
 
@@ -33,6 +34,9 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
+
+from workflows.fos.criterion import first_failed_sweep_srf
+from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 FINGERPRINT_PATH = Path(__file__).resolve().parent / "fingerprint.json"
@@ -66,10 +70,22 @@ def _run(study: str, out: Path) -> None:
         raise SystemExit(f"{study} failed (exit {done.returncode}):\n{done.stderr}")
 
 
+def decided_rows(summary: xr.Dataset) -> np.ndarray:
+    """The rows of ``summary.nc`` the search decided with: up to its first failed run on the sweep
+    grid (``criterion.first_failed_sweep_srf``).  A sweep value above it may or may not finish before
+    it is cancelled, depending on the load of the machine, so it may or may not be in the file (the
+    FOS and the curvature never depend on it)."""
+    stage = parse_study(summary.attrs["study"]).strength_reduction
+    srf = summary["srf"].values
+    return srf <= first_failed_sweep_srf(srf, summary["status"].values, stage.srf_min, stage.srf_step)
+
+
 def quickstart_prints(out_dir: Path) -> dict:
-    """The fingerprint of a quickstart result folder (``summary.nc`` and ``gravity.nc``)."""
+    """The fingerprint of a quickstart result folder (``summary.nc``, the rows :func:`decided_rows`,
+    and ``gravity.nc``)."""
     with xr.open_dataset(out_dir / "summary.nc") as summary:
-        prints = {name: _entry(summary[name].values) for name in SUMMARY_VARIABLES}
+        rows = decided_rows(summary)
+        prints = {name: _entry(summary[name].values[rows]) for name in SUMMARY_VARIABLES}
         prints["fos"] = _entry([float(summary["fos"])] + [float(summary["fos"].attrs[a]) for a in FOS_ATTRIBUTES])
     with xr.open_dataset(out_dir / "gravity.nc") as gravity:
         for component in ("xx", "yy", "zz", "xy"):

@@ -116,10 +116,11 @@ def surface_load_forces(study: Study, node_xy_m: np.ndarray, spacing_m: float, a
     return force
 
 
-def seismic_direction(study: Study) -> float:
-    """+1 or -1: the x direction of the horizontal seismic force (``loads.seismic.direction``);
-    ``out_of_slope`` points to the end of the domain where the ground surface is lower."""
-    direction = study.loads.seismic.direction
+def seismic_direction(study: Study, direction: str | None = None) -> float:
+    """+1 or -1: the x direction of the horizontal seismic force (``direction``, by default
+    ``loads.seismic.direction``); ``out_of_slope`` points to the end of the domain where the ground
+    surface is lower."""
+    direction = direction or study.loads.seismic.direction
     if direction != "out_of_slope":
         return 1.0 if direction == "+x" else -1.0
     xs = [x for x, _ in study.geometry.polygon_m]
@@ -158,3 +159,29 @@ def water_scene_fields(study: Study, node_xy_m: np.ndarray, node_material: np.nd
         g = float(np.hypot(*study.loads.gravity_m_s2))
         fields["node_pore_pressure_pa"] = ru_pore_pressure_pa(study, node_xy_m, material_at, g)
     return fields
+
+
+def stage_water(study: Study, stage, node_material: np.ndarray):
+    """(piezometric lines, line of each particle, pond level or None) of a stage: the study's water,
+    or the stage's own ``phreatic_level_m`` / ``pond_level_m`` (a runout triggered by water)."""
+    lines, node_line = phreatic_lines(study, node_material)
+    pond = None if study.water is None else study.water.pond_level_m
+    level = getattr(stage, "phreatic_level_m", None)
+    if level is not None:
+        lines = lines + (np.array([[-1e9, level], [1e9, level]]),)
+        own = np.array([m.phreatic_line_m is not None for m in study.materials])[node_material]
+        node_line = np.where(own, node_line, len(lines) - 1)
+    if getattr(stage, "pond_level_m", None) is not None:
+        pond = stage.pond_level_m
+    return lines, node_line, pond
+
+
+def stage_acceleration_m_s2(study: Study, stage) -> np.ndarray:
+    """The body acceleration of a stage before the strength reduction: the study's (gravity, and the
+    seismic load with ``in_gravity``), or gravity with the stage's own ``horizontal_coefficient``
+    out of the slope (a runout triggered by an earthquake)."""
+    kh = getattr(stage, "horizontal_coefficient", None)
+    if kh is None:
+        return body_acceleration_m_s2(study, strength_reduction=False)
+    gravity = np.array(study.loads.gravity_m_s2, dtype=np.float64)
+    return gravity + np.array([seismic_direction(study, "out_of_slope") * kh * float(np.hypot(*gravity)), 0.0])

@@ -16,6 +16,7 @@ import numpy as np
 
 from spfem_core.simulation import DetachedParticlesError, Simulation
 from spfem_core.timestep import UnstableTimeStepError
+from workflows.loading import stage_acceleration_m_s2, stage_water
 from workflows.memory_guard import check_memory
 from workflows.output.animation import AnimationRecorder
 from workflows.output.metrics import add_metrics, add_runout_metrics
@@ -46,13 +47,17 @@ class StudyRun:
 
 def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -> None:
     """Set the stage's materials (elastic or as declared), its active supports, the load ramp (first
-    stage only) and its start."""
+    stage only), its body acceleration and water (the study's, or a runout stage's trigger) and its
+    start."""
     materials = sim.scene.materials.as_elastic() if stage.elastic else sim.scene.materials
     if isinstance(stage, RunoutStage) and stage.strength_factor != 1.0:
         materials = materials.with_strength_reduction(stage.strength_factor)
     sim.set_materials(materials)
     sim.set_supports(*supports(study, sim.scene, stage.boundary))
     sim.set_load_ramp((study.loads.ramp_time_s or 0.0) if index == 0 else 0.0)
+    sim.set_gravity(stage_acceleration_m_s2(study, stage))
+    if isinstance(stage, RunoutStage) or index > 0:
+        sim.set_water(*stage_water(study, stage, sim.scene.node_material))
     if index > 0 and stage.start == "original_positions":
         sim.discard_displacement()
 

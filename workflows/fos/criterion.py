@@ -101,6 +101,17 @@ def curvature(srf: np.ndarray, displacement_m: np.ndarray, floor_m: float) -> np
     return kappa
 
 
+def first_failed_sweep_srf(srf, status, srf_min: float, srf_step: float) -> float:
+    """The lowest failed SRF on the sweep grid (srf_min + k srf_step), inf if none.  Runs above it
+    were started before that failure was known: whether they finish before they are cancelled
+    depends on the machine's load, so nothing deterministic may depend on them."""
+    srf = np.asarray(srf, dtype=float)
+    failed = srf[np.asarray(status).astype(str) == FAILED]
+    steps = (failed - srf_min) / srf_step
+    on_grid = failed[np.isclose(steps, np.round(steps), atol=1e-6)]
+    return float(on_grid.min()) if on_grid.size else math.inf
+
+
 def _ends_nan(n: int) -> np.ndarray:
     """Zero curvature inside, NaN at both ends (a flat curve)."""
     kappa = np.zeros(n)

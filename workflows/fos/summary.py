@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from workflows.fos.criterion import curvature
+from workflows.fos.criterion import curvature, first_failed_sweep_srf
 from workflows.fos.verdict import DIVERGED
 from workflows.output.stage_file import provenance
 from workflows.output.variables import SUMMARY_FILE
@@ -22,7 +22,10 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
     runs = outcome.runs
     srf = np.array([r["srf"] for r in runs], dtype=float)
     u = np.array([r["max_displacement_m"] for r in runs], dtype=float)
-    usable = np.array([r["status"] != DIVERGED for r in runs], dtype=bool)
+    stage = study.strength_reduction
+    ceiling = first_failed_sweep_srf(srf, [r["status"] for r in runs], stage.srf_min, stage.srf_step)
+    # the curvature of the runs the search decided with: not of runs that finished only by timing
+    usable = np.array([r["status"] != DIVERGED for r in runs], dtype=bool) & (srf <= ceiling)
     kappa = np.full(srf.size, np.nan)
     if usable.sum() >= 3:
         kappa[usable] = curvature(srf[usable], u[usable], floor_m)

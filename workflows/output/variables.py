@@ -197,7 +197,8 @@ SUMMARY_FILE = _table(
              "wall clock when the run ended on its worker, since the command started (NaN: reused run)"),
     Variable("n_steps", ("srf",), "1", "explicit steps of the run"),
     Variable("curvature", ("srf",), "1",
-             "curvature of the SRF-displacement curve (normalised axes, log10 displacement; NaN at the ends)"),
+             "curvature of the SRF-displacement curve (normalised axes, log10 displacement) over the runs up to the "
+             "first failed sweep value; NaN at the ends and above it (runs there finish or not by timing)"),
     Variable("fos", (), "1",
              "factor of safety: middle of the bracket around the knee of the SRF-displacement curve (NaN: none)"),
 )

@@ -497,6 +497,18 @@ class RunoutStage(StageBase):
         "m", "a particle that moved more than this belongs to the sliding mass; default 1% of the slope height",
         default=None, gt=0.0,
     )
+    horizontal_coefficient: float | None = number(
+        "1", "trigger: a horizontal seismic coefficient kh acting out of the slope from the start of this stage "
+        "(instead of [loads.seismic]); default: the study's loads", default=None, ge=0.0, lt=1.0,
+    )
+    phreatic_level_m: float | None = number(
+        "m", "trigger: a horizontal piezometric line at this height from the start of this stage (a water-level "
+        "change; materials with their own line keep it); default: the study's [water]", default=None,
+    )
+    pond_level_m: float | None = number(
+        "m", "trigger: ponded water at this level from the start of this stage; default: the study's [water]",
+        default=None,
+    )
 
     def check(self):
         super().check()
