@@ -130,7 +130,28 @@ SWEEP = (
 )
 """The slope as a slope form, swept over two cohesions."""
 
-BASES = {"block": BLOCK, "slope": SLOPE, "sweep": SWEEP}
+WATER = (
+    SLOPE.replace('name = "slope"', 'name = "water"', 1).replace("[[boundary]]", (
+        "[water]\nphreatic_line_m = [[-1.0, 6.0], [31.0, 3.5]]\npond_level_m = 3.5\n\n"
+        '[[loads.strip]]\nname = "surcharge"\nx_start_m = 1.0\nx_end_m = 4.0\npressure_pa = 10e3\n\n'
+        '[[loads.line]]\nname = "post"\nx_m = 5.0\nforce_n_m = 5e3\n\n'
+        "[loads.seismic]\nhorizontal_coefficient = 0.1\n\n[[boundary]]"), 1)
+    .replace("friction_deg = 20.0", "friction_deg = 20.0\nsaturated_density_kg_m3 = 2100.0\ntensile_strength_pa = 1e3", 1)
+)
+"""The slope with pore and ponded water, surface loads, a seismic load and a tension cut-off."""
+
+RUNOUT = (
+    SLOPE[:SLOPE.index("[[stages]]")].replace('name = "slope"', 'name = "runout"', 1)
+    .replace('model = "drucker_prager"', 'model = "mohr_coulomb"', 1)
+    .replace("friction_deg = 20.0", 'friction_deg = 20.0\nsoftening = "linear"\nresidual_cohesion_pa = 1e3\n'
+             "softening_end_strain = 0.05", 1)
+    + SLOPE[SLOPE.index("[[stages]]"):SLOPE.index('[[stages]]\nname = "srf"')]
+    + '[[stages]]\nname = "flow"\nkind = "runout"\nstrength_factor = 1.5\nmax_duration_s = 0.5\n'
+    "record_interval_s = 0.05\n\n[output]\nanimation_interval_s = 0.25\n"
+)
+"""The slope with a softening soil, failing in a runout stage, with an animation."""
+
+BASES = {"block": BLOCK, "slope": SLOPE, "sweep": SWEEP, "water": WATER, "runout": RUNOUT}
 
 ODD_VALUES = st.one_of(
     st.sampled_from([0, -1, 1, 2, 10**30, -(10**30), 0.0, -0.0, 1e-300, -1e-300, 1e308, -1e308, math.inf, -math.inf,

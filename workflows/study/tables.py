@@ -699,6 +699,11 @@ class Output(Record):
     )
 
 
+MAX_SNAPSHOTS = 2000
+"""A stage writes at most this many ParaView snapshots."""
+MAX_ANIMATION_FRAMES = 1000
+"""An animation has at most this many frames (they are kept in memory until the stage ends)."""
+
 MAX_SWEEP_CASES = 10000
 """A sweep makes at most this many cases."""
 
@@ -821,6 +826,7 @@ class Study(Record):
                 if name not in known:
                     raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
         self._check_water_and_loads()
+        self._check_frames()
         for i, monitor in enumerate(self.monitors):
             if not point_in_polygon((monitor.x_m, monitor.y_m), self.geometry.polygon_m):
                 raise StudyError(
@@ -861,3 +867,14 @@ class Study(Record):
         if seismic is not None and not seismic.in_gravity and self.strength_reduction is None:
             raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
                              "and this study has none")
+
+    def _check_frames(self):
+        snapshotted = [s for s in self.stages if not isinstance(s, StrengthReductionStage)]
+        animated = [s for s in self.stages if isinstance(s, (DynamicStage, RunoutStage))]
+        for name, limit, stages in (("snapshot_interval_s", MAX_SNAPSHOTS, snapshotted),
+                                    ("animation_interval_s", MAX_ANIMATION_FRAMES, animated)):
+            interval = getattr(self.output, name)
+            longest = max((getattr(stage, stage.duration_field) for stage in stages), default=0.0)
+            if interval is not None and longest / interval > limit:
+                raise StudyError(f"output.{name}", f"{interval:g} s gives {longest / interval:.3g} frames over the "
+                                 f"longest stage ({longest:g} s), more than {limit}")
