@@ -102,24 +102,16 @@ def run_stage(sim: Simulation, stage: StageBase, monitor_nodes: np.ndarray, prog
     ``displacement_discarded``: the next stage starts from the original positions, so a relaxation
     balances the water pressures of those positions (``Simulation.relax``)."""
     match stage:
-        case DynamicStage():
+        case DynamicStage() | RunoutStage():
+            at_rest = rest_rule(stage.rest_fraction, stage.rest_window_s) if isinstance(stage, RunoutStage) else None
             return sim.run(
-                stage.duration_s,
+                getattr(stage, stage.duration_field),
                 damping=stage.damping,
                 record_interval_s=stage.record_interval_s,
                 monitor_nodes=monitor_nodes,
                 progress=progress,
                 snapshot=snapshot,
-            )
-        case RunoutStage():
-            return sim.run(
-                stage.max_duration_s,
-                damping=stage.damping,
-                record_interval_s=stage.record_interval_s,
-                monitor_nodes=monitor_nodes,
-                progress=progress,
-                snapshot=snapshot,
-                stop=rest_rule(stage.rest_fraction, stage.rest_window_s),
+                stop=at_rest,
             )
         case RelaxationStage():
             return sim.relax(
