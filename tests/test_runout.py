@@ -146,3 +146,18 @@ def test_a_water_trigger_sets_the_pore_pressure_of_the_stage(tmp_path):
         np.testing.assert_allclose(wet["particle_pore_pressure"].values, 9810.0 * np.maximum(8.0 - y, 0.0),
                                    rtol=1e-12, atol=1e-6)
         assert float(wet["energy_load_potential"].values[-1]) != 0.0
+
+
+@pytest.mark.slow
+def test_reference_runout_settles_as_the_spacing_falls(tmp_path):
+    """SRF 2 of studies/runout_reference_slope.toml at h = 0.5 and 0.3 m: runout and retrogression
+    within 5% of each other (docs/verification.md has four spacings)."""
+    text = REFERENCE.replace("animation_interval_s = 0.1", "animation_interval_s = 5.0")
+    metrics = []
+    for spacing in ("0.5", "0.3"):
+        study = parse_study(text.replace("spacing_m = 0.3", f"spacing_m = {spacing}"))
+        run = run_study(study, tmp_path / spacing)
+        with xr.open_dataset(run.paths[1]) as srf2:
+            metrics.append((float(srf2["runout_m"]), float(srf2["retrogression_m"])))
+    for coarse, fine in zip(*metrics):
+        assert abs(coarse / fine - 1.0) < 0.05
