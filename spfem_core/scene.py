@@ -230,12 +230,6 @@ class Scene:
             raise ValueError(f"Scene.water_unit_weight_n_m3: must be > 0, got {self.water_unit_weight_n_m3}")
 
     @property
-    def has_external_loads(self) -> bool:
-        """Water or surface loads act (``external_forces``); otherwise their work is skipped."""
-        return (self.node_load_n is not None or self.node_pore_pressure_pa is not None
-                or bool(np.any(self.node_phreatic_line >= 0)) or self.pond_level_m is not None)
-
-    @property
     def particle_density_kg_m3(self) -> np.ndarray:
         """Mass density of every particle (n,): ``node_density_kg_m3`` or its material's."""
         if self.node_density_kg_m3 is not None:

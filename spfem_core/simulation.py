@@ -97,20 +97,17 @@ class Simulation:
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
         self.gravity_m_s2 = scene.gravity_m_s2.copy()
-        self.water_lines_m = scene.phreatic_lines_m
+        self.mesh = None
         self.loads = ExternalLoads(
-            active=scene.has_external_loads,
+            active=False,
             node_force_n=np.zeros((n, 2)) if scene.node_load_n is None else scene.node_load_n,
             node_pore_pressure_pa=np.zeros(n) if scene.node_pore_pressure_pa is None else scene.node_pore_pressure_pa,
-            phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *scene.phreatic_lines_m])),
-            phreatic_start=np.cumsum([0] + [line.shape[0] for line in scene.phreatic_lines_m], dtype=np.int64),
-            node_phreatic_line=scene.node_phreatic_line,
-            water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3),
-            pond_level_m=np.nan if scene.pond_level_m is None else float(scene.pond_level_m),
-            boundary_edges=np.zeros((0, 2), dtype=np.int64),
-            at_initial_positions=False,
-            ramp_time_s=0.0,
+            phreatic_xy_m=np.zeros((0, 2)), phreatic_start=np.zeros(1, dtype=np.int64),
+            node_phreatic_line=np.full(n, -1, dtype=np.int64),
+            water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3), pond_level_m=np.nan,
+            boundary_edges=np.zeros((0, 2), dtype=np.int64), at_initial_positions=False, ramp_time_s=0.0,
         )
+        self.set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
@@ -187,7 +184,8 @@ class Simulation:
     def set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
         """Pore and ponded water from now on (a water-level change): the piezometric lines, the line
         of each particle (-1: none; default: the first line for all, or none), the ponded water level
-        (None: none); the scene's own water is what ``Simulation`` starts with."""
+        (None: none); a simulation starts with the scene's own.  The loads are active (their kernel
+        runs) when there are surface loads, an ru pore pressure, a line or a pond."""
         lines = tuple(np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2) for line in phreatic_lines_m)
         if node_phreatic_line is None:
             node_phreatic_line = np.full(self.n_particles, 0 if lines else -1, dtype=np.int64)
@@ -200,7 +198,8 @@ class Simulation:
             phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *lines])),
             phreatic_start=np.cumsum([0] + [line.shape[0] for line in lines], dtype=np.int64),
             node_phreatic_line=node_line, pond_level_m=pond,
-            boundary_edges=boundary_edges(self.mesh.elem_nodes) if pond == pond else np.zeros((0, 2), dtype=np.int64),
+            boundary_edges=(boundary_edges(self.mesh.elem_nodes) if pond == pond and self.mesh is not None
+                            else np.zeros((0, 2), dtype=np.int64)),
         )
 
     def set_load_ramp(self, ramp_time_s: float):

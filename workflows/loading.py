@@ -116,19 +116,27 @@ def surface_load_forces(study: Study, node_xy_m: np.ndarray, spacing_m: float, a
     return force
 
 
+def downslope_sign(polygon_m) -> float | None:
+    """+1 when the ground surface is lower at the right end of the domain than at the left, -1 when
+    it is lower at the left, None when both ends are as high."""
+    xs = [x for x, _ in polygon_m]
+    left, right = surface_height_m(polygon_m, np.array([min(xs), max(xs)]))
+    if math.isclose(left, right, rel_tol=0.0, abs_tol=1e-9 * (1.0 + abs(left))):
+        return None
+    return 1.0 if right < left else -1.0
+
+
 def seismic_direction(study: Study, direction: str | None = None) -> float:
     """+1 or -1: the x direction of the horizontal seismic force (``direction``, by default
-    ``loads.seismic.direction``); ``out_of_slope`` points to the end of the domain where the ground
-    surface is lower."""
+    ``loads.seismic.direction``); ``out_of_slope`` is :func:`downslope_sign`."""
     direction = direction or study.loads.seismic.direction
     if direction != "out_of_slope":
         return 1.0 if direction == "+x" else -1.0
-    xs = [x for x, _ in study.geometry.polygon_m]
-    left, right = surface_height_m(study.geometry.polygon_m, np.array([min(xs), max(xs)]))
-    if math.isclose(left, right, rel_tol=0.0, abs_tol=1e-9 * (1.0 + abs(left))):
+    sign = downslope_sign(study.geometry.polygon_m)
+    if sign is None:
         raise StudyError("loads.seismic.direction", "the ground surface is as high at both ends of the domain, so "
                          "out_of_slope has no meaning here: give +x or -x")
-    return 1.0 if left > right else -1.0
+    return sign
 
 
 def body_acceleration_m_s2(study: Study, strength_reduction: bool) -> np.ndarray:

@@ -56,8 +56,7 @@ def prepare_stage(sim: Simulation, study: Study, stage: StageBase, index: int) -
     sim.set_supports(*supports(study, sim.scene, stage.boundary))
     sim.set_load_ramp((study.loads.ramp_time_s or 0.0) if index == 0 else 0.0)
     sim.set_gravity(stage_acceleration_m_s2(study, stage))
-    if isinstance(stage, RunoutStage) or index > 0:
-        sim.set_water(*stage_water(study, stage, sim.scene.node_material))
+    sim.set_water(*stage_water(study, stage, sim.scene.node_material))
     if index > 0 and stage.start == "original_positions":
         sim.discard_displacement()
 

@@ -74,7 +74,7 @@ def _bin_index(coordinate_m: np.ndarray, spacing_m: float) -> np.ndarray:
     return np.floor(coordinate_m / spacing_m + 0.5).astype(np.int64)
 
 
-def _upper_envelope(node_xy_m: np.ndarray, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:
+def upper_envelope(node_xy_m: np.ndarray, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:
     """(bin index, particle index) of the highest particle of every occupied x bin, by bin."""
     k = _bin_index(node_xy_m[:, 0], spacing_m)
     order = np.lexsort((node_xy_m[:, 1], k))
@@ -95,7 +95,7 @@ def _main_deposit(node_xy_m: np.ndarray, spacing_m: float) -> np.ndarray:
 def _deposit_profile(node_xy_m: np.ndarray, spacing_m: float) -> tuple[np.ndarray, np.ndarray, float]:
     """(x, height, x_front) of the main deposit's profile; height 0 at x_front if x_front is past the last point."""
     deposit_xy_m = _main_deposit(node_xy_m, spacing_m)
-    _, top = _upper_envelope(deposit_xy_m, spacing_m)
+    _, top = upper_envelope(deposit_xy_m, spacing_m)
     x_m, height_m = deposit_xy_m[top, 0], deposit_xy_m[top, 1]
     x_front_m = float(deposit_xy_m[:, 0].max())
     if x_front_m > x_m[-1]:
@@ -135,7 +135,7 @@ def surface_profile(node_xy_m, spacing_m: float, x_grid_m=None) -> tuple[np.ndar
     """
     node_xy_m = _xy(node_xy_m, "node_xy_m")
     spacing_m = _positive(spacing_m, "spacing_m")
-    k_top, top = _upper_envelope(node_xy_m, spacing_m)
+    k_top, top = upper_envelope(node_xy_m, spacing_m)
     k_first = min(0, int(k_top[0]))
     n_bins = int(k_top[-1]) - k_first + 1
     x_m = (np.arange(n_bins) + k_first) * spacing_m
@@ -201,7 +201,7 @@ def surface_slope_deg(node_xy_m, spacing_m: float, x_range_m=(0.02, 0.20)) -> fl
     node_xy_m = _xy(node_xy_m, "node_xy_m")
     spacing_m = _positive(spacing_m, "spacing_m")
     deposit_xy_m = _main_deposit(node_xy_m, spacing_m)
-    _, top = _upper_envelope(deposit_xy_m, spacing_m)
+    _, top = upper_envelope(deposit_xy_m, spacing_m)
     x_m, y_m = deposit_xy_m[top, 0], deposit_xy_m[top, 1]
     inside = (x_m >= x_range_m[0]) & (x_m <= x_range_m[1])
     if np.count_nonzero(inside) < 2:

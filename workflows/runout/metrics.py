@@ -1,7 +1,7 @@
 """What a runout did, from its final state and its records.
 
 The slide goes down the slope: +x when the ground surface is lower at the right end of the domain
-than at the left (the slope form's crest is on the left), -x otherwise; below, x is measured along
+than at the left (the slope form's crest is on the left), -x otherwise (``loading.downslope_sign``); below, x is measured along
 that direction.  With y_0(x) the initial ground surface (the polygon's upper boundary) and y(x) the
 final one (the upper envelope of the particles in the mesh, in bins of width h), and t the deposit
 thickness (``deposit_thickness_m``):
@@ -28,23 +28,14 @@ import math
 import numpy as np
 
 from spfem_core.records import ENERGY_GRAVITY_POTENTIAL, ENERGY_LOAD_POTENTIAL
-from workflows.loading import surface_height_m
+from workflows.collapse.metrics import upper_envelope
+from workflows.loading import downslope_sign, surface_height_m
 from workflows.runout.rest import time_to_rest_s
-
-
-def downslope_sign(polygon_m) -> float:
-    """+1 when the ground surface is lower at the right end of the domain, else -1."""
-    xs = [x for x, _ in polygon_m]
-    left, right = surface_height_m(polygon_m, np.array([min(xs), max(xs)]))
-    return 1.0 if right < left else -1.0
 
 
 def final_surface(node_xy_m: np.ndarray, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:
     """(x, height): the highest particle of every occupied bin of width h, by x."""
-    bins = np.floor(node_xy_m[:, 0] / spacing_m + 0.5).astype(np.int64)
-    order = np.lexsort((node_xy_m[:, 1], bins))
-    last = np.r_[np.flatnonzero(bins[order][1:] != bins[order][:-1]), order.size - 1]
-    top = order[last]
+    _, top = upper_envelope(node_xy_m, spacing_m)
     return node_xy_m[top, 0], node_xy_m[top, 1]
 
 
@@ -67,7 +58,7 @@ def runout_summary(polygon_m, node_xy_m, node_displacement_m, node_initial_area_
                    time_s, energy_j_per_m, max_speed_m_s, *, deposit_thickness_m: float, moved_threshold_m: float,
                    rest_fraction: float, rest_window_s: float) -> dict[str, float]:
     """The scalars of the module doc, keys with units."""
-    sign = downslope_sign(polygon_m)
+    sign = downslope_sign(polygon_m) or -1.0
     surface_x, surface_y = final_surface(node_xy_m, spacing_m)
     along, change, toe, crest = surface_change(polygon_m, surface_x, surface_y, sign)
     valid = np.isfinite(change)
