@@ -18,10 +18,16 @@ from workflows.runout.metrics import final_surface, runout_summary
 from workflows.study import Metrics, RunoutStage, Study
 
 
-def metrics_variables(metrics: Metrics, sim) -> dict[str, tuple]:
-    """Dataset variables (name -> (dims, values, attrs)) of ``metrics`` on ``sim``'s final state."""
+def _in_mesh(sim) -> np.ndarray:
+    """True for the particles in the final mesh (one in flight would raise the surface envelope)."""
     meshed = np.ones(sim.n_particles, dtype=bool)
     meshed[sim.mesh.orphan_nodes] = False
+    return meshed
+
+
+def metrics_variables(metrics: Metrics, sim) -> dict[str, tuple]:
+    """Dataset variables (name -> (dims, values, attrs)) of ``metrics`` on ``sim``'s final state."""
+    meshed = _in_mesh(sim)
     xy = sim.nodes.xy_m[meshed]
     xy0 = sim.initial_xy_m[meshed]
     h = sim.scene.spacing_m
@@ -57,8 +63,7 @@ DEFAULT_MOVED_FRACTION = 0.01
 
 def add_runout_metrics(dataset: xr.Dataset, study: Study, stage: RunoutStage, series, sim) -> xr.Dataset:
     """``dataset`` with the runout metrics (``workflows.runout.metrics``) of ``stage`` added."""
-    meshed = np.ones(sim.n_particles, dtype=bool)
-    meshed[sim.mesh.orphan_nodes] = False
+    meshed = _in_mesh(sim)
     height = slope_height_m(study)
     thickness = stage.deposit_thickness_m or DEFAULT_DEPOSIT_THICKNESS * height
     moved = stage.moved_threshold_m or DEFAULT_MOVED_FRACTION * height
