@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import inner_kernel, kernel
+import numpy as np
+from numba import prange
+
+from spfem_core.jit import PARALLEL_CHUNK, inner_kernel, kernel, parallel_inner_kernel
 from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update, tension_cutoff
 from spfem_core.scene import MODEL_DRUCKER_PRAGER, MODEL_ELASTIC
 
@@ -62,7 +65,7 @@ def softened_strength(mat_params, m, plastic_strain):
     return cohesion, sin_phi, math.cos(phi), min(mat_params[m, 3], sin_phi)
 
 
-@inner_kernel
+@parallel_inner_kernel
 def update_stress(
     node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt
 ):
@@ -70,49 +73,58 @@ def update_stress(
 
     Elastic rows take the Hooke increment; Drucker-Prager and Mohr-Coulomb rows the elastic
     trial and return map of ``plasticity``.  Adds the equivalent plastic strain increment to
-    ``node_plastic_strain`` and returns the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m).
+    ``node_plastic_strain`` and returns the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m),
+    summed in fixed chunks of particles (``jit`` module doc).
     """
+    n_node = node_stress.shape[0]
+    n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
+    chunk_work = np.zeros(n_chunk)
+    for chunk in prange(n_chunk):
+        plastic_work = 0.0
+        for k in range(chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node)):
+            area = node_area[k]
+            if area <= 0.0:
+                continue  # a particle in no triangle carries its stress unchanged
+            lxx = node_L[k, 0]
+            lxy = node_L[k, 1]
+            lyx = node_L[k, 2]
+            lyy = node_L[k, 3]
+            rotate_jaumann(node_stress, k, lxy, lyx, dt)
+            m = node_material[k]
+            dxx = lxx * dt
+            dyy = lyy * dt
+            dxy = 0.5 * (lxy + lyx) * dt
+            model = mat_model[m]
+            if model == MODEL_ELASTIC:
+                elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m])
+                continue
+            if model == MODEL_DRUCKER_PRAGER:
+                d_eq, work = drucker_prager_update(
+                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                    mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
+                )
+            elif mat_params[m, 10] == 0.0:
+                d_eq, work = mohr_coulomb_update(
+                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                    mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
+                )
+            else:
+                cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, m, node_plastic_strain[k])
+                d_eq, work = mohr_coulomb_update(
+                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m], cohesion, sin_phi, cos_phi, sin_psi,
+                )
+            tensile_strength = mat_params[m, 4]
+            if tensile_strength < math.inf:
+                d_eq_t, work_t = tension_cutoff(node_stress, k, model == MODEL_DRUCKER_PRAGER, tensile_strength,
+                                                mat_lambda[m], mat_shear[m])
+                d_eq += d_eq_t
+                work += work_t
+            node_plastic_strain[k] += d_eq
+            plastic_work += area * work
+        chunk_work[chunk] = plastic_work
     plastic_work = 0.0
-    for k in range(node_stress.shape[0]):
-        area = node_area[k]
-        if area <= 0.0:
-            continue  # a particle in no triangle carries its stress unchanged
-        lxx = node_L[k, 0]
-        lxy = node_L[k, 1]
-        lyx = node_L[k, 2]
-        lyy = node_L[k, 3]
-        rotate_jaumann(node_stress, k, lxy, lyx, dt)
-        m = node_material[k]
-        dxx = lxx * dt
-        dyy = lyy * dt
-        dxy = 0.5 * (lxy + lyx) * dt
-        model = mat_model[m]
-        if model == MODEL_ELASTIC:
-            elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m])
-            continue
-        if model == MODEL_DRUCKER_PRAGER:
-            d_eq, work = drucker_prager_update(
-                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
-                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
-            )
-        elif mat_params[m, 10] == 0.0:
-            d_eq, work = mohr_coulomb_update(
-                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
-                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
-            )
-        else:
-            cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, m, node_plastic_strain[k])
-            d_eq, work = mohr_coulomb_update(
-                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m], cohesion, sin_phi, cos_phi, sin_psi,
-            )
-        tensile_strength = mat_params[m, 4]
-        if tensile_strength < math.inf:
-            d_eq_t, work_t = tension_cutoff(node_stress, k, model == MODEL_DRUCKER_PRAGER, tensile_strength,
-                                            mat_lambda[m], mat_shear[m])
-            d_eq += d_eq_t
-            work += work_t
-        node_plastic_strain[k] += d_eq
-        plastic_work += area * work
+    for chunk in range(n_chunk):
+        plastic_work += chunk_work[chunk]
     return plastic_work
 
 

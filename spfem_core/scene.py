@@ -285,3 +285,4 @@ class SolverSettings:
     stabilisation_beta: float = 0.0
     min_angle_deg: float = 20.0  # rebuild the mesh when the smallest angle falls below this (adaptive, see Simulation)
     crowded_fraction: float = 0.2  # after a rebuild, smooth particles closer than this * h to a neighbour
+    threads: int = 0  # threads of the compiled step (0: all numba has, the cores); results do not depend on it

@@ -15,6 +15,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from spfem_core.divergence import DivergenceError, EnergyWatch, speed_reason
+from spfem_core.jit import set_threads
 from spfem_core.mesh import Mesh, boundary_edges
 from spfem_core.records import RecordBuffers, TimeSeries, record_state
 from spfem_core.remeshing import ANGLE_MARGIN_RAD, Remesher
@@ -88,6 +89,7 @@ class Simulation:
         gravity with the nominal mass rho h^2 until they land); otherwise such a cloud is an error."""
         self.scene = scene
         self.settings = settings or SolverSettings()
+        set_threads(self.settings.threads)
         n = scene.n_particles
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
@@ -144,8 +146,10 @@ class Simulation:
         if self.loads.pond_level_m == self.loads.pond_level_m:  # not NaN: ponded water follows the boundary
             self.loads = self.loads._replace(boundary_edges=boundary_edges(mesh.elem_nodes))
         self.n_orphans = int(mesh.orphan_nodes.size)
-        self.scratch = self.scratch.with_elements(mesh.n_elem)
-        smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, self.scratch.elem_geom,
+        self.scratch = self.scratch.with_elements(mesh.n_elem, mesh.n_edges)
+        self.mesh_arrays = mesh.arrays
+        smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.node_elem_ptr,
+                                 mesh.node_elem_idx, self.scratch.elem_geom, self.scratch.elem_weighted_gradient,
                                  self.scratch.velocity_gradient, self.scratch.area_m2)
 
     def _critical_dt(self) -> float:
@@ -343,6 +347,7 @@ class Simulation:
         if not 0.0 <= damping < 1.0:
             raise ValueError(f"damping must be in [0, 1), got {damping}")
         start_wall = time.perf_counter()
+        set_threads(self.settings.threads)  # numba's choice is per calling thread
         monitor_nodes = np.ascontiguousarray(monitor_nodes, dtype=np.int64).reshape(-1)
         interval = float(record_interval_s) if record_interval_s else max(duration_s / 1000.0, self.dt_s)
         records = RecordBuffers.empty(int(min(duration_s / interval, 1e6)) + 2, monitor_nodes.size)
@@ -374,7 +379,7 @@ class Simulation:
             n_want = schedule.next_call_steps(stage_time, self.dt_s, n_steps)
             call_start = time.perf_counter()
             status, done = advance(
-                self.nodes, self.scratch, self.mesh.elem_nodes, self.mesh.edge_nodes, self.material_arrays,
+                self.nodes, self.scratch, self.mesh_arrays, self.material_arrays,
                 self.walls, self.loads, self._parameters(damping, tolerance), n_want, stage_time, interval, monitor_nodes,
                 records, self.dissipated, self.loop,
             )

@@ -11,32 +11,35 @@ without forming per-node gradient lists.  The internal force is the matching tra
     f_I = sum_k A_k B_I(x_k)^T sigma_k = sum_{e ∋ I} A_e B_I^e^T sigma_bar_e,
     sigma_bar_e = (sigma_i + sigma_j + sigma_k) / 3.
 
+Both run as two parallel loops (``jit`` module doc): one over elements, writing each
+element's own terms, then one over nodes, each summing its elements' terms in ascending
+element order (``Mesh.node_elem_*``).
+
 Velocity gradients are stored as (xx, xy, yx, yy) with L_ab = d v_a / d x_b.
 """
 
 from __future__ import annotations
 
-from spfem_core.jit import kernel
+from numba import prange
+
+from spfem_core.jit import parallel_kernel
 
 
-@kernel
-def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_geom, node_L, node_area):
+@parallel_kernel
+def smooth_velocity_gradient(node_xy, node_v, elem_nodes, node_elem_ptr, node_elem_idx, elem_geom, elem_weighted,
+                             node_L, node_area):
     """Element geometry and the smoothed velocity gradient of every node.
 
-    Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN_I/dx, c_I = dN_I/dy
-    and A_e from the current coordinates, ``node_area`` with A_k and ``node_L`` with L_k (zero
-    for a particle in no triangle).
+    Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN/dx, c_I = dN/dy and
+    A_e from the current coordinates, ``elem_weighted`` (n_elem, 5) with A_e / 3 and
+    (A_e / 3) L_e, ``node_area`` with A_k and ``node_L`` with L_k (zero for a particle in no
+    triangle).
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
     """
-    n_node = node_xy.shape[0]
-    for k in range(n_node):
-        node_area[k] = 0.0
-        for c in range(4):
-            node_L[k, c] = 0.0
     n_inverted = 0
     max_rate_sq = 0.0
-    for e in range(elem_nodes.shape[0]):
+    for e in prange(elem_nodes.shape[0]):
         i = elem_nodes[e, 0]
         j = elem_nodes[e, 1]
         k = elem_nodes[e, 2]
@@ -69,34 +72,50 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_geom, node_L, nod
         lxy = vxi * ci + vxj * cj + vxk * ck
         lyx = vyi * bi + vyj * bj + vyk * bk
         lyy = vyi * ci + vyj * cj + vyk * ck
-        dxy = 0.5 * (lxy + lyx)
-        rate_sq = lxx * lxx + lyy * lyy + 2.0 * dxy * dxy
-        if rate_sq > max_rate_sq:
-            max_rate_sq = rate_sq
         w = area / 3.0
-        for n in (i, j, k):
-            node_area[n] += w
-            node_L[n, 0] += w * lxx
-            node_L[n, 1] += w * lxy
-            node_L[n, 2] += w * lyx
-            node_L[n, 3] += w * lyy
-    for n in range(n_node):
-        a = node_area[n]
+        elem_weighted[e, 0] = w
+        elem_weighted[e, 1] = w * lxx
+        elem_weighted[e, 2] = w * lxy
+        elem_weighted[e, 3] = w * lyx
+        elem_weighted[e, 4] = w * lyy
+        dxy = 0.5 * (lxy + lyx)
+        max_rate_sq = max(max_rate_sq, lxx * lxx + lyy * lyy + 2.0 * dxy * dxy)
+    for n in prange(node_xy.shape[0]):
+        a = 0.0
+        l0 = 0.0
+        l1 = 0.0
+        l2 = 0.0
+        l3 = 0.0
+        for p in range(node_elem_ptr[n], node_elem_ptr[n + 1]):
+            e = node_elem_idx[p]
+            a += elem_weighted[e, 0]
+            l0 += elem_weighted[e, 1]
+            l1 += elem_weighted[e, 2]
+            l2 += elem_weighted[e, 3]
+            l3 += elem_weighted[e, 4]
+        node_area[n] = a
         if a > 0.0:
             inv_a = 1.0 / a
-            for c in range(4):
-                node_L[n, c] *= inv_a
+            l0 *= inv_a
+            l1 *= inv_a
+            l2 *= inv_a
+            l3 *= inv_a
+        node_L[n, 0] = l0
+        node_L[n, 1] = l1
+        node_L[n, 2] = l2
+        node_L[n, 3] = l3
     return n_inverted, max_rate_sq
 
 
-@kernel
-def add_internal_force(elem_nodes, elem_geom, node_stress, node_force):
-    """node_force[I] -= A_e B_I^e^T sigma_bar_e for every element (sigma_bar_e: vertex mean).
+@parallel_kernel
+def add_internal_force(elem_nodes, node_elem_ptr, node_elem_slot, elem_geom, corner_force, node_stress, node_force):
+    """node_force[I] = -sum_{e ∋ I} A_e B_I^e^T sigma_bar_e (sigma_bar_e: vertex mean), overwriting
+    ``node_force``; ``corner_force`` (3 n_elem, 2) keeps each element's term of each corner.
 
     With B_I^T sigma = (b_I s_xx + c_I s_xy, b_I s_xy + c_I s_yy).
     """
     third = 1.0 / 3.0
-    for e in range(elem_nodes.shape[0]):
+    for e in prange(elem_nodes.shape[0]):
         i = elem_nodes[e, 0]
         j = elem_nodes[e, 1]
         k = elem_nodes[e, 2]
@@ -104,9 +123,17 @@ def add_internal_force(elem_nodes, elem_geom, node_stress, node_force):
         syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
         sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
         area = elem_geom[e, 6]
-        for local in range(3):
-            n = elem_nodes[e, local]
-            b = elem_geom[e, local] * area
-            c = elem_geom[e, 3 + local] * area
-            node_force[n, 0] -= b * sxx + c * sxy
-            node_force[n, 1] -= b * sxy + c * syy
+        for corner in range(3):
+            b = elem_geom[e, corner] * area
+            c = elem_geom[e, 3 + corner] * area
+            corner_force[3 * e + corner, 0] = b * sxx + c * sxy
+            corner_force[3 * e + corner, 1] = b * sxy + c * syy
+    for n in prange(node_force.shape[0]):
+        fx = 0.0
+        fy = 0.0
+        for p in range(node_elem_ptr[n], node_elem_ptr[n + 1]):
+            slot = node_elem_slot[p]
+            fx -= corner_force[slot, 0]
+            fy -= corner_force[slot, 1]
+        node_force[n, 0] = fx
+        node_force[n, 1] = fy

@@ -20,50 +20,81 @@ The viscosity per bond grows as 1 / |x0|^2: for a bond much shorter than the spa
 (two particles pressed together after a remesh) it exceeds what an explicit step can
 integrate (c dt / m ~ beta/2 cfl^2 h^2/|x0|^2) and the run blows up.  |x0|^2 is therefore
 bounded below by ``min_bond_sq`` = (h/2)^2, which changes nothing on ordinary bonds.
+
+Two parallel loops (``jit`` module doc): one over bonds stores each bond's force, one over
+nodes adds the forces of the node's bonds in ascending bond order (``Mesh.node_edge_idx``).
 """
 
 from __future__ import annotations
 
 import math
 
-from spfem_core.jit import inner_kernel
+import numpy as np
+from numba import prange
+
+from spfem_core.jit import PARALLEL_CHUNK, parallel_inner_kernel
 
 
-@inner_kernel
+@parallel_inner_kernel
 def add_stabilisation_force(
-    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, beta, dt, min_bond_sq, node_force
+    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, node_node_ptr, node_node_idx,
+    node_edge_idx, beta, dt, min_bond_sq, edge_force, node_force
 ):
-    """Add the bond forces f_ij over every mesh edge (i, j) to node_force; return their power
-    sum f . v (W/m; negative when the bonds remove energy, as they do on a whole mesh)."""
+    """Add the bond forces f_ij over every mesh edge (i, j) to node_force (``edge_force``
+    (n_edges, 2) keeps each bond's force on j); return their power sum f . v (W/m; negative
+    when the bonds remove energy, as they do on a whole mesh)."""
     half_beta = 0.5 * beta
+    n_edges = edge_nodes.shape[0]
+    n_chunk = (n_edges + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
+    chunk_power = np.zeros(n_chunk)
+    for chunk in prange(n_chunk):
+        power = 0.0
+        for b in range(chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_edges)):
+            i = edge_nodes[b, 0]
+            j = edge_nodes[b, 1]
+            dx = node_xy[j, 0] - node_xy[i, 0]
+            dy = node_xy[j, 1] - node_xy[i, 1]
+            dvx = node_v[j, 0] - node_v[i, 0]
+            dvy = node_v[j, 1] - node_v[i, 1]
+            x0x = dx - dvx * dt
+            x0y = dy - dvy * dt
+            length0_sq = x0x * x0x + x0y * x0y
+            length_sq = dx * dx + dy * dy
+            if length0_sq <= 0.0 or length_sq <= 0.0:
+                edge_force[b, 0] = 0.0
+                edge_force[b, 1] = 0.0
+                continue
+            inv_length = 1.0 / math.sqrt(length_sq)
+            ex = dx * inv_length
+            ey = dy * inv_length
+            # velocity error of the linear field of node i / node j along e, times dt
+            err_i = ((node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * ex
+                     + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * ey)
+            err_j = ((node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex
+                     + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey)
+            ea_i = mat_youngs[node_material[i]] * node_area[i]
+            ea_j = mat_youngs[node_material[j]] * node_area[j]
+            f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / max(length0_sq, min_bond_sq)
+            fx = f * ex
+            fy = f * ey
+            edge_force[b, 0] = fx
+            edge_force[b, 1] = fy
+            power += fx * dvx + fy * dvy
+        chunk_power[chunk] = power
+    for n in prange(node_force.shape[0]):
+        fx = node_force[n, 0]
+        fy = node_force[n, 1]
+        for p in range(node_node_ptr[n], node_node_ptr[n + 1]):
+            b = node_edge_idx[p]
+            if node_node_idx[p] > n:  # n is the bond's i: the force on i is -f
+                fx -= edge_force[b, 0]
+                fy -= edge_force[b, 1]
+            else:
+                fx += edge_force[b, 0]
+                fy += edge_force[b, 1]
+        node_force[n, 0] = fx
+        node_force[n, 1] = fy
     power = 0.0
-    for b in range(edge_nodes.shape[0]):
-        i = edge_nodes[b, 0]
-        j = edge_nodes[b, 1]
-        dx = node_xy[j, 0] - node_xy[i, 0]
-        dy = node_xy[j, 1] - node_xy[i, 1]
-        dvx = node_v[j, 0] - node_v[i, 0]
-        dvy = node_v[j, 1] - node_v[i, 1]
-        x0x = dx - dvx * dt
-        x0y = dy - dvy * dt
-        length0_sq = x0x * x0x + x0y * x0y
-        length_sq = dx * dx + dy * dy
-        if length0_sq <= 0.0 or length_sq <= 0.0:
-            continue
-        inv_length = 1.0 / math.sqrt(length_sq)
-        ex = dx * inv_length
-        ey = dy * inv_length
-        # velocity error of the linear field of node i / node j along e, times dt
-        err_i = (node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * ex + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * ey
-        err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey
-        ea_i = mat_youngs[node_material[i]] * node_area[i]
-        ea_j = mat_youngs[node_material[j]] * node_area[j]
-        f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / max(length0_sq, min_bond_sq)
-        fx = f * ex
-        fy = f * ey
-        node_force[j, 0] += fx
-        node_force[j, 1] += fy
-        node_force[i, 0] -= fx
-        node_force[i, 1] -= fy
-        power += fx * dvx + fy * dvy
+    for chunk in range(n_chunk):
+        power += chunk_power[chunk]
     return power

@@ -64,18 +64,19 @@ def new_accumulators() -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
-def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, params, n_steps, time_start_s,
+def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time_start_s,
             record_interval_s, monitor_nodes, records, dissipated, loop):
     """Run up to ``n_steps`` steps from stage time ``time_start_s``; return (status, steps done).
 
     ``nodes`` (``state.NodeState``) and ``scratch`` (``state.StepScratch``) are updated in place
-    on the mesh ``elem_nodes`` (counter-clockwise triangles) with bonds ``edge_nodes``;
+    on the mesh ``mesh`` (``state.MeshArrays``);
     ``materials``, ``walls``, ``loads``, ``params`` are ``state.MaterialArrays``, ``state.Walls``,
     ``state.ExternalLoads``, ``state.StepParameters``.  A row of ``records`` (``records.RecordBuffers``) is written every
     ``record_interval_s`` of stage time for the particles ``monitor_nodes``; ``dissipated`` and
     ``loop`` are the accumulators of :func:`new_accumulators`.  See the module doc for when it
     returns early.
     """
+    elem_nodes = mesh.elem_nodes
     node_xy = nodes.xy_m
     node_v = nodes.velocity_m_s
     node_force = scratch.force_n
@@ -88,7 +89,8 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, par
     half_dt = 0.5 * dt
     for s in range(n_steps):
         n_inverted, max_rate_sq = smooth_velocity_gradient(
-            node_xy, node_v, elem_nodes, scratch.elem_geom, scratch.velocity_gradient, scratch.area_m2
+            node_xy, node_v, elem_nodes, mesh.node_elem_ptr, mesh.node_elem_idx, scratch.elem_geom,
+            scratch.elem_weighted_gradient, scratch.velocity_gradient, scratch.area_m2
         )
         if n_inverted > 0:
             return STATUS_INVERTED, s
@@ -96,12 +98,13 @@ def advance(nodes, scratch, elem_nodes, edge_nodes, materials, walls, loads, par
             scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material,
             materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa, materials.params, dt,
         )
-        node_force[:, :] = 0.0
-        add_internal_force(elem_nodes, scratch.elem_geom, nodes.stress_pa, node_force)
+        add_internal_force(elem_nodes, mesh.node_elem_ptr, mesh.node_elem_slot, scratch.elem_geom,
+                           scratch.corner_force_n, nodes.stress_pa, node_force)
         if use_stabilisation:
             stab_power = add_stabilisation_force(
                 node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.material,
-                materials.youngs_modulus_pa, edge_nodes, beta, dt, 0.25 * params.spacing_m * params.spacing_m,
+                materials.youngs_modulus_pa, mesh.edge_nodes, mesh.node_node_ptr, mesh.node_node_idx,
+                mesh.node_edge_idx, beta, dt, 0.25 * params.spacing_m * params.spacing_m, scratch.edge_force_n,
                 node_force,
             )
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from spfem_core.jit import kernel
+from spfem_core.mesh import mesh_from_elements
 from spfem_core.smoothing import smooth_velocity_gradient
 from spfem_core.state import ELEM_GEOM_WIDTH
 
@@ -14,12 +15,14 @@ def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes
     """The time loop's smoothed gradient of a nodal vector field (n, 2) on the triangles
     ``elem_nodes``: (L (n, 4) as xx, xy, yx, yy; cell areas A_k (n,); element geometry)."""
     n = node_xy_m.shape[0]
-    elem_geom = np.zeros((elem_nodes.shape[0], ELEM_GEOM_WIDTH))
+    mesh = mesh_from_elements(elem_nodes, n)
+    elem_geom = np.zeros((mesh.n_elem, ELEM_GEOM_WIDTH))
     node_L = np.zeros((n, 4))
     node_area = np.zeros(n)
     smooth_velocity_gradient(np.ascontiguousarray(node_xy_m, dtype=np.float64),
-                             np.ascontiguousarray(node_values, dtype=np.float64),
-                             np.ascontiguousarray(elem_nodes, dtype=np.int64), elem_geom, node_L, node_area)
+                             np.ascontiguousarray(node_values, dtype=np.float64), mesh.elem_nodes,
+                             mesh.node_elem_ptr, mesh.node_elem_idx, elem_geom, np.zeros((mesh.n_elem, 5)), node_L,
+                             node_area)
     return node_L, node_area, elem_geom
 
 

@@ -124,13 +124,15 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None):
     return fixed, velocity
 
 
-def solver_settings(study: Study) -> SolverSettings:
-    """Time step rule and stabilisation of ``study``."""
+def solver_settings(study: Study, threads: int = 0) -> SolverSettings:
+    """Time step rule and stabilisation of ``study``; the compiled step on ``threads`` threads
+    (0: all cores, for a study's single runs; 1 on a dask worker, which shares its cores with
+    the other workers' runs)."""
     solver = study.solver
     cfl = DEFAULT_CFL if solver.cfl is None else solver.cfl
     return SolverSettings(
         cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta,
-        min_angle_deg=solver.remesh_min_angle_deg,
+        min_angle_deg=solver.remesh_min_angle_deg, threads=threads,
     )
 
 

@@ -133,12 +133,12 @@ MAX_RECORDS_PER_STAGE = 1e7
 """A stage that would record more rows than this is refused (gigabytes of monitor history)."""
 
 
-def new_simulation(study: Study, scene) -> Simulation:
-    """The study's Simulation; what the core refuses is a StudyError naming the field: a time step
+def new_simulation(study: Study, scene, threads: int = 0) -> Simulation:
+    """The study's Simulation (the compiled step on ``threads`` threads, 0: all cores); what the core refuses is a StudyError naming the field: a time step
     (``solver.cfl`` or ``solver.dt_s``), or particles the first mesh leaves out (``geometry.spacing_m``);
     and so is a stage too long for the time step (:func:`check_stage_lengths`)."""
     try:
-        sim = Simulation(scene, solver_settings(study))
+        sim = Simulation(scene, solver_settings(study, threads))
     except UnstableTimeStepError as error:
         raise StudyError("solver.dt_s" if study.solver.dt_s is not None else "solver.cfl", str(error)) from None
     except DetachedParticlesError as error:

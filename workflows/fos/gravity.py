@@ -90,7 +90,7 @@ def run_gravity(study_text: str) -> GravityResult:
     key = gravity_key(study)
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    sim = new_simulation(study, scene)
+    sim = new_simulation(study, scene, threads=1)  # a dask worker: one core of its own
     datasets, unconverged = [], []
     for index, stage in enumerate(study.stages[:-1]):
         series, dataset = run_stage_result(study, sim, index, monitors)

@@ -140,7 +140,7 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     stage_index = len(study.stages) - 1
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    sim = Simulation(scene, solver_settings(study))
+    sim = Simulation(scene, solver_settings(study, threads=1))  # a dask worker: one core of its own
     sim.set_initial_stress(gravity_stress_pa, gravity_plastic_strain)
     sim.set_supports(*supports(study, scene, stage.boundary))
     sim.set_gravity(body_acceleration_m_s2(study, strength_reduction=True))
