@@ -33,13 +33,12 @@ class Mesh:
 
     ``elem_nodes[e]`` are the three nodes of element e, counter-clockwise.  The elements
     attached to node k are ``node_elem_idx[node_elem_ptr[k]:node_elem_ptr[k + 1]]``
-    (ascending), and ``node_elem_slot`` at the same positions says which of the element's three
-    corners k is (3 e + corner); its neighbours along mesh edges are
-    ``node_node_idx[node_node_ptr[k]:node_node_ptr[k + 1]]`` (ascending, k excluded), and
-    ``node_edge_idx`` at the same positions holds the row of ``edge_nodes`` joining k to that
-    neighbour (ascending too: the edges are numbered in row order).  The kernels gather over
-    these lists, so every node sums its elements' and bonds' contributions in ascending order
-    whichever thread does it.  All arrays are int64 and C-contiguous.
+    (ascending); its neighbours along mesh edges are
+    ``node_node_idx[node_node_ptr[k]:node_node_ptr[k + 1]]`` (ascending, k excluded).
+    ``elem_entry`` and ``edge_entry`` invert these lists: a kernel writes the term of an
+    element's corner (a bond's end) at that entry, and each node then sums its own contiguous
+    range of entries, in the same order whichever thread does it.  All arrays are int64 and
+    C-contiguous.
     """
 
     elem_nodes: np.ndarray  # (n_elem, 3) int64, counter-clockwise
@@ -49,14 +48,14 @@ class Mesh:
     node_node_idx: np.ndarray  # (2 n_edges,) int64
     n_nodes: int
     edge_nodes: np.ndarray  # (n_edges, 2) int64, each mesh edge once as (i, j) with i < j
-    node_edge_idx: np.ndarray  # (2 n_edges,) int64: the edge of each node_node_idx entry
-    node_elem_slot: np.ndarray  # (3 n_elem,) int64: 3 e + (k's place in e) of each node_elem_idx entry
+    elem_entry: np.ndarray  # (n_elem, 3) int64: where corner c of e sits in node_elem_idx (row elem_nodes[e, c])
+    edge_entry: np.ndarray  # (n_edges, 2) int64: where edge (i, j) sits in node_node_idx, in row i and in row j
 
     @property
     def arrays(self) -> MeshArrays:
         """The arrays the kernels take."""
-        return MeshArrays(self.elem_nodes, self.node_elem_ptr, self.node_elem_idx, self.node_elem_slot,
-                          self.edge_nodes, self.node_node_ptr, self.node_node_idx, self.node_edge_idx)
+        return MeshArrays(self.elem_nodes, self.node_elem_ptr, self.node_elem_idx, self.elem_entry,
+                          self.edge_nodes, self.node_node_ptr, self.node_node_idx, self.edge_entry)
 
     @property
     def n_edges(self) -> int:
@@ -127,7 +126,7 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     sort, O(n)): node->element from the 3 n_elem pairs (node, element), node->node from the
     directed edges (i, j) and (j, i) of every triangle side, duplicates summed away; column
     indices ascending within a row.  ``edge_nodes`` lists every (i, j) with j > i in row
-    order, and ``node_edge_idx`` the edge of every node->node entry.  (``np.unique`` over edge keys was a quarter of a rebuild; a compiled kernel was
+    order; ``elem_entry`` and ``edge_entry`` where each corner and bond end sits in those lists.  (``np.unique`` over edge keys was a quarter of a rebuild; a compiled kernel was
     2 ms faster at 20k particles but cost 0.6 s of compilation in every fresh process.)
     """
     elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64).reshape(-1, 3)
@@ -146,13 +145,16 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     edge_nodes = np.ascontiguousarray(np.stack([row[upper], node_node_idx[upper]], axis=1))
     # edge (i, j) sits at entry j of row i and at entry i of row j; keys i n + j ascend with the edge rows
     edge_keys = edge_nodes[:, 0] * n_nodes + edge_nodes[:, 1]
-    entry_keys = np.minimum(row, node_node_idx) * n_nodes + np.maximum(row, node_node_idx)
-    node_edge_idx = np.searchsorted(edge_keys, entry_keys).astype(np.int64)
+    entry_edge = np.searchsorted(edge_keys, np.minimum(row, node_node_idx) * n_nodes + np.maximum(row, node_node_idx))
+    edge_entry = np.zeros((edge_nodes.shape[0], 2), dtype=np.int64)
+    entries = np.arange(node_node_idx.size, dtype=np.int64)
+    edge_entry[entry_edge, (node_node_idx < row).astype(np.int64)] = entries
     node_elem_ptr, node_elem_idx = node_elem
     owner = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(node_elem_ptr))
-    place = np.argmax(elem_nodes[node_elem_idx] == owner[:, None], axis=1)
-    node_elem_slot = np.ascontiguousarray(3 * node_elem_idx + place, dtype=np.int64)
-    return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes, node_edge_idx, node_elem_slot)
+    corner = np.argmax(elem_nodes[node_elem_idx] == owner[:, None], axis=1)
+    elem_entry = np.zeros((n_elem, 3), dtype=np.int64)
+    elem_entry[node_elem_idx, corner] = np.arange(node_elem_idx.size, dtype=np.int64)
+    return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes, elem_entry, edge_entry)
 
 
 def _pattern(rows: np.ndarray, columns: np.ndarray, n_rows: int, n_columns: int) -> tuple[np.ndarray, np.ndarray]:

@@ -108,9 +108,10 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, node_elem_ptr, node_el
 
 
 @parallel_kernel
-def add_internal_force(elem_nodes, node_elem_ptr, node_elem_slot, elem_geom, corner_force, node_stress, node_force):
+def add_internal_force(elem_nodes, node_elem_ptr, elem_entry, elem_geom, corner_force, node_stress, node_force):
     """node_force[I] = -sum_{e ∋ I} A_e B_I^e^T sigma_bar_e (sigma_bar_e: vertex mean), overwriting
-    ``node_force``; ``corner_force`` (3 n_elem, 2) keeps each element's term of each corner.
+    ``node_force``; ``corner_force`` (3 n_elem, 2) keeps each term at its corner's entry of the
+    node->element lists (``Mesh.elem_entry``), so that each node sums a contiguous range.
 
     With B_I^T sigma = (b_I s_xx + c_I s_xy, b_I s_xy + c_I s_yy).
     """
@@ -126,14 +127,14 @@ def add_internal_force(elem_nodes, node_elem_ptr, node_elem_slot, elem_geom, cor
         for corner in range(3):
             b = elem_geom[e, corner] * area
             c = elem_geom[e, 3 + corner] * area
-            corner_force[3 * e + corner, 0] = b * sxx + c * sxy
-            corner_force[3 * e + corner, 1] = b * sxy + c * syy
+            entry = elem_entry[e, corner]
+            corner_force[entry, 0] = b * sxx + c * sxy
+            corner_force[entry, 1] = b * sxy + c * syy
     for n in prange(node_force.shape[0]):
         fx = 0.0
         fy = 0.0
         for p in range(node_elem_ptr[n], node_elem_ptr[n + 1]):
-            slot = node_elem_slot[p]
-            fx -= corner_force[slot, 0]
-            fy -= corner_force[slot, 1]
+            fx -= corner_force[p, 0]
+            fy -= corner_force[p, 1]
         node_force[n, 0] = fx
         node_force[n, 1] = fy

@@ -21,8 +21,9 @@ The viscosity per bond grows as 1 / |x0|^2: for a bond much shorter than the spa
 integrate (c dt / m ~ beta/2 cfl^2 h^2/|x0|^2) and the run blows up.  |x0|^2 is therefore
 bounded below by ``min_bond_sq`` = (h/2)^2, which changes nothing on ordinary bonds.
 
-Two parallel loops (``jit`` module doc): one over bonds stores each bond's force, one over
-nodes adds the forces of the node's bonds in ascending bond order (``Mesh.node_edge_idx``).
+Two parallel loops (``jit`` module doc): one over bonds stores each bond's force on each end
+at that end's entry of the node->node lists (``Mesh.edge_entry``), one over nodes adds its
+contiguous range of entries (its bonds in ascending order of the neighbour).
 """
 
 from __future__ import annotations
@@ -37,12 +38,12 @@ from spfem_core.jit import PARALLEL_CHUNK, parallel_inner_kernel
 
 @parallel_inner_kernel
 def add_stabilisation_force(
-    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, node_node_ptr, node_node_idx,
-    node_edge_idx, beta, dt, min_bond_sq, edge_force, node_force
+    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_entry, node_node_ptr, beta, dt,
+    min_bond_sq, bond_force, node_force
 ):
-    """Add the bond forces f_ij over every mesh edge (i, j) to node_force (``edge_force``
-    (n_edges, 2) keeps each bond's force on j); return their power sum f . v (W/m; negative
-    when the bonds remove energy, as they do on a whole mesh)."""
+    """Add the bond forces f_ij over every mesh edge (i, j) to node_force (``bond_force``
+    (2 n_edges, 2) keeps the force on each end at its entry); return their power sum f . v
+    (W/m; negative when the bonds remove energy, as they do on a whole mesh)."""
     half_beta = 0.5 * beta
     n_edges = edge_nodes.shape[0]
     n_chunk = (n_edges + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
@@ -60,9 +61,13 @@ def add_stabilisation_force(
             x0y = dy - dvy * dt
             length0_sq = x0x * x0x + x0y * x0y
             length_sq = dx * dx + dy * dy
+            at_i = edge_entry[b, 0]
+            at_j = edge_entry[b, 1]
             if length0_sq <= 0.0 or length_sq <= 0.0:
-                edge_force[b, 0] = 0.0
-                edge_force[b, 1] = 0.0
+                bond_force[at_i, 0] = 0.0
+                bond_force[at_i, 1] = 0.0
+                bond_force[at_j, 0] = 0.0
+                bond_force[at_j, 1] = 0.0
                 continue
             inv_length = 1.0 / math.sqrt(length_sq)
             ex = dx * inv_length
@@ -77,21 +82,18 @@ def add_stabilisation_force(
             f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / max(length0_sq, min_bond_sq)
             fx = f * ex
             fy = f * ey
-            edge_force[b, 0] = fx
-            edge_force[b, 1] = fy
+            bond_force[at_i, 0] = -fx
+            bond_force[at_i, 1] = -fy
+            bond_force[at_j, 0] = fx
+            bond_force[at_j, 1] = fy
             power += fx * dvx + fy * dvy
         chunk_power[chunk] = power
     for n in prange(node_force.shape[0]):
         fx = node_force[n, 0]
         fy = node_force[n, 1]
         for p in range(node_node_ptr[n], node_node_ptr[n + 1]):
-            b = node_edge_idx[p]
-            if node_node_idx[p] > n:  # n is the bond's i: the force on i is -f
-                fx -= edge_force[b, 0]
-                fy -= edge_force[b, 1]
-            else:
-                fx += edge_force[b, 0]
-                fy += edge_force[b, 1]
+            fx += bond_force[p, 0]
+            fy += bond_force[p, 1]
         node_force[n, 0] = fx
         node_force[n, 1] = fy
     power = 0.0

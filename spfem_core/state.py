@@ -42,8 +42,8 @@ class StepScratch(NamedTuple):
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
     elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
     elem_weighted_gradient: np.ndarray  # (n_elem, 5) A_e / 3 and (A_e / 3) L_e as (xx, xy, yx, yy)
-    corner_force_n: np.ndarray  # (3 n_elem, 2) A_e B_I^e^T sigma_bar_e of each corner I = slot 3 e + corner
-    edge_force_n: np.ndarray  # (n_edges, 2) stabilisation force of each bond on its second node
+    corner_force_n: np.ndarray  # (3 n_elem, 2) A_e B_I^e^T sigma_bar_e of each corner, at its node_elem_idx entry
+    bond_force_n: np.ndarray  # (2 n_edges, 2) stabilisation force of each bond on each end, at its node_node_idx entry
     leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) see integration.leapfrog
     pore_pressure_pa: np.ndarray  # (n,) u_k of the last step (compression positive); 0 without water
     external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
@@ -59,7 +59,7 @@ class StepScratch(NamedTuple):
         """The same arrays with element tables for ``n_elem`` triangles and bonds for ``n_edges`` edges."""
         return self._replace(elem_geom=np.zeros((n_elem, ELEM_GEOM_WIDTH)),
                              elem_weighted_gradient=np.zeros((n_elem, 5)), corner_force_n=np.zeros((3 * n_elem, 2)),
-                             edge_force_n=np.zeros((n_edges, 2)))
+                             bond_force_n=np.zeros((2 * n_edges, 2)))
 
 
 class MeshArrays(NamedTuple):
@@ -68,11 +68,11 @@ class MeshArrays(NamedTuple):
     elem_nodes: np.ndarray  # (n_elem, 3) int64, counter-clockwise
     node_elem_ptr: np.ndarray  # (n + 1,) int64
     node_elem_idx: np.ndarray  # (3 n_elem,) int64 elements of each node, ascending
-    node_elem_slot: np.ndarray  # (3 n_elem,) int64 3 e + the node's corner of e, at the same positions
+    elem_entry: np.ndarray  # (n_elem, 3) int64 where corner c of e sits in node_elem_idx
     edge_nodes: np.ndarray  # (n_edges, 2) int64, (i, j) with i < j
     node_node_ptr: np.ndarray  # (n + 1,) int64
     node_node_idx: np.ndarray  # (2 n_edges,) int64 neighbours of each node, ascending
-    node_edge_idx: np.ndarray  # (2 n_edges,) int64 the edge of each neighbour entry
+    edge_entry: np.ndarray  # (n_edges, 2) int64 where edge (i, j) sits in node_node_idx, rows i and j
 
 
 class MaterialArrays(NamedTuple):

@@ -98,14 +98,13 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
             scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material,
             materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa, materials.params, dt,
         )
-        add_internal_force(elem_nodes, mesh.node_elem_ptr, mesh.node_elem_slot, scratch.elem_geom,
+        add_internal_force(elem_nodes, mesh.node_elem_ptr, mesh.elem_entry, scratch.elem_geom,
                            scratch.corner_force_n, nodes.stress_pa, node_force)
         if use_stabilisation:
             stab_power = add_stabilisation_force(
                 node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.material,
-                materials.youngs_modulus_pa, mesh.edge_nodes, mesh.node_node_ptr, mesh.node_node_idx,
-                mesh.node_edge_idx, beta, dt, 0.25 * params.spacing_m * params.spacing_m, scratch.edge_force_n,
-                node_force,
+                materials.youngs_modulus_pa, mesh.edge_nodes, mesh.edge_entry, mesh.node_node_ptr, beta, dt,
+                0.25 * params.spacing_m * params.spacing_m, scratch.bond_force_n, node_force,
             )
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
         if loads.active:

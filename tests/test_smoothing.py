@@ -55,7 +55,7 @@ def test_uniform_stress_gives_boundary_traction_only():
     stress = np.tile([-100.0, -40.0, -20.0, 15.0], (len(xy), 1))
     _, _, geom = smoothed_gradient(xy, np.zeros_like(xy), mesh.elem_nodes)
     force = np.zeros_like(xy)
-    add_internal_force(mesh.elem_nodes, mesh.node_elem_ptr, mesh.node_elem_slot, geom, np.zeros((3 * mesh.n_elem, 2)),
+    add_internal_force(mesh.elem_nodes, mesh.node_elem_ptr, mesh.elem_entry, geom, np.zeros((3 * mesh.n_elem, 2)),
                        stress, force)
     tol = 1e-9
     interior = (xy[:, 0] > tol) & (xy[:, 0] < width - tol) & (xy[:, 1] > tol) & (xy[:, 1] < height - tol)
