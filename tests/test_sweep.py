@@ -105,15 +105,14 @@ def test_a_bad_sweep_is_one_line_exit_2_and_nothing_written(name, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_zip_of_unequal_axes_and_a_sweep_without_strength_reduction_are_refused():
+def test_zip_of_unequal_axes_is_refused_and_a_stage_study_may_be_swept():
     unequal = ('[sweep]\ncombination = "zip"\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [1e3, 2e3]\n'
                '[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [20.0]\n')
     with pytest.raises(StudyError, match=r"^sweep\.axes: zip needs axes of equal length, got \[2, 1\]"):
         parse_study(with_sweep(SWEEP, unequal))
     column = (REPO / "studies" / "elastic_column.toml").read_text()
     sweep = '[sweep]\n[[sweep.axes]]\npath = "geometry.spacing_m"\nvalues = [0.1, 0.2]\n'
-    with pytest.raises(StudyError, match="^sweep: a sweep computes a FOS per case"):
-        parse_study(column + "\n" + sweep)
+    assert parse_study(column + "\n" + sweep).sweep.axes[0].points == (0.1, 0.2)  # workflows.sweep.stage_cases
 
 
 # ------------------------------------------------------------------ the slope form
@@ -284,3 +283,39 @@ def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_das
     local, remote = xr.open_dataset(local_out / "study.nc"), xr.open_dataset(tmp_path / "out" / "study.nc")
     assert remote.drop_attrs().identical(local.drop_attrs())
     assert run.stdout.splitlines()[0].split() == ["cohesion_pa", "friction_deg", "FOS", "bracket", "runs", "status"]
+
+
+# ------------------------------------------------------------------ a sweep of a runout study
+
+RUNOUT_SWEEP = (REPO / "studies" / "runout_residual_friction_sweep.toml").read_text()
+
+
+def test_a_runout_study_swept_over_residual_friction(tmp_path):
+    """The shipped runout sweep cut to two cases and 6 s: each case's stages run in its folder,
+    study.nc holds the runout metrics over (residual_friction_deg, runout_stage) equal to the
+    cases' stage files, the lower residual friction runs further, and a second invocation reads
+    everything back without running a step."""
+    path = tmp_path / "sweep.toml"
+    path.write_text(RUNOUT_SWEEP.replace("values = [8.0, 10.0, 12.0]", "values = [8.0, 12.0]")
+                    .replace('kind = "runout"\nmax_duration_s = 20.0', 'kind = "runout"\nmax_duration_s = 6.0'))
+    out = tmp_path / "out"
+    first = cli(path, "--out", out)
+    assert first.returncode == 0, first.stderr
+    assert "2 cases, 2 run, 0 up to date" in first.stdout
+    with xr.open_dataset(out / "study.nc") as ds:
+        assert dict(ds["runout_m"].sizes) == {"residual_friction_deg": 2, "runout_stage": 1}
+        assert list(ds["status"].values) == ["done", "done"]
+        runout = ds["runout_m"].values[:, 0]
+        for i, folder in enumerate(ds["case_folder"].values):
+            with xr.open_dataset(out / "cases" / folder / "softening.nc") as case:
+                for name in ("runout_m", "retrogression_m", "sliding_mass_area_m2", "energy_budget_error"):
+                    assert float(case[name]) == float(ds[name].values[i, 0])
+                assert float(ds["n_particles"].values[i]) == case.sizes["particle"]
+        stored = ds.load()
+    assert runout[0] > runout[1] > 0.0  # 8 deg runs further than 12
+    assert (out / "runout_residual_friction_deg.png").is_file()
+    second = cli(path, "--out", out)
+    assert second.returncode == 0, second.stderr
+    assert "2 cases, 0 run, 2 up to date" in second.stdout
+    with xr.open_dataset(out / "study.nc") as again:
+        assert np.array_equal(again["runout_m"].values, stored["runout_m"].values)

@@ -51,11 +51,13 @@ class StageBars:
     def __init__(self, progress: Progress):
         self.progress = progress
         self.tasks: dict[str, int] = {}
+        self.prefix = ""  # a sweep's case, before the stage
 
     def __call__(self, stage, fraction: float) -> None:
-        if stage.name not in self.tasks:
-            self.tasks[stage.name] = self.progress.add_task(f"{stage.name} ({stage.kind})", total=1.0)
-        self.progress.update(self.tasks[stage.name], completed=min(max(fraction, 0.0), 1.0))
+        key = self.prefix + stage.name
+        if key not in self.tasks:
+            self.tasks[key] = self.progress.add_task(f"{key} ({stage.kind})", total=1.0)
+        self.progress.update(self.tasks[key], completed=min(max(fraction, 0.0), 1.0))
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -131,7 +133,10 @@ def main(
     )
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        if study.sweep is not None:
+        if study.sweep is not None and study.strength_reduction is None:
+            _run_stage_sweep(study, out_dir, console, columns, quiet=quiet, force=force,
+                             max_memory_bytes=max_memory_bytes)
+        elif study.sweep is not None:
             _run_sweep(study, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
                        scheduler=scheduler, max_memory_bytes=max_memory_bytes)
         elif study.strength_reduction is not None:
@@ -172,6 +177,33 @@ def _run_stages(study, study_file, out_dir, console, columns, *, quiet, force, m
     )
     if not quiet:
         typer.echo(f"wrote {paths}")
+
+
+def _run_stage_sweep(study, out_dir, console, columns, *, quiet, force, max_memory_bytes) -> None:
+    from workflows.sweep.report import stage_table_lines  # deferred, see main()
+    from workflows.sweep.stage_cases import run_stage_sweep
+
+    with Progress(*columns, console=console) as progress:
+        bars = StageBars(progress)
+
+        def case_started(index, n_cases, case):
+            bars.prefix = f"case {index + 1}/{n_cases} {case.case_id}: "
+
+        outcome = run_stage_sweep(study, out_dir, force=force, progress=bars, case_started=case_started,
+                                  max_memory_bytes=max_memory_bytes)
+    if not quiet:
+        ran = sum(result.ran for result in outcome.results.values())
+        typer.echo(f"{study.name}: {len(outcome.cases)} cases, {ran} run, {len(outcome.cases) - ran} up to date, "
+                   f"wall time {outcome.timings_s['total']:.1f} s")
+    for line in stage_table_lines(outcome):
+        typer.echo(line)
+    for case in outcome.cases:
+        result = outcome.results[case.case_id]
+        if result.message:
+            typer.echo(f"warning: case {case.case_id}: {result.message}", err=True)
+    if not quiet:
+        typer.echo(f"wrote {outcome.study_path}, {outcome.out_dir / 'cases'}/"
+                   + "".join(f", {path.name}" for path in outcome.figures))
 
 
 def _fos_progress(console, columns, quiet: bool, with_cases: bool):

@@ -15,6 +15,7 @@ from workflows.output.variables import (
     RUNOUT_METRICS,
     STAGE_FILE,
     STAGE_FILE_ATTRIBUTES,
+    STAGE_SWEEP_FILE,
     SUMMARY_FILE,
     SUMMARY_FILE_ATTRIBUTES,
     SWEEP_AXIS_ATTRIBUTES,
@@ -87,6 +88,13 @@ def page() -> str:
               "over it.", "", *_variables(SWEEP_FILE), "",
               "Attributes of each axis coordinate:", "", *_attributes(SWEEP_AXIS_ATTRIBUTES), "",
               "Global attributes:", "", *_attributes(SWEEP_FILE_ATTRIBUTES), ""]
+    parts += ["## `study.nc` of a sweep of a stage study", "",
+              "A sweep of a study with no strength_reduction stage (a runout, a collapse) runs each case's stages "
+              "(`workflows/sweep/stage_cases.py`); its `study.nc` has the same dimensions and axis coordinates, "
+              "the attributes above but `n_cases_distinct`, and:", "", *_variables(STAGE_SWEEP_FILE), "",
+              "With runout stages, the dimension `runout_stage` (coordinate: the stage names) and every scalar of "
+              "the [runout metrics](#runout-metrics) over (`<sweep dims>`, `runout_stage`); with `[metrics]`, every "
+              "scalar of the [collapse metrics](#collapse-metrics) of the last stage over `<sweep dims>`.", ""]
     return "\n".join(parts)
 
 

@@ -247,6 +247,16 @@ SWEEP_FILE = _table(
     Variable("n_particles", SWEEP_DIMS, "1", "particles of the case's slope"),
 )
 
+STAGE_SWEEP_FILE = _table(
+    Variable("case_folder", SWEEP_DIMS, "1", "the folder under OUT/cases/ with the case's files"),
+    Variable("status", SWEEP_DIMS, "1", "done (every stage ran or was up to date) or diverged"),
+    Variable("status_reason", SWEEP_DIMS, "1", "the divergence of a diverged case (empty otherwise)"),
+    Variable("n_particles", SWEEP_DIMS, "1", "particles of the case (0: diverged)"),
+)
+"""``study.nc`` of a sweep of a stage study (no strength reduction); with each scalar of
+``RUNOUT_METRICS`` over (<sweep dims>, runout_stage) and, with ``[metrics]``, each scalar of
+``COLLAPSE_METRICS`` over <sweep dims>."""
+
 SWEEP_AXIS_ATTRIBUTES = (
     Attribute("units, long_name", "of the swept field, as in the study-file reference"),
     Attribute("sweep_path", "the field's path in the study file, e.g. materials.soil.cohesion_pa"),

@@ -239,6 +239,10 @@ as `water.phreatic_level_m` (with `water.pond_level_m` in a `zip`), the seismic 
 `loads.seismic.horizontal_coefficient`.  Each value is checked as the field itself is, and so
 is each case as a whole study: an error names the axis, the value or the case.  `grid` runs
 every combination (the last axis varies fastest), `zip` the i-th values of all axes together.
+A study without a strength_reduction stage (a runout, a collapse) can be swept too: each case's
+stages run in the study's process on all cores, one case after another, and `OUT/study.nc` holds
+their runout metrics (and collapse metrics) instead of a FOS
+(`studies/runout_residual_friction_sweep.toml`).
 
 ```toml
 [sweep]

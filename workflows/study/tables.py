@@ -816,8 +816,6 @@ class Study(Record):
                     raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
         if self.strength_reduction is not None and any(isinstance(stage, RunoutStage) for stage in self.stages):
             raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
-        if self.sweep is not None and self.strength_reduction is None:
-            raise StudyError("sweep", "a sweep computes a FOS per case: the last stage must be a strength_reduction stage")
         if self.metrics is not None and self.strength_reduction is not None:
             raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
         known = {b.name for b in self.boundary}

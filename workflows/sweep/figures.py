@@ -6,6 +6,8 @@
   stable SRF (the FOS is above), down at the lowest failed SRF (below).  FOS = 1 is dashed.
 - ``fos_map.png`` for a grid of two or more numeric axes: filled contours of the FOS over the
   first two axes, the FOS = 1 line drawn and labelled, each case marked with its value.
+- ``runout_<axis>.png`` per axis of a runout study's sweep: runout and retrogression against the
+  axis, one line per runout stage (other axes at their middle value, named in the title).
 
 :func:`draw_sweep_figures` is what a sweep calls; the notebook ``studies/notebooks/sweep_results.ipynb``
 calls :func:`fos_lines` and :func:`fos_map` on a ``study.nc`` it opens.
@@ -167,6 +169,49 @@ def draw_sweep_figures(out_dir: Path, ds: xr.Dataset) -> list[Path]:
         fig.subplots_adjust(left=0.13, right=0.97, bottom=0.11, top=0.92)
         fos_map(ds, ax)
         paths.append(out_dir / "fos_map.png")
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths
+
+
+def runout_lines(ds: xr.Dataset, axis: str, ax=None):
+    """Runout (solid) and retrogression (dashed) against ``axis``, a colour per runout stage; the Axes."""
+    plt = pyplot()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6.4, 4.4))
+    title = f"{ds.attrs.get('study_name', '')}: runout and retrogression"
+    if ds.attrs.get("sweep_combination") == "zip":
+        order = np.argsort(ds[axis].values) if _is_numeric(ds[axis].values) else np.arange(ds.sizes["case"])
+        picked, note = ds.isel(case=order), ""
+    else:
+        picked, note = _slice(ds, [axis])
+    x, ticks = _positions(picked[axis].values)
+    stages = [str(s) for s in picked["runout_stage"].values]
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(stages)))
+    for s, (stage, colour) in enumerate(zip(stages, colours)):
+        line = picked.isel(runout_stage=s)
+        ax.plot(x, line["runout_m"].values, "o-", color=colour, label=f"{stage}: runout", ms=5)
+        ax.plot(x, line["retrogression_m"].values, "s--", color=colour, label=f"{stage}: retrogression", ms=5,
+                mfc="none")
+    if ticks is not None:
+        ax.set_xticks(x, ticks)
+    ax.set_xlabel(_label(ds, axis))
+    ax.set_ylabel("distance (m)")
+    ax.set_title(title + (f" ({note})" if note else ""), fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return ax
+
+
+def draw_runout_sweep(out_dir: Path, ds: xr.Dataset) -> list[Path]:
+    """``runout_<axis>.png`` per axis in ``out_dir``; their paths."""
+    plt = pyplot()
+    paths = []
+    for axis in _axes(ds):
+        fig, ax = plt.subplots(figsize=(6.4, 4.4))
+        fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.91)
+        runout_lines(ds, axis, ax)
+        paths.append(out_dir / f"runout_{axis}.png")
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
     return paths

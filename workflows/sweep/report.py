@@ -44,3 +44,38 @@ def table_lines(cases: list[SweepCase], results: dict[str, CaseResult]) -> list[
     for row in rows:
         lines.append("  ".join(c.rjust(w) if i < len(labels) + 3 else c for i, (c, w) in enumerate(zip(row, widths))))
     return lines
+
+
+def _table(header: list[str], rows: list[list[str]], n_right: int) -> list[str]:
+    """Fixed-width lines: the first ``n_right`` columns right-aligned, the rest left."""
+    widths = [max(len(header[i]), *(len(row[i]) for row in rows)) for i in range(len(header))]
+
+    def line(cells):
+        return "  ".join(c.rjust(w) if i < n_right else c for i, (c, w) in enumerate(zip(cells, widths)))
+
+    return [line(header), "  ".join("-" * w for w in widths), *(line(row) for row in rows)]
+
+
+STAGE_SWEEP_COLUMNS = (("runout_m", "runout (m)"), ("retrogression_m", "retrogression (m)"),
+                       ("sliding_mass_area_m2", "sliding mass (m2)"), ("time_to_rest_s", "at rest (s)"))
+"""The runout metrics the printed table of a stage sweep shows, per runout stage."""
+
+
+def stage_table_lines(outcome) -> list[str]:
+    """A fixed-width table of a stage study's sweep (``stage_cases.StageSweepOutcome``): the axis
+    values, then per runout stage its runout, retrogression, sliding mass and time to rest (- when still
+    moving at the end), the status."""
+    labels = list(outcome.cases[0].values)
+    stages = outcome.runout_stages
+    header = labels + [f"{stage} {title}" if len(stages) > 1 else title
+                       for stage in stages for _, title in STAGE_SWEEP_COLUMNS] + ["status"]
+    rows = []
+    for case in outcome.cases:
+        result = outcome.results[case.case_id]
+        cells = [_value(case.values[label]) for label in labels]
+        for stage in stages:
+            metrics = result.runout.get(stage, {})
+            cells += [f"{metrics[key]:.4g}" if math.isfinite(metrics.get(key, math.nan)) else "-"
+                      for key, _ in STAGE_SWEEP_COLUMNS]
+        rows.append(cells + [result.status])
+    return _table(header, rows, len(header) - 1)

@@ -75,10 +75,9 @@ def _coordinate(values: list):
                     dtype=object)
 
 
-def study_dataset(study: Study, cases: list[SweepCase], results: dict[str, CaseResult], folders: dict[str, str],
-                  n_distinct: int) -> xr.Dataset:
-    """``study.nc`` of ``study`` from the ``results`` of its ``cases`` and the folder that holds
-    each one's files (its own, or that of an identical case), both by case id."""
+def sweep_coordinates(study: Study, cases: list[SweepCase]) -> tuple[tuple[str, ...], tuple[int, ...], dict]:
+    """(dims, shape, coordinates) of a sweep's ``study.nc``: a grid has a dimension per axis
+    (the axis values as coordinate), a zip the dimension ``case`` with each axis over it."""
     sweep = study.sweep
     labels = axis_labels(sweep)
     specs = [resolve_sweep_path(tomllib.loads(study.source_text), axis.path)[2] for axis in sweep.axes]
@@ -100,6 +99,15 @@ def study_dataset(study: Study, cases: list[SweepCase], results: dict[str, CaseR
                          {"units": spec.unit or "1", "long_name": spec.doc, "sweep_path": axis.path})
     if sweep.combination == "zip":
         coords["case"] = ("case", np.arange(len(cases)), {"units": "1", "long_name": "case number"})
+    return dims, shape, coords
+
+
+def study_dataset(study: Study, cases: list[SweepCase], results: dict[str, CaseResult], folders: dict[str, str],
+                  n_distinct: int) -> xr.Dataset:
+    """``study.nc`` of ``study`` from the ``results`` of its ``cases`` and the folder that holds
+    each one's files (its own, or that of an identical case), both by case id."""
+    sweep = study.sweep
+    dims, shape, coords = sweep_coordinates(study, cases)
 
     def grid(dtype, fill):
         return np.full(shape, fill, dtype=dtype)
