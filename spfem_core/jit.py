@@ -17,10 +17,12 @@ Policy (see STYLE.md):
 
 Threads: the kernels of the step loop run their loops over particles, elements and bonds
 with ``prange`` (:func:`parallel_kernel`, :func:`parallel_inner_kernel`) in a form that gives
-the same bits for any number of threads: a loop writes only its own item's entries (every
-node *gathers* from its elements and bonds, in ascending order, instead of elements
-scattering into nodes), and a loop that also sums does so in fixed chunks of
-:data:`PARALLEL_CHUNK` items whose sums are added in order afterwards.  Maxima and counts
+the same bits for any number of threads.  A loop over particles writes only its own
+particles.  Elements and bonds, which add into their nodes, run in fixed blocks
+(``mesh.node_blocks``) of which b and b + 2 never share a node: all even blocks at once, then
+all odd ones, so that no two threads add into one node and every node receives its terms in
+one order.  A loop that also sums does so per block or per fixed chunk of
+:data:`PARALLEL_CHUNK` particles, and adds those sums in order afterwards.  Maxima and counts
 are exact in any order.  :func:`set_threads` chooses how many threads the calling thread's
 kernels use (numba's threading layer: its default choice, TBB, OpenMP or its workqueue).
 
@@ -101,11 +103,21 @@ does not depend on the number of threads; large enough that the chunks' bookkeep
 negligible, small enough that 5,000 particles make 10 chunks to share."""
 
 
-def set_threads(n_threads: int) -> int:
+PARTICLES_PER_THREAD = 2500
+"""A run uses at most one thread per this many particles: below it, starting and joining the
+threads of every loop (about 10 loops a step) costs more than sharing the loop saves (the
+elastic beam at 1,111 particles: 13.0 M particle-steps/s on 1 thread, 10.3 on 2;
+``python -m benchmarks.bench_core --quick`` with and without NUMBA_NUM_THREADS=1)."""
+
+
+def set_threads(n_threads: int, n_particles: int | None = None) -> int:
     """Use ``n_threads`` threads (0: all, capped at numba's NUMBA_NUM_THREADS, the cores by
-    default) in the parallel kernels this Python thread calls; return the number set.
-    Results do not depend on it (module doc)."""
+    default; and at one per :data:`PARTICLES_PER_THREAD` of ``n_particles``) in the parallel
+    kernels this Python thread calls; return the number set.  Results do not depend on it
+    (module doc)."""
     available = numba.config.NUMBA_NUM_THREADS
     chosen = available if n_threads <= 0 else min(int(n_threads), available)
+    if n_particles is not None:
+        chosen = min(chosen, max(1, n_particles // PARTICLES_PER_THREAD))
     numba.set_num_threads(chosen)
     return chosen

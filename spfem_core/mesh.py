@@ -35,9 +35,10 @@ class Mesh:
     attached to node k are ``node_elem_idx[node_elem_ptr[k]:node_elem_ptr[k + 1]]``
     (ascending); its neighbours along mesh edges are
     ``node_node_idx[node_node_ptr[k]:node_node_ptr[k + 1]]`` (ascending, k excluded).
-    ``elem_entry`` and ``edge_entry`` invert these lists: a kernel writes the term of an
-    element's corner (a bond's end) at that entry, and each node then sums its own contiguous
-    range of entries, in the same order whichever thread does it.  All arrays are int64 and
+    Elements are numbered in the order of their lowest node and edges in the order of their
+    first; both are cut into blocks coloured so that blocks of one colour share no node
+    (:func:`coloured_blocks`): the kernels run one colour after another, its blocks at once,
+    each adding into its nodes with no other thread writing there.  All arrays are int64 and
     C-contiguous.
     """
 
@@ -48,14 +49,19 @@ class Mesh:
     node_node_idx: np.ndarray  # (2 n_edges,) int64
     n_nodes: int
     edge_nodes: np.ndarray  # (n_edges, 2) int64, each mesh edge once as (i, j) with i < j
-    elem_entry: np.ndarray  # (n_elem, 3) int64: where corner c of e sits in node_elem_idx (row elem_nodes[e, c])
-    edge_entry: np.ndarray  # (n_edges, 2) int64: where edge (i, j) sits in node_node_idx, in row i and in row j
+    elem_block_ptr: np.ndarray  # (n_blocks + 1,) int64: elements of block b are elem_block_ptr[b]:elem_block_ptr[b + 1]
+    elem_colour_ptr: np.ndarray  # (n_colours + 1,) int64: blocks of colour c are elem_colour_block[ptr[c]:ptr[c + 1]]
+    elem_colour_block: np.ndarray  # (n_blocks,) int64: no two blocks of one colour share a node
+    edge_block_ptr: np.ndarray  # the same three for the edges
+    edge_colour_ptr: np.ndarray
+    edge_colour_block: np.ndarray
 
     @property
     def arrays(self) -> MeshArrays:
         """The arrays the kernels take."""
-        return MeshArrays(self.elem_nodes, self.node_elem_ptr, self.node_elem_idx, self.elem_entry,
-                          self.edge_nodes, self.node_node_ptr, self.node_node_idx, self.edge_entry)
+        return MeshArrays(self.elem_nodes, self.node_elem_ptr, self.node_elem_idx, self.edge_nodes,
+                          self.node_node_ptr, self.node_node_idx, self.elem_block_ptr, self.elem_colour_ptr,
+                          self.elem_colour_block, self.edge_block_ptr, self.edge_colour_ptr, self.edge_colour_block)
 
     @property
     def n_edges(self) -> int:
@@ -126,12 +132,12 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     sort, O(n)): node->element from the 3 n_elem pairs (node, element), node->node from the
     directed edges (i, j) and (j, i) of every triangle side, duplicates summed away; column
     indices ascending within a row.  ``edge_nodes`` lists every (i, j) with j > i in row
-    order; ``elem_entry`` and ``edge_entry`` where each corner and bond end sits in those lists.  (``np.unique`` over edge keys was a quarter of a rebuild; a compiled kernel was
+    order; the blocks come from :func:`coloured_blocks`.  (``np.unique`` over edge keys was a quarter of a rebuild; a compiled kernel was
     2 ms faster at 20k particles but cost 0.6 s of compilation in every fresh process.)
     """
     elem_nodes = np.ascontiguousarray(elem_nodes, dtype=np.int64).reshape(-1, 3)
-    # number the elements in the order of their lowest node: a node's elements then lie close
-    # together in memory, where the kernels gather them (Qhull's order is scattered in space)
+    # number the elements in the order of their lowest node: blocks of them are then compact in space
+    # (few colours), and the elements of a node lie close together in memory (Qhull's order is scattered)
     elem_nodes = np.ascontiguousarray(elem_nodes[np.argsort(elem_nodes.min(axis=1), kind="stable")])
     n_elem = elem_nodes.shape[0]
     n_nodes = int(n_nodes)
@@ -143,18 +149,49 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     row = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(node_node_ptr))
     upper = node_node_idx > row
     edge_nodes = np.ascontiguousarray(np.stack([row[upper], node_node_idx[upper]], axis=1))
-    # edge (i, j) sits at entry j of row i and at entry i of row j; keys i n + j ascend with the edge rows
-    edge_keys = edge_nodes[:, 0] * n_nodes + edge_nodes[:, 1]
-    entry_edge = np.searchsorted(edge_keys, np.minimum(row, node_node_idx) * n_nodes + np.maximum(row, node_node_idx))
-    edge_entry = np.zeros((edge_nodes.shape[0], 2), dtype=np.int64)
-    entries = np.arange(node_node_idx.size, dtype=np.int64)
-    edge_entry[entry_edge, (node_node_idx < row).astype(np.int64)] = entries
-    node_elem_ptr, node_elem_idx = node_elem
-    owner = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(node_elem_ptr))
-    corner = np.argmax(elem_nodes[node_elem_idx] == owner[:, None], axis=1)
-    elem_entry = np.zeros((n_elem, 3), dtype=np.int64)
-    elem_entry[node_elem_idx, corner] = np.arange(node_elem_idx.size, dtype=np.int64)
-    return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes, elem_entry, edge_entry)
+    elem_blocks = coloured_blocks(elem_nodes, n_nodes)
+    edge_blocks = coloured_blocks(edge_nodes, n_nodes)
+    return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes, *elem_blocks, *edge_blocks)
+
+
+BLOCK_ITEMS = 512
+"""Elements (or edges) per block of the parallel loops (``coloured_blocks``): 5,000 particles make
+about 20 element blocks for 2 threads to share, and a block's bookkeeping is negligible."""
+
+
+def coloured_blocks(item_nodes: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(block_ptr, colour_ptr, colour_block) of the items ``item_nodes`` (elements or edges, (n, k)
+    node numbers): contiguous blocks of :data:`BLOCK_ITEMS` items, block b =
+    ``block_ptr[b]:block_ptr[b + 1]``, coloured so that two blocks of one colour share no node;
+    the blocks of colour c are ``colour_block[colour_ptr[c]:colour_ptr[c + 1]]``, ascending.
+
+    Greedy colouring in block order (each block takes the lowest colour none of its neighbours
+    has), from the mesh alone: never from the number of threads.  Items numbered in space
+    order (the particles' Morton order, elements by their lowest node) give few colours."""
+    n_items = item_nodes.shape[0]
+    block_ptr = np.append(np.arange(0, n_items, BLOCK_ITEMS, dtype=np.int64), np.int64(n_items))
+    if n_items == 0:
+        return np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    n_block = block_ptr.size - 1
+    block_of_item = np.repeat(np.arange(n_block, dtype=np.int64), np.diff(block_ptr))
+    # the distinct (node, block) pairs, grouped by node: blocks that meet at a node conflict
+    keys = np.unique(item_nodes.astype(np.int64) * n_block + block_of_item[:, None])
+    node, block = keys // n_block, keys % n_block
+    neighbours = [set() for _ in range(n_block)]
+    for offset in range(1, n_block):
+        same = node[offset:] == node[:-offset]
+        if not same.any():
+            break
+        for a, b in zip(block[:-offset][same].tolist(), block[offset:][same].tolist()):
+            neighbours[a].add(b)
+            neighbours[b].add(a)
+    colour = np.zeros(n_block, dtype=np.int64)
+    for b in range(n_block):
+        taken = {int(colour[other]) for other in neighbours[b] if other < b}
+        colour[b] = next(c for c in range(len(taken) + 1) if c not in taken)
+    colour_block = np.argsort(colour, kind="stable").astype(np.int64)
+    colour_ptr = np.searchsorted(colour[colour_block], np.arange(colour.max() + 2)).astype(np.int64)
+    return block_ptr, colour_ptr, colour_block
 
 
 def _pattern(rows: np.ndarray, columns: np.ndarray, n_rows: int, n_columns: int) -> tuple[np.ndarray, np.ndarray]:

@@ -89,7 +89,7 @@ class Simulation:
         gravity with the nominal mass rho h^2 until they land); otherwise such a cloud is an error."""
         self.scene = scene
         self.settings = settings or SolverSettings()
-        set_threads(self.settings.threads)
+        self.threads = set_threads(self.settings.threads, scene.n_particles)  # threads of the compiled step
         n = scene.n_particles
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
@@ -146,10 +146,10 @@ class Simulation:
         if self.loads.pond_level_m == self.loads.pond_level_m:  # not NaN: ponded water follows the boundary
             self.loads = self.loads._replace(boundary_edges=boundary_edges(mesh.elem_nodes))
         self.n_orphans = int(mesh.orphan_nodes.size)
-        self.scratch = self.scratch.with_elements(mesh.n_elem, mesh.n_edges)
+        self.scratch = self.scratch.with_elements(mesh.n_elem)
         self.mesh_arrays = mesh.arrays
-        smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.node_elem_ptr,
-                                 mesh.node_elem_idx, self.scratch.elem_geom, self.scratch.elem_weighted_gradient,
+        smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
+                                 mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.elem_geom,
                                  self.scratch.velocity_gradient, self.scratch.area_m2)
 
     def _critical_dt(self) -> float:
@@ -347,7 +347,7 @@ class Simulation:
         if not 0.0 <= damping < 1.0:
             raise ValueError(f"damping must be in [0, 1), got {damping}")
         start_wall = time.perf_counter()
-        set_threads(self.settings.threads)  # numba's choice is per calling thread
+        self.threads = set_threads(self.settings.threads, self.n_particles)  # numba's choice is per calling thread
         monitor_nodes = np.ascontiguousarray(monitor_nodes, dtype=np.int64).reshape(-1)
         interval = float(record_interval_s) if record_interval_s else max(duration_s / 1000.0, self.dt_s)
         records = RecordBuffers.empty(int(min(duration_s / interval, 1e6)) + 2, monitor_nodes.size)

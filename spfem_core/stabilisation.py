@@ -21,82 +21,41 @@ The viscosity per bond grows as 1 / |x0|^2: for a bond much shorter than the spa
 integrate (c dt / m ~ beta/2 cfl^2 h^2/|x0|^2) and the run blows up.  |x0|^2 is therefore
 bounded below by ``min_bond_sq`` = (h/2)^2, which changes nothing on ordinary bonds.
 
-Two parallel loops (``jit`` module doc): one over bonds stores each bond's force on each end
-at that end's entry of the node->node lists (``Mesh.edge_entry``), one over nodes adds its
-contiguous range of entries (its bonds in ascending order of the neighbour).
+As a vector the force on j is f_ij e_ij; with e_ij = x_ij / |x_ij| both projections and the
+direction combine into one factor, without a square root:
+
+    F_ij = (beta dt / 2) [E_i A_i (L_i x0_ij - dv) . x_ij + E_j A_j (L_j x0_ij - dv) . x_ij]
+           / (|x_ij|^2 max(|x0_ij|^2, min_bond_sq)) x_ij .
+
+Each bond is evaluated once per step, by the element that owns it (``Mesh.elem_bond``), in the
+loop over elements of ``nodal_force``.
 """
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
-from numba import prange
-
-from spfem_core.jit import PARALLEL_CHUNK, parallel_inner_kernel
+from spfem_core.jit import inner_kernel
 
 
-@parallel_inner_kernel
-def add_stabilisation_force(
-    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_entry, node_node_ptr, beta, dt,
-    min_bond_sq, bond_force, node_force
-):
-    """Add the bond forces f_ij over every mesh edge (i, j) to node_force (``bond_force``
-    (2 n_edges, 2) keeps the force on each end at its entry); return their power sum f . v
-    (W/m; negative when the bonds remove energy, as they do on a whole mesh)."""
-    half_beta = 0.5 * beta
-    n_edges = edge_nodes.shape[0]
-    n_chunk = (n_edges + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
-    chunk_power = np.zeros(n_chunk)
-    for chunk in prange(n_chunk):
-        power = 0.0
-        for b in range(chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_edges)):
-            i = edge_nodes[b, 0]
-            j = edge_nodes[b, 1]
-            dx = node_xy[j, 0] - node_xy[i, 0]
-            dy = node_xy[j, 1] - node_xy[i, 1]
-            dvx = node_v[j, 0] - node_v[i, 0]
-            dvy = node_v[j, 1] - node_v[i, 1]
-            x0x = dx - dvx * dt
-            x0y = dy - dvy * dt
-            length0_sq = x0x * x0x + x0y * x0y
-            length_sq = dx * dx + dy * dy
-            at_i = edge_entry[b, 0]
-            at_j = edge_entry[b, 1]
-            if length0_sq <= 0.0 or length_sq <= 0.0:
-                bond_force[at_i, 0] = 0.0
-                bond_force[at_i, 1] = 0.0
-                bond_force[at_j, 0] = 0.0
-                bond_force[at_j, 1] = 0.0
-                continue
-            inv_length = 1.0 / math.sqrt(length_sq)
-            ex = dx * inv_length
-            ey = dy * inv_length
-            # velocity error of the linear field of node i / node j along e, times dt
-            err_i = ((node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * ex
-                     + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * ey)
-            err_j = ((node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * ex
-                     + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * ey)
-            ea_i = mat_youngs[node_material[i]] * node_area[i]
-            ea_j = mat_youngs[node_material[j]] * node_area[j]
-            f = half_beta * dt * (ea_i * err_i + ea_j * err_j) / max(length0_sq, min_bond_sq)
-            fx = f * ex
-            fy = f * ey
-            bond_force[at_i, 0] = -fx
-            bond_force[at_i, 1] = -fy
-            bond_force[at_j, 0] = fx
-            bond_force[at_j, 1] = fy
-            power += fx * dvx + fy * dvy
-        chunk_power[chunk] = power
-    for n in prange(node_force.shape[0]):
-        fx = node_force[n, 0]
-        fy = node_force[n, 1]
-        for p in range(node_node_ptr[n], node_node_ptr[n + 1]):
-            fx += bond_force[p, 0]
-            fy += bond_force[p, 1]
-        node_force[n, 0] = fx
-        node_force[n, 1] = fy
-    power = 0.0
-    for chunk in range(n_chunk):
-        power += chunk_power[chunk]
-    return power
+@inner_kernel
+def bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt, half_beta_dt, min_bond_sq):
+    """(F_x, F_y, power) of bond i-j: the force F_ij on j (module doc; -F_ij on i) and its power
+    F_ij . (v_j - v_i) (W/m, <= 0 when the bond removes energy); zero for a bond of zero length."""
+    dx = node_xy[j, 0] - node_xy[i, 0]
+    dy = node_xy[j, 1] - node_xy[i, 1]
+    dvx = node_v[j, 0] - node_v[i, 0]
+    dvy = node_v[j, 1] - node_v[i, 1]
+    x0x = dx - dvx * dt
+    x0y = dy - dvy * dt
+    length0_sq = x0x * x0x + x0y * x0y
+    length_sq = dx * dx + dy * dy
+    if length0_sq <= 0.0 or length_sq <= 0.0:
+        return 0.0, 0.0, 0.0
+    # (L x0 - dv) . x for node i and node j: the velocity error of each one's linear field along the bond
+    err_i = (node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * dx + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * dy
+    err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * dx + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * dy
+    ea_i = mat_youngs[node_material[i]] * node_area[i]
+    ea_j = mat_youngs[node_material[j]] * node_area[j]
+    factor = half_beta_dt * (ea_i * err_i + ea_j * err_j) / (length_sq * max(length0_sq, min_bond_sq))
+    fx = factor * dx
+    fy = factor * dy
+    return fx, fy, fx * dvx + fy * dvy

@@ -41,9 +41,6 @@ class StepScratch(NamedTuple):
     force_n: np.ndarray  # (n, 2) f_int + f_stab per metre of thickness
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
     elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
-    elem_weighted_gradient: np.ndarray  # (n_elem, 5) A_e / 3 and (A_e / 3) L_e as (xx, xy, yx, yy)
-    corner_force_n: np.ndarray  # (3 n_elem, 2) A_e B_I^e^T sigma_bar_e of each corner, at its node_elem_idx entry
-    bond_force_n: np.ndarray  # (2 n_edges, 2) stabilisation force of each bond on each end, at its node_node_idx entry
     leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) see integration.leapfrog
     pore_pressure_pa: np.ndarray  # (n,) u_k of the last step (compression positive); 0 without water
     external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
@@ -52,27 +49,28 @@ class StepScratch(NamedTuple):
     def for_nodes(cls, n: int) -> "StepScratch":
         """Scratch for ``n`` particles and an empty mesh (``with_elements`` sizes it)."""
         return cls(np.zeros((n, 4)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
-                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros((0, 5)), np.zeros((0, 2)), np.zeros((0, 2)),
-                   np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
+                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
 
-    def with_elements(self, n_elem: int, n_edges: int) -> "StepScratch":
-        """The same arrays with element tables for ``n_elem`` triangles and bonds for ``n_edges`` edges."""
-        return self._replace(elem_geom=np.zeros((n_elem, ELEM_GEOM_WIDTH)),
-                             elem_weighted_gradient=np.zeros((n_elem, 5)), corner_force_n=np.zeros((3 * n_elem, 2)),
-                             bond_force_n=np.zeros((2 * n_edges, 2)))
+    def with_elements(self, n_elem: int) -> "StepScratch":
+        """The same arrays with an element table for ``n_elem`` triangles."""
+        return self._replace(elem_geom=np.zeros((n_elem, ELEM_GEOM_WIDTH)))
 
 
 class MeshArrays(NamedTuple):
-    """The current mesh as the kernels read it (``mesh.Mesh``: triangles, bonds, CSR adjacency)."""
+    """The current mesh as the kernels read it (``mesh.Mesh``: triangles, bonds, CSR adjacency, blocks)."""
 
-    elem_nodes: np.ndarray  # (n_elem, 3) int64, counter-clockwise
+    elem_nodes: np.ndarray  # (n_elem, 3) int64, counter-clockwise, in the order of their lowest node
     node_elem_ptr: np.ndarray  # (n + 1,) int64
     node_elem_idx: np.ndarray  # (3 n_elem,) int64 elements of each node, ascending
-    elem_entry: np.ndarray  # (n_elem, 3) int64 where corner c of e sits in node_elem_idx
-    edge_nodes: np.ndarray  # (n_edges, 2) int64, (i, j) with i < j
+    edge_nodes: np.ndarray  # (n_edges, 2) int64, (i, j) with i < j, in the order of i
     node_node_ptr: np.ndarray  # (n + 1,) int64
     node_node_idx: np.ndarray  # (2 n_edges,) int64 neighbours of each node, ascending
-    edge_entry: np.ndarray  # (n_edges, 2) int64 where edge (i, j) sits in node_node_idx, rows i and j
+    elem_block_ptr: np.ndarray  # (n_blocks + 1,) int64 element blocks (mesh.coloured_blocks)
+    elem_colour_ptr: np.ndarray  # (n_colours + 1,) int64
+    elem_colour_block: np.ndarray  # (n_blocks,) int64 blocks colour by colour: one colour's share no node
+    edge_block_ptr: np.ndarray  # the same three for the edges
+    edge_colour_ptr: np.ndarray
+    edge_colour_block: np.ndarray
 
 
 class MaterialArrays(NamedTuple):

@@ -3,8 +3,8 @@
 One step (method notes, section 1), all on the current mesh:
   1. element geometry and smoothed velocity gradients L_k     (smoothing.smooth_velocity_gradient)
   2. Jaumann rotation + constitutive update of every particle (constitutive.update_stress)
-  3. internal force f_I = sum_e A_e B_I^e^T sigma_bar_e       (smoothing.add_internal_force)
-  4. rank-deficiency bond forces, only when beta > 0          (stabilisation.add_stabilisation_force)
+  3. internal force f_I = sum_e A_e B_I^e^T sigma_bar_e, and   (nodal_force.assemble_nodal_force)
+  4. rank-deficiency bond forces, only when beta > 0, in one pass (stabilisation.bond_force)
      pore and ponded water, surface loads, only when the scene   (external_forces.add_external_forces)
      has them
   5. leapfrog with local damping, prescribed velocities and   (integration.leapfrog)
@@ -27,6 +27,7 @@ from spfem_core.external_forces import add_external_forces, external_power
 from spfem_core.integration import leapfrog
 from spfem_core.jit import kernel
 from spfem_core.mesh import element_quality_min_angle
+from spfem_core.nodal_force import assemble_nodal_force
 from spfem_core.records import (
     DISSIPATED_CONTACT,
     DISSIPATED_DAMPING,
@@ -36,8 +37,7 @@ from spfem_core.records import (
     DISSIPATION_COLUMNS,
     record_state,
 )
-from spfem_core.smoothing import add_internal_force, smooth_velocity_gradient
-from spfem_core.stabilisation import add_stabilisation_force
+from spfem_core.smoothing import smooth_velocity_gradient
 
 STATUS_DONE = 0
 STATUS_MESH_CHECK = 1  # the angle bound used its budget: Python checks the mesh, then goes on
@@ -89,8 +89,8 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
     half_dt = 0.5 * dt
     for s in range(n_steps):
         n_inverted, max_rate_sq = smooth_velocity_gradient(
-            node_xy, node_v, elem_nodes, mesh.node_elem_ptr, mesh.node_elem_idx, scratch.elem_geom,
-            scratch.elem_weighted_gradient, scratch.velocity_gradient, scratch.area_m2
+            node_xy, node_v, elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block,
+            scratch.elem_geom, scratch.velocity_gradient, scratch.area_m2
         )
         if n_inverted > 0:
             return STATUS_INVERTED, s
@@ -98,14 +98,13 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
             scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material,
             materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa, materials.params, dt,
         )
-        add_internal_force(elem_nodes, mesh.node_elem_ptr, mesh.elem_entry, scratch.elem_geom,
-                           scratch.corner_force_n, nodes.stress_pa, node_force)
+        stab_power = assemble_nodal_force(
+            node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.material,
+            materials.youngs_modulus_pa, elem_nodes, scratch.elem_geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
+            mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block,
+            beta, dt, 0.25 * params.spacing_m * params.spacing_m, node_force,
+        )
         if use_stabilisation:
-            stab_power = add_stabilisation_force(
-                node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.material,
-                materials.youngs_modulus_pa, mesh.edge_nodes, mesh.edge_entry, mesh.node_node_ptr, beta, dt,
-                0.25 * params.spacing_m * params.spacing_m, scratch.bond_force_n, node_force,
-            )
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
         if loads.active:
             add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads,

@@ -217,3 +217,28 @@ def test_random_jittered_rectangles(width_h, height_h, log10_h, origin_h, jitter
     assert area_m2.sum() == pytest.approx(width_m * height_m, rel=1e-9)
     assert len(mesh.orphan_nodes) == 0
     assert_csr_consistent(mesh)
+
+
+@pytest.mark.parametrize("shuffle", [False, True])
+def test_blocks_of_one_colour_share_no_node(shuffle):
+    """mesh.coloured_blocks: the element and edge blocks cover every element and edge once, in
+    order, every block has one colour, and blocks of one colour touch no common particle; also
+    when the particle numbers are shuffled (elements then spread over all node numbers)."""
+    xy = particles_in_polygon([[0.0, 0.0], [6.0, 0.0], [6.0, 3.0], [0.0, 3.0]], 0.05, jitter=0.2, seed=3)
+    if shuffle:
+        xy = xy[np.random.default_rng(5).permutation(len(xy))]
+    mesh = triangulate(xy, 0.05)
+    for items, ptr, colour_ptr, colour_block in (
+        (mesh.elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block),
+        (mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block),
+    ):
+        assert ptr[0] == 0 and ptr[-1] == len(items) and np.all(np.diff(ptr) > 0)
+        assert sorted(colour_block.tolist()) == list(range(len(ptr) - 1))
+        for c in range(len(colour_ptr) - 1):
+            seen = set()
+            for block in colour_block[colour_ptr[c]:colour_ptr[c + 1]]:
+                nodes = set(items[ptr[block]:ptr[block + 1]].ravel().tolist())
+                assert not nodes & seen, (c, block)
+                seen |= nodes
+        if not shuffle:  # space-ordered particles: a handful of colours, many blocks in each
+            assert len(colour_ptr) - 1 <= 6 and (len(ptr) - 1) / (len(colour_ptr) - 1) >= 4

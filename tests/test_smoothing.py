@@ -7,7 +7,7 @@ import pytest
 
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.mesh import triangulate
-from spfem_core.smoothing import add_internal_force
+from spfem_core.nodal_force import assemble_nodal_force
 from verification.probes import smoothed_gradient
 
 SLOPE_POLYGON = [[0, 0], [60, 0], [60, 5], [40, 5], [20, 15], [0, 15]]
@@ -55,8 +55,12 @@ def test_uniform_stress_gives_boundary_traction_only():
     stress = np.tile([-100.0, -40.0, -20.0, 15.0], (len(xy), 1))
     _, _, geom = smoothed_gradient(xy, np.zeros_like(xy), mesh.elem_nodes)
     force = np.zeros_like(xy)
-    add_internal_force(mesh.elem_nodes, mesh.node_elem_ptr, mesh.elem_entry, geom, np.zeros((3 * mesh.n_elem, 2)),
-                       stress, force)
+    n = len(xy)
+    power = assemble_nodal_force(xy, np.zeros((n, 2)), np.zeros((n, 4)), np.ones(n), stress, np.zeros(n, dtype=np.int64),
+                                 np.ones(1), mesh.elem_nodes, geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
+                                 mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr,
+                                 mesh.edge_colour_block, 0.0, 1e-3, 0.0, force)
+    assert power == 0.0  # beta = 0: the internal force alone
     tol = 1e-9
     interior = (xy[:, 0] > tol) & (xy[:, 0] < width - tol) & (xy[:, 1] > tol) & (xy[:, 1] < height - tol)
     np.testing.assert_allclose(force[interior], 0.0, atol=1e-9 * 100 * h)

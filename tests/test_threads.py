@@ -33,7 +33,7 @@ CHECK = textwrap.dedent("""
         return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1, threads=threads)), 0.08
 
     def wet_block(threads):
-        h = 0.25
+        h = 0.08
         xy = particles_in_polygon([[0.0, 0.0], [10.0, 0.0], [10.0, 4.0], [0.0, 4.0]], h)
         clay = MaterialTable(("clay",), [2], [1900.0], [2e7], [0.3], [5e3], [25.0], [0.0],
                              tensile_strength_pa=[1e3])
@@ -45,13 +45,14 @@ CHECK = textwrap.dedent("""
                       node_phreatic_line=np.zeros(len(xy), dtype=np.int64), pond_level_m=4.5)
         scene.fix(scene.select_box(y_max=0.0), vx_m_s=0.0, vy_m_s=0.0)
         scene.fix(scene.select_box(x_max=0.0), vx_m_s=0.0)
-        return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1, threads=threads)), 0.2
+        return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1, threads=threads)), 0.1
 
     for build in (column, wet_block):
         runs = []
         for threads in (1, 2):
             sim, duration_s = build(threads)
             series = sim.run(duration_s, record_interval_s=duration_s / 20)
+            assert sim.threads == threads, (build.__name__, sim.threads)
             runs.append((sim, series))
         (one, series_one), (two, series_two) = runs
         assert series_one.n_steps == series_two.n_steps

@@ -21,7 +21,7 @@ def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes
     node_area = np.zeros(n)
     smooth_velocity_gradient(np.ascontiguousarray(node_xy_m, dtype=np.float64),
                              np.ascontiguousarray(node_values, dtype=np.float64), mesh.elem_nodes,
-                             mesh.node_elem_ptr, mesh.node_elem_idx, elem_geom, np.zeros((mesh.n_elem, 5)), node_L,
+                             mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, elem_geom, node_L,
                              node_area)
     return node_L, node_area, elem_geom
 

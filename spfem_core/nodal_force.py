@@ -1,0 +1,73 @@
+"""The nodal force of a step: internal force of the smoothed stress plus the stabilisation bonds.
+
+    f_I = - sum_{e ∋ I} A_e B_I^e^T sigma_bar_e  +  sum_{bonds I-J} F_JI
+
+with sigma_bar_e = (sigma_i + sigma_j + sigma_k) / 3 (the transpose of the strain smoothing,
+``smoothing``) and B_I^T sigma = (b_I s_xx + c_I s_xy, b_I s_xy + c_I s_yy); F the bond forces
+of ``stabilisation`` (only when beta > 0).
+
+Elements, then bonds, add into their nodes in coloured blocks (``jit`` module doc,
+``mesh.coloured_blocks``): one colour after another, the blocks of a colour at once; the
+bonds' power is summed per block, then over the blocks in order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from spfem_core.jit import parallel_kernel
+from spfem_core.stabilisation import bond_force
+
+
+@parallel_kernel
+def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material, mat_youngs, elem_nodes,
+                         elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
+                         edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force):
+    """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
+    0 when beta = 0)."""
+    third = 1.0 / 3.0
+    for n in prange(node_force.shape[0]):
+        node_force[n, 0] = 0.0
+        node_force[n, 1] = 0.0
+    for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
+        for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+            block = elem_colour_block[slot]
+            for e in range(elem_block_ptr[block], elem_block_ptr[block + 1]):
+                i = elem_nodes[e, 0]
+                j = elem_nodes[e, 1]
+                k = elem_nodes[e, 2]
+                sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
+                syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
+                sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
+                area = elem_geom[e, 6]
+                for corner in range(3):
+                    n = elem_nodes[e, corner]
+                    b = elem_geom[e, corner] * area
+                    c = elem_geom[e, 3 + corner] * area
+                    node_force[n, 0] -= b * sxx + c * sxy
+                    node_force[n, 1] -= b * sxy + c * syy
+    if beta <= 0.0:
+        return 0.0
+    half_beta_dt = 0.5 * beta * dt
+    n_block = edge_block_ptr.shape[0] - 1
+    block_power = np.zeros(n_block)
+    for colour in range(edge_colour_ptr.shape[0] - 1):
+        for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
+            block = edge_colour_block[slot]
+            power = 0.0
+            for bond in range(edge_block_ptr[block], edge_block_ptr[block + 1]):
+                i = edge_nodes[bond, 0]
+                j = edge_nodes[bond, 1]
+                fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j,
+                                                dt, half_beta_dt, min_bond_sq)
+                node_force[j, 0] += fx
+                node_force[j, 1] += fy
+                node_force[i, 0] -= fx
+                node_force[i, 1] -= fy
+                power += bond_power
+            block_power[block] = power
+    power = 0.0
+    for block in range(n_block):
+        power += block_power[block]
+    return power
