@@ -1,6 +1,6 @@
 """Core throughput: particle-steps per second of the elastic beam, and compile/start-up times.
 
-    python -m benchmarks.bench_core                          # 1k, 10k and 40k particles, beta = 0.1 and 0
+    python -m benchmarks.bench_core                          # 1k, 10k, 40k and 100k particles, beta = 0.1 and 0
     python -m benchmarks.bench_core --quick                  # one repeat per size
     python -m benchmarks.bench_core --compare ../other-tree  # this tree against another checkout, alternated
 
@@ -25,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SPACINGS_M = {"1k": 0.02, "10k": 0.02 / 10**0.5, "40k": 0.02 / 40**0.5}
+SPACINGS_M = {"1k": 0.02, "10k": 0.02 / 10**0.5, "40k": 0.02 / 40**0.5, "100k": 0.02 / 100**0.5}
 
 BEAM = """
 import numpy as np

@@ -67,64 +67,82 @@ def softened_strength(mat_params, m, plastic_strain):
 
 @parallel_inner_kernel
 def update_stress(
-    node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt
+    node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt,
+    n_threads,
 ):
     """Rotate and update every particle's stress from its smoothed velocity gradient.
 
     Elastic rows take the Hooke increment; Drucker-Prager and Mohr-Coulomb rows the elastic
     trial and return map of ``plasticity``.  Adds the equivalent plastic strain increment to
     ``node_plastic_strain`` and returns the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m),
-    summed in fixed chunks of particles (``jit`` module doc).
+    summed in fixed chunks of particles (``jit`` module doc); on threads when ``n_threads`` > 1.
     """
     n_node = node_stress.shape[0]
     n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
     chunk_work = np.zeros(n_chunk)
-    for chunk in prange(n_chunk):
-        plastic_work = 0.0
-        for k in range(chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node)):
-            area = node_area[k]
-            if area <= 0.0:
-                continue  # a particle in no triangle carries its stress unchanged
-            lxx = node_L[k, 0]
-            lxy = node_L[k, 1]
-            lyx = node_L[k, 2]
-            lyy = node_L[k, 3]
-            rotate_jaumann(node_stress, k, lxy, lyx, dt)
-            m = node_material[k]
-            dxx = lxx * dt
-            dyy = lyy * dt
-            dxy = 0.5 * (lxy + lyx) * dt
-            model = mat_model[m]
-            if model == MODEL_ELASTIC:
-                elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m])
-                continue
-            if model == MODEL_DRUCKER_PRAGER:
-                d_eq, work = drucker_prager_update(
-                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
-                    mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
-                )
-            elif mat_params[m, 10] == 0.0:
-                d_eq, work = mohr_coulomb_update(
-                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
-                    mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
-                )
-            else:
-                cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, m, node_plastic_strain[k])
-                d_eq, work = mohr_coulomb_update(
-                    node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m], cohesion, sin_phi, cos_phi, sin_psi,
-                )
-            tensile_strength = mat_params[m, 4]
-            if tensile_strength < math.inf:
-                d_eq_t, work_t = tension_cutoff(node_stress, k, model == MODEL_DRUCKER_PRAGER, tensile_strength,
-                                                mat_lambda[m], mat_shear[m])
-                d_eq += d_eq_t
-                work += work_t
-            node_plastic_strain[k] += d_eq
-            plastic_work += area * work
-        chunk_work[chunk] = plastic_work
+    if n_threads > 1:
+        for chunk in prange(n_chunk):
+            chunk_work[chunk] = update_stress_range(
+                node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
+                mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
+    else:  # the same chunks, without starting threads
+        for chunk in range(n_chunk):
+            chunk_work[chunk] = update_stress_range(
+                node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
+                mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
     plastic_work = 0.0
     for chunk in range(n_chunk):
         plastic_work += chunk_work[chunk]
+    return plastic_work
+
+
+@inner_kernel
+def update_stress_range(
+    node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt,
+    start, end,
+):
+    """:func:`update_stress` of particles start..end-1; their plastic work (J/m)."""
+    plastic_work = 0.0
+    for k in range(start, end):
+        area = node_area[k]
+        if area <= 0.0:
+            continue  # a particle in no triangle carries its stress unchanged
+        lxx = node_L[k, 0]
+        lxy = node_L[k, 1]
+        lyx = node_L[k, 2]
+        lyy = node_L[k, 3]
+        rotate_jaumann(node_stress, k, lxy, lyx, dt)
+        m = node_material[k]
+        dxx = lxx * dt
+        dyy = lyy * dt
+        dxy = 0.5 * (lxy + lyx) * dt
+        model = mat_model[m]
+        if model == MODEL_ELASTIC:
+            elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m])
+            continue
+        if model == MODEL_DRUCKER_PRAGER:
+            d_eq, work = drucker_prager_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2],
+            )
+        elif mat_params[m, 10] == 0.0:
+            d_eq, work = mohr_coulomb_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m],
+                mat_params[m, 0], mat_params[m, 1], mat_params[m, 2], mat_params[m, 3],
+            )
+        else:
+            cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, m, node_plastic_strain[k])
+            d_eq, work = mohr_coulomb_update(
+                node_stress, k, dxx, dyy, dxy, mat_lambda[m], mat_shear[m], cohesion, sin_phi, cos_phi, sin_psi,
+            )
+        tensile_strength = mat_params[m, 4]
+        if tensile_strength < math.inf:
+            d_eq_t, work_t = tension_cutoff(node_stress, k, model == MODEL_DRUCKER_PRAGER, tensile_strength,
+                                            mat_lambda[m], mat_shear[m])
+            d_eq += d_eq_t
+            work += work_t
+        node_plastic_strain[k] += d_eq
+        plastic_work += area * work
     return plastic_work
 
 

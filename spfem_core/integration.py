@@ -19,7 +19,7 @@ import numpy as np
 from numba import prange
 
 from spfem_core.contact import wall_contact_velocity
-from spfem_core.jit import PARALLEL_CHUNK, inner_kernel, parallel_kernel
+from spfem_core.jit import PARALLEL_CHUNK, inline_kernel, inner_kernel, parallel_kernel
 from spfem_core.state import LEAPFROG_OUT_WIDTH
 
 
@@ -36,14 +36,15 @@ def sign0(value):
 @parallel_kernel
 def leapfrog(
     node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-    wall_xy, wall_friction, reach, node_contact, out,
+    wall_xy, wall_friction, reach, node_contact, out, n_threads,
 ):
     """Advance velocities and positions one step (module doc).
 
     ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with
     [max speed^2 (m^2/s^2; NaN if any speed is NaN), |f_unbalanced|^2 on free directions,
     |m g|^2 on free directions, damping power (W/m, <= 0), energy removed by the walls (J/m),
-    particles touching a wall]; the sums are taken in fixed chunks of particles (``jit``).
+    particles touching a wall]; the sums are taken in fixed chunks of particles (``jit``), on
+    threads when ``n_threads`` > 1.
 
     The walls' share is minus the work of their impulse m (w - v) at the mid-step velocity
     (v^{n-1/2} + w) / 2, the measure of a leapfrog step's kinetic energy change
@@ -54,62 +55,16 @@ def leapfrog(
     n_node = node_xy.shape[0]
     n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
-    use_walls = wall_xy.shape[0] > 0
-    for chunk in prange(n_chunk):
-        max_speed_sq = 0.0
-        unbalanced_sq = 0.0
-        applied_sq = 0.0
-        damping_power = 0.0
-        contact_loss = 0.0
-        n_contact = 0
-        for k in range(chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node)):
-            m = node_mass[k]
-            v_start_x = node_v[k, 0]
-            v_start_y = node_v[k, 1]
-            for d in range(2):
-                weight = m * gravity[d]
-                f = node_force[k, d] + weight
-                v_old = node_v[k, d]
-                if node_fixed[k, d]:
-                    v_new = node_fixed_v[k, d]
-                else:
-                    f_damp = 0.0
-                    if damping > 0.0:
-                        f_damp = -damping * abs(f) * sign0(v_old)
-                        damping_power += f_damp * v_old
-                    unbalanced_sq += f * f
-                    applied_sq += weight * weight
-                    v_new = v_old + dt * (f + f_damp) / m
-                node_v[k, d] = v_new
-            vx = node_v[k, 0]
-            vy = node_v[k, 1]
-            if use_walls:
-                node_contact[k] = 0
-                if not (node_fixed[k, 0] or node_fixed[k, 1]):
-                    wx, wy, dvn = wall_contact_velocity(
-                        node_xy[k, 0], node_xy[k, 1], vx, vy, dt, wall_xy, wall_friction, reach
-                    )
-                    if dvn != 0.0 or wx != vx or wy != vy:
-                        # work of the wall's impulse m (w - v) over the step, at the leapfrog mid-step
-                        # velocity (v^{n-1/2} + v^{n+1/2}) / 2: zero for a particle resting on it
-                        contact_loss -= 0.5 * m * ((wx - vx) * (v_start_x + wx) + (wy - vy) * (v_start_y + wy))
-                        node_contact[k] = 1
-                        n_contact += 1
-                        vx = wx
-                        vy = wy
-                        node_v[k, 0] = vx
-                        node_v[k, 1] = vy
-            node_xy[k, 0] += dt * vx
-            node_xy[k, 1] += dt * vy
-            node_u[k, 0] += dt * vx
-            node_u[k, 1] += dt * vy
-            max_speed_sq = larger_or_nan(max_speed_sq, vx * vx + vy * vy)
-        chunk_out[chunk, 0] = max_speed_sq
-        chunk_out[chunk, 1] = unbalanced_sq
-        chunk_out[chunk, 2] = applied_sq
-        chunk_out[chunk, 3] = damping_power
-        chunk_out[chunk, 4] = contact_loss
-        chunk_out[chunk, 5] = n_contact
+    if n_threads > 1:
+        for chunk in prange(n_chunk):
+            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping,
+                           dt, wall_xy, wall_friction, reach, node_contact, chunk * PARALLEL_CHUNK,
+                           min((chunk + 1) * PARALLEL_CHUNK, n_node), chunk_out[chunk])
+    else:  # the same chunks, without starting threads
+        for chunk in range(n_chunk):
+            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping,
+                           dt, wall_xy, wall_friction, reach, node_contact, chunk * PARALLEL_CHUNK,
+                           min((chunk + 1) * PARALLEL_CHUNK, n_node), chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
         out[0] = larger_or_nan(out[0], chunk_out[chunk, 0])
@@ -118,6 +73,67 @@ def leapfrog(
 
 
 @inner_kernel
+def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
+                   wall_xy, wall_friction, reach, node_contact, start, end, out):
+    """:func:`leapfrog` of particles start..end-1, their sums in ``out`` (its layout)."""
+    use_walls = wall_xy.shape[0] > 0
+    max_speed_sq = 0.0
+    unbalanced_sq = 0.0
+    applied_sq = 0.0
+    damping_power = 0.0
+    contact_loss = 0.0
+    n_contact = 0
+    for k in range(start, end):
+        m = node_mass[k]
+        v_start_x = node_v[k, 0]
+        v_start_y = node_v[k, 1]
+        for d in range(2):
+            weight = m * gravity[d]
+            f = node_force[k, d] + weight
+            v_old = node_v[k, d]
+            if node_fixed[k, d]:
+                v_new = node_fixed_v[k, d]
+            else:
+                f_damp = 0.0
+                if damping > 0.0:
+                    f_damp = -damping * abs(f) * sign0(v_old)
+                    damping_power += f_damp * v_old
+                unbalanced_sq += f * f
+                applied_sq += weight * weight
+                v_new = v_old + dt * (f + f_damp) / m
+            node_v[k, d] = v_new
+        vx = node_v[k, 0]
+        vy = node_v[k, 1]
+        if use_walls:
+            node_contact[k] = 0
+            if not (node_fixed[k, 0] or node_fixed[k, 1]):
+                wx, wy, dvn = wall_contact_velocity(
+                    node_xy[k, 0], node_xy[k, 1], vx, vy, dt, wall_xy, wall_friction, reach
+                )
+                if dvn != 0.0 or wx != vx or wy != vy:
+                    # work of the wall's impulse m (w - v) over the step, at the leapfrog mid-step
+                    # velocity (v^{n-1/2} + v^{n+1/2}) / 2: zero for a particle resting on it
+                    contact_loss -= 0.5 * m * ((wx - vx) * (v_start_x + wx) + (wy - vy) * (v_start_y + wy))
+                    node_contact[k] = 1
+                    n_contact += 1
+                    vx = wx
+                    vy = wy
+                    node_v[k, 0] = vx
+                    node_v[k, 1] = vy
+        node_xy[k, 0] += dt * vx
+        node_xy[k, 1] += dt * vy
+        node_u[k, 0] += dt * vx
+        node_u[k, 1] += dt * vy
+        max_speed_sq = larger_or_nan(max_speed_sq, vx * vx + vy * vy)
+    out[0] = max_speed_sq
+    out[1] = unbalanced_sq
+    out[2] = applied_sq
+    out[3] = damping_power
+    out[4] = contact_loss
+    out[5] = n_contact
+
+
+@inline_kernel
 def larger_or_nan(largest, value):
     """max(largest, value), NaN once either is NaN (an inf stays too)."""
     if largest != largest or value != value:

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.spatial import Delaunay
 
-from spfem_core.jit import inner_kernel, kernel
+from spfem_core.jit import PARTICLES_PER_THREAD, inner_kernel, kernel
 from spfem_core.state import MeshArrays
 
 QHULL_OPTIONS = "Qbb Qc Qz Q12"
@@ -149,8 +149,10 @@ def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:
     row = np.repeat(np.arange(n_nodes, dtype=np.int64), np.diff(node_node_ptr))
     upper = node_node_idx > row
     edge_nodes = np.ascontiguousarray(np.stack([row[upper], node_node_idx[upper]], axis=1))
-    elem_blocks = coloured_blocks(elem_nodes, n_nodes)
-    edge_blocks = coloured_blocks(edge_nodes, n_nodes)
+    # a cloud too small for a second thread (jit.set_threads) takes one block: one pass per loop
+    block_items = BLOCK_ITEMS if n_nodes >= 2 * PARTICLES_PER_THREAD else max(n_elem, edge_nodes.shape[0], 1)
+    elem_blocks = coloured_blocks(elem_nodes, n_nodes, block_items)
+    edge_blocks = coloured_blocks(edge_nodes, n_nodes, block_items)
     return Mesh(elem_nodes, *node_elem, *node_node, n_nodes, edge_nodes, *elem_blocks, *edge_blocks)
 
 
@@ -159,9 +161,10 @@ BLOCK_ITEMS = 512
 about 20 element blocks for 2 threads to share, and a block's bookkeeping is negligible."""
 
 
-def coloured_blocks(item_nodes: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def coloured_blocks(item_nodes: np.ndarray, n_nodes: int, block_items: int = BLOCK_ITEMS
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(block_ptr, colour_ptr, colour_block) of the items ``item_nodes`` (elements or edges, (n, k)
-    node numbers): contiguous blocks of :data:`BLOCK_ITEMS` items, block b =
+    node numbers): contiguous blocks of ``block_items`` items, block b =
     ``block_ptr[b]:block_ptr[b + 1]``, coloured so that two blocks of one colour share no node;
     the blocks of colour c are ``colour_block[colour_ptr[c]:colour_ptr[c + 1]]``, ascending.
 
@@ -169,7 +172,7 @@ def coloured_blocks(item_nodes: np.ndarray, n_nodes: int) -> tuple[np.ndarray, n
     has), from the mesh alone: never from the number of threads.  Items numbered in space
     order (the particles' Morton order, elements by their lowest node) give few colours."""
     n_items = item_nodes.shape[0]
-    block_ptr = np.append(np.arange(0, n_items, BLOCK_ITEMS, dtype=np.int64), np.int64(n_items))
+    block_ptr = np.append(np.arange(0, n_items, block_items, dtype=np.int64), np.int64(n_items))
     if n_items == 0:
         return np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
     n_block = block_ptr.size - 1

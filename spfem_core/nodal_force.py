@@ -16,58 +16,87 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import parallel_kernel
+from spfem_core.jit import fill_zero, inner_kernel, parallel_kernel
 from spfem_core.stabilisation import bond_force
 
 
 @parallel_kernel
 def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material, mat_youngs, elem_nodes,
                          elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
-                         edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force):
+                         edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force, n_threads):
     """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
-    0 when beta = 0)."""
-    third = 1.0 / 3.0
-    for n in prange(node_force.shape[0]):
-        node_force[n, 0] = 0.0
-        node_force[n, 1] = 0.0
+    0 when beta = 0).  On threads when ``n_threads`` > 1, else in plain loops."""
+    fill_zero(node_force)
+    threaded = n_threads > 1
     for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
-        for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-            block = elem_colour_block[slot]
-            for e in range(elem_block_ptr[block], elem_block_ptr[block + 1]):
-                i = elem_nodes[e, 0]
-                j = elem_nodes[e, 1]
-                k = elem_nodes[e, 2]
-                sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
-                syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
-                sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
-                area = elem_geom[e, 6]
-                for corner in range(3):
-                    n = elem_nodes[e, corner]
-                    b = elem_geom[e, corner] * area
-                    c = elem_geom[e, 3 + corner] * area
-                    node_force[n, 0] -= b * sxx + c * sxy
-                    node_force[n, 1] -= b * sxy + c * syy
+        if threaded:
+            for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+                block = elem_colour_block[slot]
+                add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block],
+                                   elem_block_ptr[block + 1], node_force)
+        else:  # the same blocks in the same order, without starting threads
+            for slot in range(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+                block = elem_colour_block[slot]
+                add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block],
+                                   elem_block_ptr[block + 1], node_force)
     if beta <= 0.0:
         return 0.0
     half_beta_dt = 0.5 * beta * dt
     n_block = edge_block_ptr.shape[0] - 1
     block_power = np.zeros(n_block)
     for colour in range(edge_colour_ptr.shape[0] - 1):
-        for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
-            block = edge_colour_block[slot]
-            power = 0.0
-            for bond in range(edge_block_ptr[block], edge_block_ptr[block + 1]):
-                i = edge_nodes[bond, 0]
-                j = edge_nodes[bond, 1]
-                fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j,
-                                                dt, half_beta_dt, min_bond_sq)
-                node_force[j, 0] += fx
-                node_force[j, 1] += fy
-                node_force[i, 0] -= fx
-                node_force[i, 1] -= fy
-                power += bond_power
-            block_power[block] = power
+        if threaded:
+            for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
+                block = edge_colour_block[slot]
+                block_power[block] = add_bond_forces(
+                    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                    edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
+        else:
+            for slot in range(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
+                block = edge_colour_block[slot]
+                block_power[block] = add_bond_forces(
+                    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                    edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
     power = 0.0
     for block in range(n_block):
         power += block_power[block]
+    return power
+
+
+@inner_kernel
+def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_force):
+    """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1."""
+    third = 1.0 / 3.0
+    for e in range(start, end):
+        i = elem_nodes[e, 0]
+        j = elem_nodes[e, 1]
+        k = elem_nodes[e, 2]
+        sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
+        syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
+        sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
+        area = elem_geom[e, 6]
+        for corner in range(3):
+            n = elem_nodes[e, corner]
+            b = elem_geom[e, corner] * area
+            c = elem_geom[e, 3 + corner] * area
+            node_force[n, 0] -= b * sxx + c * sxy
+            node_force[n, 1] -= b * sxy + c * syy
+
+
+@inner_kernel
+def add_bond_forces(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, start, end, dt,
+                    half_beta_dt, min_bond_sq, node_force):
+    """Add the forces of bonds start..end-1 (``stabilisation.bond_force``) into their nodes;
+    their power (W/m)."""
+    power = 0.0
+    for bond in range(start, end):
+        i = edge_nodes[bond, 0]
+        j = edge_nodes[bond, 1]
+        fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt,
+                                        half_beta_dt, min_bond_sq)
+        node_force[j, 0] += fx
+        node_force[j, 1] += fy
+        node_force[i, 0] -= fx
+        node_force[i, 1] -= fy
+        power += bond_power
     return power

@@ -150,7 +150,7 @@ class Simulation:
         self.mesh_arrays = mesh.arrays
         smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
                                  mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.elem_geom,
-                                 self.scratch.velocity_gradient, self.scratch.area_m2)
+                                 self.scratch.velocity_gradient, self.scratch.area_m2, self.threads)
 
     def _critical_dt(self) -> float:
         mesh = self.mesh
@@ -337,7 +337,7 @@ class Simulation:
         return StepParameters(
             self.gravity_m_s2, self.dt_s, float(damping), float(self.settings.stabilisation_beta),
             self.scene.spacing_m, self.speed_limit_m_s, float(tolerance), self.remesher.threshold_rad,
-            ANGLE_MARGIN_RAD,
+            ANGLE_MARGIN_RAD, int(self.threads),
         )
 
     def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None,

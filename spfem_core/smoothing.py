@@ -18,83 +18,98 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import parallel_kernel
+from spfem_core.jit import fill_zero, inner_kernel, parallel_kernel
 
 
 @parallel_kernel
 def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block, elem_geom,
-                             node_L, node_area):
+                             node_L, node_area, n_threads):
     """Element geometry and the smoothed velocity gradient of every node.
 
     Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN/dx, c_I = dN/dy and
     A_e from the current coordinates, ``node_area`` with A_k and ``node_L`` with L_k (zero for a
-    particle in no triangle).  The elements run in coloured blocks (``mesh.coloured_blocks``).
+    particle in no triangle).  The elements run in coloured blocks (``mesh.coloured_blocks``), on
+    threads when ``n_threads`` > 1 (the number ``jit.set_threads`` set), else in a plain loop.
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
     """
     n_node = node_xy.shape[0]
     n_block = elem_block_ptr.shape[0] - 1
-    for n in prange(n_node):
-        node_area[n] = 0.0
-        for c in range(4):
-            node_L[n, c] = 0.0
+    fill_zero(node_area)
+    fill_zero(node_L)
     block_inverted = np.zeros(n_block, dtype=np.int64)
     block_rate_sq = np.zeros(n_block)
+    threaded = n_threads > 1
     for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
-        for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-            block = elem_colour_block[slot]
-            n_inverted = 0
-            max_rate_sq = 0.0
-            for e in range(elem_block_ptr[block], elem_block_ptr[block + 1]):
-                i = elem_nodes[e, 0]
-                j = elem_nodes[e, 1]
-                k = elem_nodes[e, 2]
-                xi, yi = node_xy[i, 0], node_xy[i, 1]
-                xj, yj = node_xy[j, 0], node_xy[j, 1]
-                xk, yk = node_xy[k, 0], node_xy[k, 1]
-                two_area = (xj - xi) * (yk - yi) - (xk - xi) * (yj - yi)
-                if two_area <= 0.0:
-                    n_inverted += 1
-                    two_area = 1e-300  # keep going: the caller rebuilds the mesh before using this step
-                inv = 1.0 / two_area
-                bi = (yj - yk) * inv
-                bj = (yk - yi) * inv
-                bk = (yi - yj) * inv
-                ci = (xk - xj) * inv
-                cj = (xi - xk) * inv
-                ck = (xj - xi) * inv
-                area = 0.5 * two_area
-                elem_geom[e, 0] = bi
-                elem_geom[e, 1] = bj
-                elem_geom[e, 2] = bk
-                elem_geom[e, 3] = ci
-                elem_geom[e, 4] = cj
-                elem_geom[e, 5] = ck
-                elem_geom[e, 6] = area
-                vxi, vyi = node_v[i, 0], node_v[i, 1]
-                vxj, vyj = node_v[j, 0], node_v[j, 1]
-                vxk, vyk = node_v[k, 0], node_v[k, 1]
-                lxx = vxi * bi + vxj * bj + vxk * bk
-                lxy = vxi * ci + vxj * cj + vxk * ck
-                lyx = vyi * bi + vyj * bj + vyk * bk
-                lyy = vyi * ci + vyj * cj + vyk * ck
-                dxy = 0.5 * (lxy + lyx)
-                rate_sq = lxx * lxx + lyy * lyy + 2.0 * dxy * dxy
-                if rate_sq > max_rate_sq:
-                    max_rate_sq = rate_sq
-                w = area / 3.0
-                for n in (i, j, k):
-                    node_area[n] += w
-                    node_L[n, 0] += w * lxx
-                    node_L[n, 1] += w * lxy
-                    node_L[n, 2] += w * lyx
-                    node_L[n, 3] += w * lyy
-            block_inverted[block] = n_inverted
-            block_rate_sq[block] = max_rate_sq
-    for n in prange(n_node):
+        if threaded:
+            for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+                block = elem_colour_block[slot]
+                block_inverted[block], block_rate_sq[block] = smooth_elements(
+                    node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
+                    node_area)
+        else:  # the same blocks in the same order, without starting threads
+            for slot in range(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+                block = elem_colour_block[slot]
+                block_inverted[block], block_rate_sq[block] = smooth_elements(
+                    node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
+                    node_area)
+    for n in range(n_node):
         a = node_area[n]
         if a > 0.0:
             inv_a = 1.0 / a
             for c in range(4):
                 node_L[n, c] *= inv_a
     return block_inverted.sum(), block_rate_sq.max() if n_block > 0 else 0.0
+
+
+@inner_kernel
+def smooth_elements(node_xy, node_v, elem_nodes, start, end, elem_geom, node_L, node_area):
+    """Geometry of elements start..end-1 and their terms (A_e/3, (A_e/3) L_e) added into their
+    nodes; (elements with signed area <= 0, max |sym L_e|^2) of these elements."""
+    n_inverted = 0
+    max_rate_sq = 0.0
+    for e in range(start, end):
+        i = elem_nodes[e, 0]
+        j = elem_nodes[e, 1]
+        k = elem_nodes[e, 2]
+        xi, yi = node_xy[i, 0], node_xy[i, 1]
+        xj, yj = node_xy[j, 0], node_xy[j, 1]
+        xk, yk = node_xy[k, 0], node_xy[k, 1]
+        two_area = (xj - xi) * (yk - yi) - (xk - xi) * (yj - yi)
+        if two_area <= 0.0:
+            n_inverted += 1
+            two_area = 1e-300  # keep going: the caller rebuilds the mesh before using this step
+        inv = 1.0 / two_area
+        bi = (yj - yk) * inv
+        bj = (yk - yi) * inv
+        bk = (yi - yj) * inv
+        ci = (xk - xj) * inv
+        cj = (xi - xk) * inv
+        ck = (xj - xi) * inv
+        area = 0.5 * two_area
+        elem_geom[e, 0] = bi
+        elem_geom[e, 1] = bj
+        elem_geom[e, 2] = bk
+        elem_geom[e, 3] = ci
+        elem_geom[e, 4] = cj
+        elem_geom[e, 5] = ck
+        elem_geom[e, 6] = area
+        vxi, vyi = node_v[i, 0], node_v[i, 1]
+        vxj, vyj = node_v[j, 0], node_v[j, 1]
+        vxk, vyk = node_v[k, 0], node_v[k, 1]
+        lxx = vxi * bi + vxj * bj + vxk * bk
+        lxy = vxi * ci + vxj * cj + vxk * ck
+        lyx = vyi * bi + vyj * bj + vyk * bk
+        lyy = vyi * ci + vyj * cj + vyk * ck
+        dxy = 0.5 * (lxy + lyx)
+        rate_sq = lxx * lxx + lyy * lyy + 2.0 * dxy * dxy
+        if rate_sq > max_rate_sq:
+            max_rate_sq = rate_sq
+        w = area / 3.0
+        for n in (i, j, k):
+            node_area[n] += w
+            node_L[n, 0] += w * lxx
+            node_L[n, 1] += w * lxy
+            node_L[n, 2] += w * lyx
+            node_L[n, 3] += w * lyy
+    return n_inverted, max_rate_sq

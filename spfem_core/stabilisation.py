@@ -33,10 +33,10 @@ loop over elements of ``nodal_force``.
 
 from __future__ import annotations
 
-from spfem_core.jit import inner_kernel
+from spfem_core.jit import inline_kernel
 
 
-@inner_kernel
+@inline_kernel
 def bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt, half_beta_dt, min_bond_sq):
     """(F_x, F_y, power) of bond i-j: the force F_ij on j (module doc; -F_ij on i) and its power
     F_ij . (v_j - v_i) (W/m, <= 0 when the bond removes energy); zero for a bond of zero length."""

@@ -122,3 +122,4 @@ class StepParameters(NamedTuple):
     tolerance: float  # relaxation: stop when the unbalanced-force ratio is below it (0: never)
     angle_threshold_rad: float  # rebuild the mesh when its smallest angle falls below this
     angle_margin_rad: float  # safety margin of the cheap angle bound
+    n_threads: int  # threads the kernels use (jit.set_threads); 1: plain loops, no thread start-up

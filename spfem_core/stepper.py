@@ -90,19 +90,20 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
     for s in range(n_steps):
         n_inverted, max_rate_sq = smooth_velocity_gradient(
             node_xy, node_v, elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block,
-            scratch.elem_geom, scratch.velocity_gradient, scratch.area_m2
+            scratch.elem_geom, scratch.velocity_gradient, scratch.area_m2, params.n_threads
         )
         if n_inverted > 0:
             return STATUS_INVERTED, s
         dissipated[DISSIPATED_PLASTIC] += update_stress(
             scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material,
             materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa, materials.params, dt,
+            params.n_threads,
         )
         stab_power = assemble_nodal_force(
             node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.material,
             materials.youngs_modulus_pa, elem_nodes, scratch.elem_geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
             mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block,
-            beta, dt, 0.25 * params.spacing_m * params.spacing_m, node_force,
+            beta, dt, 0.25 * params.spacing_m * params.spacing_m, node_force, params.n_threads,
         )
         if use_stabilisation:
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
@@ -112,7 +113,7 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.fixed, nodes.fixed_velocity_m_s,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
-            step_out,
+            step_out, params.n_threads,
         )
         dissipated[DISSIPATED_DAMPING] -= step_out[3] * dt
         dissipated[DISSIPATED_CONTACT] += step_out[4]
