@@ -65,7 +65,7 @@ def softened_strength(mat_params, m, plastic_strain):
     return cohesion, sin_phi, math.cos(phi), min(mat_params[m, 3], sin_phi)
 
 
-@parallel_inner_kernel
+@inner_kernel
 def update_stress(
     node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear, mat_params, dt,
     n_threads,
@@ -81,11 +81,9 @@ def update_stress(
     n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
     chunk_work = np.zeros(n_chunk)
     if n_threads > 1:
-        for chunk in prange(n_chunk):
-            chunk_work[chunk] = update_stress_range(
-                node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
-                mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
-    else:  # the same chunks, without starting threads
+        update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda,
+                               mat_shear, mat_params, dt, chunk_work)
+    else:  # the same chunks
         for chunk in range(n_chunk):
             chunk_work[chunk] = update_stress_range(
                 node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
@@ -94,6 +92,17 @@ def update_stress(
     for chunk in range(n_chunk):
         plastic_work += chunk_work[chunk]
     return plastic_work
+
+
+@parallel_inner_kernel
+def update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda,
+                           mat_shear, mat_params, dt, chunk_work):
+    """:func:`update_stress_range` of every chunk of particles on threads, its work in ``chunk_work``."""
+    n_node = node_stress.shape[0]
+    for chunk in prange(chunk_work.shape[0]):
+        chunk_work[chunk] = update_stress_range(
+            node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
+            mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
 
 
 @inner_kernel

@@ -16,51 +16,67 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import fill_zero, inner_kernel, parallel_kernel
+from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
 from spfem_core.stabilisation import bond_force
 
 
-@parallel_kernel
+@kernel
 def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material, mat_youngs, elem_nodes,
                          elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
                          edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force, n_threads):
     """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
-    0 when beta = 0).  On threads when ``n_threads`` > 1, else in plain loops."""
+    0 when beta = 0).  On threads when ``n_threads`` > 1, else in plain loops (same order)."""
     fill_zero(node_force)
     threaded = n_threads > 1
-    for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
-        if threaded:
-            for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-                block = elem_colour_block[slot]
-                add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block],
-                                   elem_block_ptr[block + 1], node_force)
-        else:  # the same blocks in the same order, without starting threads
-            for slot in range(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-                block = elem_colour_block[slot]
-                add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block],
-                                   elem_block_ptr[block + 1], node_force)
+    if threaded:
+        element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
+                                node_force)
+    else:
+        for slot in range(elem_colour_block.shape[0]):
+            block = elem_colour_block[slot]
+            add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
+                               node_force)
     if beta <= 0.0:
         return 0.0
     half_beta_dt = 0.5 * beta * dt
     n_block = edge_block_ptr.shape[0] - 1
     block_power = np.zeros(n_block)
-    for colour in range(edge_colour_ptr.shape[0] - 1):
-        if threaded:
-            for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
-                block = edge_colour_block[slot]
-                block_power[block] = add_bond_forces(
-                    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
-                    edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
-        else:
-            for slot in range(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
-                block = edge_colour_block[slot]
-                block_power[block] = add_bond_forces(
-                    node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
-                    edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
+    if threaded:
+        bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr,
+                             edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq, node_force, block_power)
+    else:
+        for slot in range(n_block):
+            block = edge_colour_block[slot]
+            block_power[block] = add_bond_forces(
+                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
     power = 0.0
     for block in range(n_block):
         power += block_power[block]
     return power
+
+
+@parallel_inner_kernel
+def element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
+                            node_force):
+    """:func:`add_element_forces` of every block, colour after colour, a colour's blocks on threads."""
+    for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
+        for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+            block = elem_colour_block[slot]
+            add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
+                               node_force)
+
+
+@parallel_inner_kernel
+def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr,
+                         edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq, node_force, block_power):
+    """:func:`add_bond_forces` of every block, colour after colour, a colour's blocks on threads."""
+    for colour in range(edge_colour_ptr.shape[0] - 1):
+        for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
+            block = edge_colour_block[slot]
+            block_power[block] = add_bond_forces(
+                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
 
 
 @inner_kernel

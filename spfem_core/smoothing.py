@@ -18,10 +18,10 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import fill_zero, inner_kernel, parallel_kernel
+from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
 
 
-@parallel_kernel
+@kernel
 def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block, elem_geom,
                              node_L, node_area, n_threads):
     """Element geometry and the smoothed velocity gradient of every node.
@@ -33,33 +33,41 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_c
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
     """
-    n_node = node_xy.shape[0]
     n_block = elem_block_ptr.shape[0] - 1
     fill_zero(node_area)
     fill_zero(node_L)
     block_inverted = np.zeros(n_block, dtype=np.int64)
     block_rate_sq = np.zeros(n_block)
-    threaded = n_threads > 1
-    for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
-        if threaded:
-            for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-                block = elem_colour_block[slot]
-                block_inverted[block], block_rate_sq[block] = smooth_elements(
-                    node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
-                    node_area)
-        else:  # the same blocks in the same order, without starting threads
-            for slot in range(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
-                block = elem_colour_block[slot]
-                block_inverted[block], block_rate_sq[block] = smooth_elements(
-                    node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
-                    node_area)
-    for n in range(n_node):
+    if n_threads > 1:
+        smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block,
+                               elem_geom, node_L, node_area, block_inverted, block_rate_sq)
+    else:  # the same blocks in the same order
+        for slot in range(n_block):
+            block = elem_colour_block[slot]
+            block_inverted[block], block_rate_sq[block] = smooth_elements(
+                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
+                node_area)
+    for n in range(node_xy.shape[0]):
         a = node_area[n]
         if a > 0.0:
             inv_a = 1.0 / a
             for c in range(4):
                 node_L[n, c] *= inv_a
     return block_inverted.sum(), block_rate_sq.max() if n_block > 0 else 0.0
+
+
+@parallel_inner_kernel
+def smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block, elem_geom,
+                           node_L, node_area, block_inverted, block_rate_sq):
+    """:func:`smooth_elements` of every block, colour after colour, the blocks of a colour on
+    threads (kept apart: a function with a parallel loop costs about 3 us a call even when it
+    runs no thread)."""
+    for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
+        for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
+            block = elem_colour_block[slot]
+            block_inverted[block], block_rate_sq[block] = smooth_elements(
+                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
+                node_area)
 
 
 @inner_kernel
