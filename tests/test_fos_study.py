@@ -171,7 +171,7 @@ def test_a_second_invocation_reuses_gravity_and_every_run(quickstart_run, tmp_pa
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")}
     messages = Messages()
     again = run_fos_study(study, out, workers=1, progress=messages)
-    assert again.fos == outcome.fos and again.gravity_reused
+    assert again.fos == outcome.fos and again.gravity_reused, messages.lines
     assert any("gravity state reused" in line for line in messages.lines)
     # one worker starts no run above the first failure ahead of time, so it may need fewer runs
     assert {r["srf"] for r in again.runs} <= {r["srf"] for r in outcome.runs}

@@ -29,7 +29,8 @@ def gravity_paths(study: Study, out_dir: Path) -> list[Path]:
 
 
 def read_gravity(path: Path, key: str):
-    """(stress (n, 4), plastic strain (n,)) from a gravity file with this key, else None."""
+    """(stress (n, 4), plastic strain (n,)) from a gravity file with this key, else None
+    (:func:`why_not_reused` says why)."""
     try:
         with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
             if ds.attrs.get("gravity_key") != key:
@@ -47,6 +48,24 @@ def stored_gravity(study: Study, out_dir: Path):
     return read_gravity(paths[-1], gravity_key(study))
 
 
+def why_not_reused(study: Study, out_dir: Path) -> str:
+    """Why :func:`stored_gravity` found nothing to reuse: a missing file, another key, or the error
+    reading it (for the message of a study that relaxes gravity again)."""
+    paths = gravity_paths(study, out_dir)
+    missing = [path.name for path in paths if not path.is_file()]
+    if missing:
+        return f"no {', '.join(missing)}"
+    try:
+        with xr.open_dataset(paths[-1], engine="netcdf4") as ds:
+            stored = ds.attrs.get("gravity_key")
+            ds["particle_plastic_strain"].values  # noqa: B018  (reads it, as read_gravity does)
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        return f"{paths[-1].name} could not be read ({type(error).__name__}: {error})"
+    if stored != gravity_key(study):
+        return f"{paths[-1].name} has gravity_key {stored}, this study {gravity_key(study)}"
+    return f"{paths[-1].name} reads now (it did not a moment ago)"
+
+
 def gravity_state(study: Study, out_dir: Path, *, force: bool, progress):
     """Run (or reuse) the stages before the strength reduction in this process;
     (stress, plastic strain, reused, n particles, wall s)."""
@@ -59,6 +78,9 @@ def gravity_state(study: Study, out_dir: Path, *, force: bool, progress):
     if state is not None and state[0].shape == (scene.n_particles, 4):
         progress.message(f"gravity state reused from {paths[-1]} (its inputs are unchanged)")
         return state[0], state[1], True, scene.n_particles, 0.0
+    if not force and paths[-1].is_file():
+        reason = why_not_reused(study, out_dir) if state is None else f"{paths[-1].name} has another particle count"
+        progress.message(f"gravity state relaxed again: {reason}")
     make_output_folder(out_dir)
     start = time.perf_counter()
     for index, (stage, path) in enumerate(zip(study.stages[:-1], paths)):
