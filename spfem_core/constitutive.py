@@ -112,7 +112,7 @@ def update_stress_range(
 ):
     """:func:`update_stress` of particles start..end-1; their plastic work (J/m)."""
     plastic_work = 0.0
-    for k in range(start, end):
+    for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         area = node_area[k]
         if area <= 0.0:
             continue  # a particle in no triangle carries its stress unchanged

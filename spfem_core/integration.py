@@ -93,7 +93,7 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, n
     damping_power = 0.0
     contact_loss = 0.0
     n_contact = 0
-    for k in range(start, end):
+    for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         m = node_mass[k]
         v_start_x = node_v[k, 0]
         v_start_y = node_v[k, 1]

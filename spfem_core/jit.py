@@ -23,7 +23,10 @@ particles.  Elements and bonds, which add into their nodes, run in fixed blocks
 all odd ones, so that no two threads add into one node and every node receives its terms in
 one order.  A loop that also sums does so per block or per fixed chunk of
 :data:`PARALLEL_CHUNK` particles, and adds those sums in order afterwards.  Maxima and counts
-are exact in any order.  :func:`set_threads` chooses how many threads the calling thread's
+are exact in any order.  The loops over a block or chunk run an unsigned index
+(``range(np.uint64(start), np.uint64(end))``): with a signed one numba adds negative-index
+wraparound code to every array access (the internal force was 44% slower at 7k particles).
+:func:`set_threads` chooses how many threads the calling thread's
 kernels use (numba's threading layer: its default choice, TBB, OpenMP or its workqueue).
 
 Set ``SPFEM_CACHE_DIR`` to choose the cache root (default ``~/.cache/spfem-fos/numba``).

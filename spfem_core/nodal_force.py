@@ -83,7 +83,7 @@ def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_
 def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_force):
     """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1."""
     third = 1.0 / 3.0
-    for e in range(start, end):
+    for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = elem_nodes[e, 0]
         j = elem_nodes[e, 1]
         k = elem_nodes[e, 2]
@@ -105,7 +105,7 @@ def add_bond_forces(node_xy, node_v, node_L, node_area, node_material, mat_young
     """Add the forces of bonds start..end-1 (``stabilisation.bond_force``) into their nodes;
     their power (W/m)."""
     power = 0.0
-    for bond in range(start, end):
+    for bond in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = edge_nodes[bond, 0]
         j = edge_nodes[bond, 1]
         fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt,

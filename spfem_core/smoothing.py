@@ -76,7 +76,7 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, elem_geom, node_L, 
     nodes; (elements with signed area <= 0, max |sym L_e|^2) of these elements."""
     n_inverted = 0
     max_rate_sq = 0.0
-    for e in range(start, end):
+    for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = elem_nodes[e, 0]
         j = elem_nodes[e, 1]
         k = elem_nodes[e, 2]
