@@ -84,15 +84,15 @@ def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_forc
     """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1."""
     third = 1.0 / 3.0
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
-        i = elem_nodes[e, 0]
-        j = elem_nodes[e, 1]
-        k = elem_nodes[e, 2]
+        i = np.uint64(elem_nodes[e, 0])
+        j = np.uint64(elem_nodes[e, 1])
+        k = np.uint64(elem_nodes[e, 2])
         sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
         syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
         sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
         area = elem_geom[e, 6]
         for corner in range(3):
-            n = elem_nodes[e, corner]
+            n = np.uint64(elem_nodes[e, corner])
             b = elem_geom[e, corner] * area
             c = elem_geom[e, 3 + corner] * area
             node_force[n, 0] -= b * sxx + c * sxy
@@ -106,8 +106,8 @@ def add_bond_forces(node_xy, node_v, node_L, node_area, node_material, mat_young
     their power (W/m)."""
     power = 0.0
     for bond in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
-        i = edge_nodes[bond, 0]
-        j = edge_nodes[bond, 1]
+        i = np.uint64(edge_nodes[bond, 0])
+        j = np.uint64(edge_nodes[bond, 1])
         fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt,
                                         half_beta_dt, min_bond_sq)
         node_force[j, 0] += fx

@@ -77,9 +77,9 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, elem_geom, node_L, 
     n_inverted = 0
     max_rate_sq = 0.0
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
-        i = elem_nodes[e, 0]
-        j = elem_nodes[e, 1]
-        k = elem_nodes[e, 2]
+        i = np.uint64(elem_nodes[e, 0])
+        j = np.uint64(elem_nodes[e, 1])
+        k = np.uint64(elem_nodes[e, 2])
         xi, yi = node_xy[i, 0], node_xy[i, 1]
         xj, yj = node_xy[j, 0], node_xy[j, 1]
         xk, yk = node_xy[k, 0], node_xy[k, 1]
