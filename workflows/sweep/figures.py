@@ -153,17 +153,24 @@ def fos_map(ds: xr.Dataset, ax=None):
     return ax
 
 
-def draw_sweep_figures(out_dir: Path, ds: xr.Dataset) -> list[Path]:
-    """``fos_<axis>.png`` per axis and (:func:`can_map`) ``fos_map.png`` in ``out_dir``; their paths."""
+def _per_axis(out_dir: Path, ds: xr.Dataset, draw, prefix: str) -> list[Path]:
+    """``<prefix>_<axis>.png`` per axis, each drawn by ``draw(ds, axis, ax)``; their paths."""
     plt = pyplot()
     paths = []
     for axis in _axes(ds):
         fig, ax = plt.subplots(figsize=(6.4, 4.4))
         fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.91)
-        fos_lines(ds, axis, ax)
-        paths.append(out_dir / f"fos_{axis}.png")
+        draw(ds, axis, ax)
+        paths.append(out_dir / f"{prefix}_{axis}.png")
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
+    return paths
+
+
+def draw_sweep_figures(out_dir: Path, ds: xr.Dataset) -> list[Path]:
+    """``fos_<axis>.png`` per axis and (:func:`can_map`) ``fos_map.png`` in ``out_dir``; their paths."""
+    plt = pyplot()
+    paths = _per_axis(out_dir, ds, fos_lines, "fos")
     if can_map(ds):
         fig, ax = plt.subplots(figsize=(6.4, 5.0))
         fig.subplots_adjust(left=0.13, right=0.97, bottom=0.11, top=0.92)
@@ -205,13 +212,4 @@ def runout_lines(ds: xr.Dataset, axis: str, ax=None):
 
 def draw_runout_sweep(out_dir: Path, ds: xr.Dataset) -> list[Path]:
     """``runout_<axis>.png`` per axis in ``out_dir``; their paths."""
-    plt = pyplot()
-    paths = []
-    for axis in _axes(ds):
-        fig, ax = plt.subplots(figsize=(6.4, 4.4))
-        fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.91)
-        runout_lines(ds, axis, ax)
-        paths.append(out_dir / f"runout_{axis}.png")
-        fig.savefig(paths[-1], dpi=110)
-        plt.close(fig)
-    return paths
+    return _per_axis(out_dir, ds, runout_lines, "runout")
