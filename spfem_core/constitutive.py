@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import PARALLEL_CHUNK, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.jit import chunk_bounds, inner_kernel, kernel, n_chunks, parallel_inner_kernel
 from spfem_core.plasticity import drucker_prager_update, mohr_coulomb_update, tension_cutoff
 from spfem_core.scene import MODEL_DRUCKER_PRAGER, MODEL_ELASTIC
 
@@ -78,16 +78,17 @@ def update_stress(
     summed in fixed chunks of particles (``jit`` module doc); on threads when ``n_threads`` > 1.
     """
     n_node = node_stress.shape[0]
-    n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
+    n_chunk = n_chunks(n_node)
     chunk_work = np.zeros(n_chunk)
     if n_threads > 1:
         update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda,
                                mat_shear, mat_params, dt, chunk_work)
     else:  # the same chunks
         for chunk in range(n_chunk):
+            start, end = chunk_bounds(chunk, n_node)
             chunk_work[chunk] = update_stress_range(
                 node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
-                mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
+                mat_params, dt, start, end)
     plastic_work = 0.0
     for chunk in range(n_chunk):
         plastic_work += chunk_work[chunk]
@@ -100,9 +101,10 @@ def update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, 
     """:func:`update_stress_range` of every chunk of particles on threads, its work in ``chunk_work``."""
     n_node = node_stress.shape[0]
     for chunk in prange(chunk_work.shape[0]):
+        start, end = chunk_bounds(chunk, n_node)
         chunk_work[chunk] = update_stress_range(
             node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda, mat_shear,
-            mat_params, dt, chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_node))
+            mat_params, dt, start, end)
 
 
 @inner_kernel

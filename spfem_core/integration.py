@@ -19,7 +19,7 @@ import numpy as np
 from numba import prange
 
 from spfem_core.contact import wall_contact_velocity
-from spfem_core.jit import PARALLEL_CHUNK, inline_kernel, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.jit import chunk_bounds, inline_kernel, inner_kernel, kernel, n_chunks, parallel_inner_kernel
 from spfem_core.state import LEAPFROG_OUT_WIDTH
 
 
@@ -53,16 +53,16 @@ def leapfrog(
     on a floor, a loss proportional to dt that never happened.
     """
     n_node = node_xy.shape[0]
-    n_chunk = (n_node + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
+    n_chunk = n_chunks(n_node)
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
     if n_threads > 1:
         leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
                           wall_xy, wall_friction, reach, node_contact, chunk_out)
     else:  # the same chunks
         for chunk in range(n_chunk):
+            start, end = chunk_bounds(chunk, n_node)
             leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping,
-                           dt, wall_xy, wall_friction, reach, node_contact, chunk * PARALLEL_CHUNK,
-                           min((chunk + 1) * PARALLEL_CHUNK, n_node), chunk_out[chunk])
+                           dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
         out[0] = larger_or_nan(out[0], chunk_out[chunk, 0])
@@ -77,9 +77,9 @@ def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_fixed
     (kept apart: a function with a parallel loop costs about 3 us a call even when it runs no thread)."""
     n_node = node_xy.shape[0]
     for chunk in prange(chunk_out.shape[0]):
+        start, end = chunk_bounds(chunk, n_node)
         leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-                       wall_xy, wall_friction, reach, node_contact, chunk * PARALLEL_CHUNK,
-                       min((chunk + 1) * PARALLEL_CHUNK, n_node), chunk_out[chunk])
+                       wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
 
 
 @inner_kernel

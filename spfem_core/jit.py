@@ -15,18 +15,19 @@ Policy (see STYLE.md):
   loop is the same (bit-identical runs); a fresh process compiles about 0.6 s less
   (``warm_up`` 6.55 -> 5.94 s, median of 3 alternated runs on an empty cache each).
 
-Threads: the kernels of the step loop run their loops over particles, elements and bonds
-with ``prange`` (:func:`parallel_kernel`, :func:`parallel_inner_kernel`) in a form that gives
-the same bits for any number of threads.  A loop over particles writes only its own
-particles.  Elements and bonds, which add into their nodes, run in fixed blocks
-(``mesh.node_blocks``) of which b and b + 2 never share a node: all even blocks at once, then
-all odd ones, so that no two threads add into one node and every node receives its terms in
-one order.  A loop that also sums does so per block or per fixed chunk of
-:data:`PARALLEL_CHUNK` particles, and adds those sums in order afterwards.  Maxima and counts
-are exact in any order.  The loops over a block or chunk run an unsigned index
-(``range(np.uint64(start), np.uint64(end))``): with a signed one numba adds negative-index
-wraparound code to every array access (the internal force was 44% slower at 7k particles).
-:func:`set_threads` chooses how many threads the calling thread's
+Threads: the kernels of the step loop run their loops over particles, elements and bonds on
+numba threads (``prange`` in the small helpers :func:`parallel_inner_kernel` compiles) in a form
+that gives the same bits for any number of threads.  A loop over particles writes only its own
+particles, in fixed chunks of :data:`PARALLEL_CHUNK` (:func:`chunk_bounds`).  Elements and bonds,
+which add into their nodes, run in blocks coloured so that blocks of one colour share no node
+(``mesh.coloured_blocks``): colour after colour, the blocks of a colour at once, so that no two
+threads add into one node and every node receives its terms in one order.  A loop that also
+sums does so per block or chunk, and adds those sums in order afterwards; maxima and counts are
+exact in any order.  On one thread the kernels run the same blocks and chunks in plain loops (a
+function holding a prange costs about 3 us a call even when it starts no thread).  Block and
+chunk loops run an unsigned index (``range(np.uint64(start), np.uint64(end))``): with a signed
+one numba adds negative-index wraparound code to every array access (the internal force was 44%
+slower at 7k particles).  :func:`set_threads` chooses how many threads the calling thread's
 kernels use (numba's threading layer: its default choice, TBB, OpenMP or its workqueue).
 
 Set ``SPFEM_CACHE_DIR`` to choose the cache root (default ``~/.cache/spfem-fos/numba``).
@@ -98,13 +99,8 @@ def inline_kernel(function):
     return numba.njit(**JIT_OPTIONS, no_cpython_wrapper=True, inline="always")(function)
 
 
-def parallel_kernel(function):
-    """``@kernel`` whose ``prange`` loops run on :func:`set_threads` threads (module doc)."""
-    return numba.njit(**JIT_OPTIONS, parallel=True)(function)
-
-
 def parallel_inner_kernel(function):
-    """:func:`parallel_kernel` that only other kernels call."""
+    """:func:`inner_kernel` whose ``prange`` loops run on :func:`set_threads` threads (module doc)."""
     return numba.njit(**JIT_OPTIONS, parallel=True, no_cpython_wrapper=True)(function)
 
 
@@ -120,6 +116,18 @@ PARALLEL_CHUNK = 512
 """Items per chunk of a parallel loop that sums (module doc).  Fixed, so that a sum's rounding
 does not depend on the number of threads; large enough that the chunks' bookkeeping is
 negligible, small enough that 5,000 particles make 10 chunks to share."""
+
+
+@inline_kernel
+def chunk_bounds(chunk, n_items):
+    """(start, end) of chunk ``chunk`` of :data:`PARALLEL_CHUNK` items out of ``n_items``."""
+    return chunk * PARALLEL_CHUNK, min((chunk + 1) * PARALLEL_CHUNK, n_items)
+
+
+@inline_kernel
+def n_chunks(n_items):
+    """Chunks of :data:`PARALLEL_CHUNK` items covering ``n_items``."""
+    return (n_items + PARALLEL_CHUNK - 1) // PARALLEL_CHUNK
 
 
 PARTICLES_PER_THREAD = 2500

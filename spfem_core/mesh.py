@@ -64,11 +64,6 @@ class Mesh:
                           self.elem_colour_block, self.edge_block_ptr, self.edge_colour_ptr, self.edge_colour_block)
 
     @property
-    def n_edges(self) -> int:
-        """Number of mesh edges (bonds)."""
-        return int(self.edge_nodes.shape[0])
-
-    @property
     def n_elem(self) -> int:
         """Number of triangles."""
         return int(self.elem_nodes.shape[0])

@@ -27,8 +27,7 @@ direction combine into one factor, without a square root:
     F_ij = (beta dt / 2) [E_i A_i (L_i x0_ij - dv) . x_ij + E_j A_j (L_j x0_ij - dv) . x_ij]
            / (|x_ij|^2 max(|x0_ij|^2, min_bond_sq)) x_ij .
 
-Each bond is evaluated once per step, by the element that owns it (``Mesh.elem_bond``), in the
-loop over elements of ``nodal_force``.
+``nodal_force`` evaluates every bond once per step, in coloured blocks of bonds.
 """
 
 from __future__ import annotations

@@ -107,6 +107,14 @@ def write_bytes(data: bytes, path: str | Path) -> Path:
     return path
 
 
+def write_text_if_changed(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` unless it holds it already, atomically (:func:`write_bytes`)."""
+    path = Path(path)
+    if not (path.is_file() and path.read_text(encoding="utf-8") == text):
+        write_bytes(text.encode("utf-8"), path)
+    return path
+
+
 def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
     """Write ``ds`` to ``path`` as a netCDF-4 file (:func:`dataset_bytes`, :func:`write_bytes`)."""
     with interrupts_deferred():

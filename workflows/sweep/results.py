@@ -22,6 +22,11 @@ from workflows.output.variables import SWEEP_FILE
 from workflows.study import Study
 from workflows.study.reading import SweepCase, axis_labels, resolve_sweep_path
 
+STUDY_FILE_NAME = "study.nc"
+CASES_FOLDER = "cases"
+CASE_TEXT_NAME = "case.toml"
+"""Where a sweep (of a FOS study or a stage study) puts its file, its cases' folders and each case's text."""
+
 FOUND, ABOVE, BELOW, NO_KNEE, GRAVITY_DIVERGED = "found", "above_srf_max", "below_srf_min", "no_knee", "gravity_diverged"
 
 

@@ -18,7 +18,6 @@
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,15 +29,19 @@ from workflows.fos.keys import case_key
 from workflows.fos.orchestration import conclude_case
 from workflows.fos.scales import check_resolution
 from workflows.memory_guard import check_memory, estimated_particles
-from workflows.output.writing import interrupts_deferred, make_output_folder, write_dataset
+from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, sweep_cases
 from workflows.sweep.figures import draw_sweep_figures
-from workflows.sweep.results import CaseResult, case_result, diverged_result, study_dataset
-
-STUDY_FILE_NAME = "study.nc"
-CASES_FOLDER = "cases"
-CASE_TEXT_NAME = "case.toml"
+from workflows.sweep.results import (
+    CASE_TEXT_NAME,
+    CASES_FOLDER,
+    STUDY_FILE_NAME,
+    CaseResult,
+    case_result,
+    diverged_result,
+    study_dataset,
+)
 
 
 @dataclass
@@ -68,16 +71,6 @@ def check_sweep(study: Study, processes: int, max_memory_bytes: float | None) ->
     largest = max(cases, key=lambda case: estimated_particles(case.study))
     check_memory(largest.study, processes=processes, limit_bytes=max_memory_bytes)
     return cases
-
-
-def _write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` unless it holds it already (atomic: a temp file and a rename)."""
-    if path.is_file() and path.read_text(encoding="utf-8") == text:
-        return
-    tmp = path.with_name(path.name + ".tmp")
-    with interrupts_deferred():
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
 
 
 def run_sweep(
@@ -113,7 +106,7 @@ def run_sweep(
     for index, case in enumerate(distinct):
         folder = out_dir / CASES_FOLDER / case.case_id
         make_output_folder(folder)
-        _write_text(folder / CASE_TEXT_NAME, case.study.source_text)
+        write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
         searches.append(CaseSearch(index, case.study, folder, label=case.case_id))
 
     results: dict[str, CaseResult] = {}

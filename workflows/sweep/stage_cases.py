@@ -27,11 +27,11 @@ from spfem_core.divergence import DivergenceError
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.stage_file import provenance, result_paths
 from workflows.output.variables import COLLAPSE_METRICS, RUNOUT_METRICS, STAGE_SWEEP_FILE
-from workflows.output.writing import make_output_folder, write_dataset
+from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.stages import StageProgress, run_study
 from workflows.study import RunoutStage, Study
 from workflows.study.reading import SweepCase, sweep_cases
-from workflows.sweep.results import sweep_coordinates
+from workflows.sweep.results import CASE_TEXT_NAME, CASES_FOLDER, STUDY_FILE_NAME, sweep_coordinates
 
 DONE, DIVERGED = "done", "diverged"
 
@@ -77,18 +77,14 @@ def runout_stage_names(study: Study) -> list[str]:
 def _read_case(study: Study, folder: Path, ran: bool) -> StageCaseResult:
     """The metrics of a finished case from its stage files."""
     paths = dict(zip((stage.name for stage in study.stages), result_paths(study, folder)))
-    runout, collapse, n_particles = {}, {}, 0
+    runout = {}
     for name in runout_stage_names(study):
         with xr.open_dataset(paths[name]) as ds:
             runout[name] = {key: float(ds[key]) for key in RUNOUT_SCALARS}
-            n_particles = int(ds.sizes.get("particle", 0))
-    if study.metrics is not None:
-        with xr.open_dataset(paths[study.stages[-1].name]) as ds:
-            collapse = {key: float(ds[key]) if key in ds else np.nan for key in COLLAPSE_SCALARS}
-            n_particles = int(ds.sizes.get("particle", 0))
-    if not n_particles:
-        with xr.open_dataset(paths[study.stages[-1].name]) as ds:
-            n_particles = int(ds.sizes.get("particle", 0))
+    with xr.open_dataset(paths[study.stages[-1].name]) as last:
+        n_particles = int(last.sizes.get("particle", 0))
+        collapse = ({key: float(last[key]) if key in last else np.nan for key in COLLAPSE_SCALARS}
+                    if study.metrics is not None else {})
     return StageCaseResult(DONE, "", n_particles, runout, collapse, ran)
 
 
@@ -103,18 +99,16 @@ def run_stage_sweep(study: Study, out_dir: str | Path, *, force: bool = False,
     largest = max(cases, key=lambda case: estimated_particles(case.study))
     check_memory(largest.study, processes=1, limit_bytes=max_memory_bytes)
     out_dir = Path(out_dir)
-    study_path = out_dir / "study.nc"
-    make_output_folder(out_dir / "cases")
+    study_path = out_dir / STUDY_FILE_NAME
+    make_output_folder(out_dir / CASES_FOLDER)
     study_path.unlink(missing_ok=True)  # written again at the end; a stopped sweep must not show an old one
     results: dict[str, StageCaseResult] = {}
     for index, case in enumerate(cases):
         if case_started is not None:
             case_started(index, len(cases), case)
-        folder = out_dir / "cases" / case.case_id
+        folder = out_dir / CASES_FOLDER / case.case_id
         make_output_folder(folder)
-        text_path = folder / "case.toml"
-        if not (text_path.is_file() and text_path.read_text(encoding="utf-8") == case.study.source_text):
-            text_path.write_text(case.study.source_text, encoding="utf-8")
+        write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
         try:
             run = run_study(case.study, folder, progress=progress, force=force, max_memory_bytes=max_memory_bytes)
         except DivergenceError as error:
