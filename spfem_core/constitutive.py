@@ -75,12 +75,13 @@ def update_stress(
     Elastic rows take the Hooke increment; Drucker-Prager and Mohr-Coulomb rows the elastic
     trial and return map of ``plasticity``.  Adds the equivalent plastic strain increment to
     ``node_plastic_strain`` and returns the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m),
-    summed in fixed chunks of particles (``jit`` module doc); on threads when ``n_threads`` > 1.
+    summed in fixed chunks of particles (``jit`` module doc); on threads unless ``n_threads`` is None
+    (``jit.kernel_threads``).
     """
     n_node = node_stress.shape[0]
     n_chunk = n_chunks(n_node)
     chunk_work = np.zeros(n_chunk)
-    if n_threads > 1:
+    if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material, mat_model, mat_lambda,
                                mat_shear, mat_params, dt, chunk_work)
     else:  # the same chunks

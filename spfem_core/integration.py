@@ -44,7 +44,7 @@ def leapfrog(
     [max speed^2 (m^2/s^2; NaN if any speed is NaN), |f_unbalanced|^2 on free directions,
     |m g|^2 on free directions, damping power (W/m, <= 0), energy removed by the walls (J/m),
     particles touching a wall]; the sums are taken in fixed chunks of particles (``jit``), on
-    threads when ``n_threads`` > 1.
+    threads unless ``n_threads`` is None (``jit.kernel_threads``).
 
     The walls' share is minus the work of their impulse m (w - v) at the mid-step velocity
     (v^{n-1/2} + w) / 2, the measure of a leapfrog step's kinetic energy change
@@ -55,7 +55,7 @@ def leapfrog(
     n_node = node_xy.shape[0]
     n_chunk = n_chunks(n_node)
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
-    if n_threads > 1:
+    if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
                           wall_xy, wall_friction, reach, node_contact, chunk_out)
     else:  # the same chunks

@@ -24,7 +24,12 @@ which add into their nodes, run in blocks coloured so that blocks of one colour 
 threads add into one node and every node receives its terms in one order.  A loop that also
 sums does so per block or chunk, and adds those sums in order afterwards; maxima and counts are
 exact in any order.  On one thread the kernels run the same blocks and chunks in plain loops (a
-function holding a prange costs about 3 us a call even when it starts no thread).  Block and
+function holding a prange costs about 3 us a call even when it starts no thread).  Which of the
+two runs is decided when numba compiles, not at run time: the kernels' ``n_threads`` argument is
+None for one thread (:func:`kernel_threads`), and numba drops an ``if n_threads is not None``
+branch before compiling it.  A process that only ever runs one thread (a dask worker's SRF runs,
+a small cloud) never compiles the threaded helpers, about 2 s of a cold start; a threaded run
+compiles its own specialisation of the step.  Block and
 chunk loops run an unsigned index (``range(np.uint64(start), np.uint64(end))``): with a signed
 one numba adds negative-index wraparound code to every array access (the internal force was 44%
 slower at 7k particles).  :func:`set_threads` chooses how many threads the calling thread's
@@ -135,6 +140,12 @@ PARTICLES_PER_THREAD = 2500
 threads of every loop (about 10 loops a step) costs more than sharing the loop saves (the
 elastic beam at 1,111 particles: 13.0 M particle-steps/s on 1 thread, 10.3 on 2;
 ``python -m benchmarks.bench_core --quick`` with and without NUMBA_NUM_THREADS=1)."""
+
+
+def kernel_threads(n_threads: int) -> int | None:
+    """The kernels' ``n_threads`` argument for a run on ``n_threads`` threads: None for one (plain
+    loops, and the threaded code is not compiled, module doc), else ``n_threads``."""
+    return None if n_threads <= 1 else int(n_threads)
 
 
 def set_threads(n_threads: int, n_particles: int | None = None) -> int:

@@ -25,10 +25,10 @@ def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_m
                          elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
                          edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force, n_threads):
     """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
-    0 when beta = 0).  On threads when ``n_threads`` > 1, else in plain loops (same order)."""
+    0 when beta = 0).  On threads unless ``n_threads`` is None (``jit.kernel_threads``), else in plain
+    loops (same order)."""
     fill_zero(node_force)
-    threaded = n_threads > 1
-    if threaded:
+    if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                                 node_force)
     else:
@@ -41,7 +41,7 @@ def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_m
     half_beta_dt = 0.5 * beta * dt
     n_block = edge_block_ptr.shape[0] - 1
     block_power = np.zeros(n_block)
-    if threaded:
+    if n_threads is not None:
         bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr,
                              edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq, node_force, block_power)
     else:

@@ -15,7 +15,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from spfem_core.divergence import DivergenceError, EnergyWatch, speed_reason
-from spfem_core.jit import set_threads
+from spfem_core.jit import kernel_threads, set_threads
 from spfem_core.mesh import Mesh, boundary_edges
 from spfem_core.records import RecordBuffers, TimeSeries, record_state
 from spfem_core.remeshing import ANGLE_MARGIN_RAD, Remesher
@@ -150,7 +150,8 @@ class Simulation:
         self.mesh_arrays = mesh.arrays
         smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
                                  mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.elem_geom,
-                                 self.scratch.velocity_gradient, self.scratch.area_m2, self.threads)
+                                 self.scratch.velocity_gradient, self.scratch.area_m2,
+                                 kernel_threads(self.threads))
 
     def _critical_dt(self) -> float:
         mesh = self.mesh
@@ -337,7 +338,7 @@ class Simulation:
         return StepParameters(
             self.gravity_m_s2, self.dt_s, float(damping), float(self.settings.stabilisation_beta),
             self.scene.spacing_m, self.speed_limit_m_s, float(tolerance), self.remesher.threshold_rad,
-            ANGLE_MARGIN_RAD, int(self.threads),
+            ANGLE_MARGIN_RAD, kernel_threads(self.threads),
         )
 
     def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None,

@@ -29,7 +29,7 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_c
     Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN/dx, c_I = dN/dy and
     A_e from the current coordinates, ``node_area`` with A_k and ``node_L`` with L_k (zero for a
     particle in no triangle).  The elements run in coloured blocks (``mesh.coloured_blocks``), on
-    threads when ``n_threads`` > 1 (the number ``jit.set_threads`` set), else in a plain loop.
+    threads unless ``n_threads`` is None (``jit.kernel_threads``), else in a plain loop.
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
     """
@@ -38,7 +38,7 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_c
     fill_zero(node_L)
     block_inverted = np.zeros(n_block, dtype=np.int64)
     block_rate_sq = np.zeros(n_block)
-    if n_threads > 1:
+    if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                                elem_geom, node_L, node_area, block_inverted, block_rate_sq)
     else:  # the same blocks in the same order

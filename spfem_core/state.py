@@ -122,4 +122,4 @@ class StepParameters(NamedTuple):
     tolerance: float  # relaxation: stop when the unbalanced-force ratio is below it (0: never)
     angle_threshold_rad: float  # rebuild the mesh when its smallest angle falls below this
     angle_margin_rad: float  # safety margin of the cheap angle bound
-    n_threads: int  # threads the kernels use (jit.set_threads); 1: plain loops, no thread start-up
+    n_threads: int | None  # jit.kernel_threads: None, plain loops (the threaded code is not compiled); else threads

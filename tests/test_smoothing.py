@@ -59,7 +59,7 @@ def test_uniform_stress_gives_boundary_traction_only():
     power = assemble_nodal_force(xy, np.zeros((n, 2)), np.zeros((n, 4)), np.ones(n), stress, np.zeros(n, dtype=np.int64),
                                  np.ones(1), mesh.elem_nodes, geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
                                  mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr,
-                                 mesh.edge_colour_block, 0.0, 1e-3, 0.0, force, 1)
+                                 mesh.edge_colour_block, 0.0, 1e-3, 0.0, force, None)
     assert power == 0.0  # beta = 0: the internal force alone
     tol = 1e-9
     interior = (xy[:, 0] > tol) & (xy[:, 0] < width - tol) & (xy[:, 1] > tol) & (xy[:, 1] < height - tol)

@@ -81,3 +81,27 @@ def test_one_and_two_threads_give_identical_runs():
         words = line.split()
         assert int(words[words.index("rebuilds,") - 1]) >= (1 if words[0] == "column" else 0)
         assert int(words[-1]) > 0
+
+
+ONE_THREAD = textwrap.dedent("""
+    from spfem_core import constitutive, integration, nodal_force, smoothing
+    from spfem_core.warmup import warm_up
+
+    warm_up()  # plasticity, a wall, run and relax: every kernel of a step, on one thread
+    helpers = (smoothing.smooth_blocks_threaded, constitutive.update_stress_threaded,
+               nodal_force.element_forces_threaded, nodal_force.bond_forces_threaded,
+               integration.leapfrog_threaded)
+    print(sum(len(helper.signatures) for helper in helpers), len(smoothing.smooth_elements.signatures))
+""")
+
+
+def test_a_one_thread_run_compiles_no_threaded_code(tmp_path):
+    """On one thread the kernels get n_threads = None and numba drops the threaded branch before
+    compiling (``jit.kernel_threads``): with an empty cache, compiling every kernel of a step
+    compiles no parallel helper, while the plain block functions they share are compiled."""
+    env = dict(os.environ, SPFEM_CACHE_DIR=str(tmp_path / "numba-cache"))
+    done = subprocess.run([sys.executable, "-c", ONE_THREAD], env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    n_threaded, n_block_function = map(int, done.stdout.split())
+    assert n_block_function == 1  # compiled here, not loaded: the count sees what was compiled
+    assert n_threaded == 0

@@ -22,7 +22,7 @@ def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes
     smooth_velocity_gradient(np.ascontiguousarray(node_xy_m, dtype=np.float64),
                              np.ascontiguousarray(node_values, dtype=np.float64), mesh.elem_nodes,
                              mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, elem_geom, node_L,
-                             node_area, 1)
+                             node_area, None)
     return node_L, node_area, elem_geom
 
 

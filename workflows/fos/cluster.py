@@ -10,6 +10,7 @@ import importlib
 import logging
 import multiprocessing
 import threading
+import uuid
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 
@@ -17,6 +18,7 @@ import dask
 from distributed import Client, LocalCluster
 from distributed.utils import get_mp_context
 
+from spfem_core.warmup import warm_up
 from workflows.study import StudyError
 
 
@@ -124,13 +126,26 @@ def close_client(client, cluster) -> None:
 class DaskSession:
     """The study's dask client, started in a thread so that the cluster starts and its workers
     import while this process runs the gravity stage, and closed in a thread so that the
-    workers shut down while the summary and figures are made."""
+    workers shut down while the summary and figures are made.
 
-    def __init__(self, workers: int, scheduler: str | None):
+    With ``warm_up_worker``, one worker compiles (or loads from the disk cache) the single-thread
+    step the SRF runs use (:func:`spfem_core.warmup.warm_up`) as soon as the cluster is up, while
+    this process compiles and runs the gravity stage: a gravity stage on threads compiles the
+    threaded step only (``spfem_core.jit``), and on a cold cache the two compilations then run
+    on two cores at once."""
+
+    def __init__(self, workers: int, scheduler: str | None, warm_up_worker: bool = False):
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
-        self._starting = pool.submit(start_client, workers, scheduler)
+        self._starting = pool.submit(self._start, workers, scheduler, warm_up_worker)
         pool.shutdown(wait=False)
         self._closing: threading.Thread | None = None
+        self._warming = None  # the warm-up task's future, kept: dask cancels a task nobody holds
+
+    def _start(self, workers: int, scheduler: str | None, warm_up_worker: bool):
+        client, cluster = start_client(workers, scheduler)
+        if warm_up_worker:
+            self._warming = client.submit(warm_up, pure=False, key=f"warm-up-{uuid.uuid4().hex[:12]}")
+        return client, cluster
 
     def client(self):
         """The client, once started (a start error is raised here)."""
@@ -153,9 +168,9 @@ class DaskSession:
 
 
 @contextmanager
-def dask_session(workers: int, scheduler: str | None):
+def dask_session(workers: int, scheduler: str | None, warm_up_worker: bool = False):
     """A :class:`DaskSession`, closed on the way out whatever happened meanwhile."""
-    session = DaskSession(workers, scheduler)
+    session = DaskSession(workers, scheduler, warm_up_worker)
     try:
         yield session
     finally:

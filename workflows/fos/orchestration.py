@@ -3,8 +3,9 @@
 1. **Gravity** (``workflows.fos.gravity``): the stages before the ``strength_reduction``
    stage run once, in this process while the cluster starts, stored as ``gravity.nc``,
    reused while their key holds.
-2. The numba cache is warm by then (the gravity run compiled the loop, or
-   :func:`spfem_core.warmup.warm_up` loads it), so workers start without compiling.
+2. Meanwhile one worker compiles the single-thread step the runs use, or loads it from the
+   disk cache (``workflows.fos.cluster.DaskSession``): a gravity stage on threads compiled
+   only the threaded one.
 3. **SRF runs** are dask tasks on the cluster of ``workflows.fos.cluster``, chosen by the
    case's search and kept on disk (``workflows.fos.engine``, ``workflows.fos.run_store``).
 4. :func:`conclude_case` writes ``OUT/summary.nc`` (``workflows.fos.summary``), then the figures.
@@ -18,7 +19,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spfem_core.warmup import warm_up
 from workflows.fos.cluster import connect, dask_session
 from workflows.fos.criterion import brackets_agree, status_bracket
 from workflows.fos.engine import CaseSearch, Engine, FosProgress
@@ -92,10 +92,8 @@ def run_fos_study(
     if scheduler:  # fail before any work when the cluster cannot be reached
         connect(scheduler).close()
     outcomes: list[FosOutcome] = []
-    with dask_session(workers, scheduler) as session:
+    with dask_session(workers, scheduler, warm_up_worker=True) as session:
         stress, plastic, reused, n_particles, gravity_s = gravity_state(study, out_dir, force=force, progress=progress)
-        if reused:
-            warm_up()  # load the compiled loop into the disk cache before the workers start
         case = CaseSearch(0, study, out_dir, gravity=(stress, plastic), gravity_reused=reused,
                           gravity_wall_s=gravity_s, n_particles=n_particles)
         srf_start = time.perf_counter()
