@@ -20,7 +20,7 @@ from workflows.fos.criterion import (
     status_bracket,
 )
 from workflows.fos.search import RunOutcome, SrfSearch, sweep_values
-from workflows.fos.verdict import FAILED, STABLE
+from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 FLOOR_M = 1e-3
 
@@ -267,3 +267,76 @@ def test_guesses_on_expected_failures_do_not_change_the_runs_used(f_star):
     assert guessing.knee() == plain.knee()
     fos = plain.knee()
     assert fos.fos_low <= f_star < fos.fos_high and fos.fos_high - fos.fos_low <= 0.01
+
+
+def test_a_run_known_to_fail_holds_back_the_sweep_and_the_freed_worker_guesses_below_it():
+    search = reference_search({f: u for f, u in REFERENCE_SWEEP_M.items() if f <= 1.3})
+    for srf in (1.4, 1.5):  # released together: neither is expected to fail from the curve
+        search.started(srf)
+    assert search.predicted_failure() == math.inf and search.speculative_values(1) == []
+    search.passed_failure(1.4)  # its largest displacement passed failure_m mid-run
+    assert search.predicted_failure() == 1.4 == search.certain_failure()
+    search.deferred(1.5)  # the engine stops the run above it
+    assert search.next_values() == []  # 1.5 and up held back until 1.4 ends
+    guesses = search.speculative_values(2)  # the failed branch only: the refinement below 1.4
+    assert guesses and all(1.3 < f < 1.4 for f in guesses)
+    search.finished(RunOutcome(1.4, 0.98, FAILED))
+    assert search.next_values() == guesses
+    assert "above the failed SRF 1.4" in search.skipped[1.5]
+
+
+def test_a_run_known_to_fail_that_diverges_gives_the_runs_above_it_back():
+    search = reference_search({f: u for f, u in REFERENCE_SWEEP_M.items() if f <= 1.3})
+    for srf in (1.4, 1.5):
+        search.started(srf)
+    search.passed_failure(1.4)
+    search.deferred(1.5)
+    search.finished(RunOutcome(1.4, math.nan, DIVERGED))
+    assert search.certain_failure() == math.inf
+    assert search.next_values() == [1.5, 1.6] and 1.5 not in search.skipped
+
+
+def drive_with_failure_signals(search: SrfSearch, response, f_star):
+    """As ``drive_with_guesses``, and every run that will fail says so as soon as it starts
+    (``passed_failure``); the runs above it are stopped (``deferred``), as the engine does."""
+    queue, guessed = [], {}
+
+    def outcome(srf):
+        return RunOutcome(srf, float(response(srf)), FAILED if srf > f_star else STABLE)
+
+    while True:
+        planned = search.next_values()
+        for srf in planned:
+            search.started(srf)
+            if srf in guessed:
+                search.finished(guessed.pop(srf))
+            else:
+                queue.append(srf)
+                if srf > f_star:
+                    search.passed_failure(srf)
+        for srf in [f for f in queue if f > search.certain_failure()]:
+            queue.remove(srf)
+            search.deferred(srf)
+        if not queue:
+            if planned:
+                continue
+            return
+        for srf in search.speculative_values(1):
+            guessed.setdefault(srf, outcome(srf))
+        search.finished(outcome(queue.pop(0)))
+
+
+@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.45, 1.6789])
+def test_failures_known_early_do_not_change_the_fos(f_star):
+    def response(f):
+        return accelerating_response(f, f_star)
+
+    plain = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+    drive(plain, response, f_star)
+    signalled = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+    drive_with_failure_signals(signalled, response, f_star)
+    assert signalled.knee() == plain.knee()
+    first_failure = plain.lowest_failed
+    assert ({f: o for f, o in signalled.outcomes.items() if f <= first_failure}
+            == {f: o for f, o in plain.outcomes.items() if f <= first_failure})
+    assert len(signalled.outcomes) <= len(plain.outcomes)

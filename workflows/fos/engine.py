@@ -21,7 +21,11 @@ workers busy with all of them at once, with no barrier between cases:
 5. only when the queue is empty, an idle worker runs a guess: a value a case's search would
    ask for next under either outcome of its one undecided run (``SrfSearch.speculative_values``),
    used only if the search then asks for it.  A guess gives way (is stopped) as soon as a
-   queued run needs its worker.
+   queued run needs its worker;
+6. a run tells the client as soon as its largest displacement passes the failure displacement
+   (a dask Event the client polls every ``SIGNAL_POLL_S`` while it waits): the run will end
+   failed, so the runs and guesses above it are stopped (``SrfSearch.deferred``: asked for again
+   only if it diverges instead) and the freed worker guesses the refinement below it.
 
 The runs a case uses, and its FOS, do not depend on the number of workers or on the other
 cases; runs of earlier cases go first, so cases finish roughly in order.
@@ -92,6 +96,11 @@ class CaseSearch:
         return f"{self.label}: {text}" if self.label else text
 
 
+SIGNAL_POLL_S = 0.2
+"""While waiting for a task, the client checks this often whether a running run has passed the
+failure displacement (module doc, step 6): one scheduler round trip per running run."""
+
+
 @dataclass
 class _Task:
     """A submitted task: what it is for."""
@@ -100,7 +109,8 @@ class _Task:
     kind: str  # "gravity", "run" (asked by the search) or "guess" (started ahead of it)
     srf: float = math.nan
     key: str = ""
-    event: str = ""
+    event: str = ""  # the Event that stops the run
+    failing_event: str = ""  # the Event the run sets once it has passed the failure displacement
 
 
 class Engine:
@@ -131,10 +141,10 @@ class Engine:
 
     def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: str):
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
-        event = f"spfem-fos-cancel-{name}"
+        event, failing = f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}"
         future = self._submit(run_srf, *case.shared, srf, cancel_event=event, run_key=key, gravity_key=case.gkey,
-                              key=f"srf-{srf:.4f}-{name}", priority=-case.index)
-        self.tasks[future] = _Task(case, kind, srf, key, event)
+                              failing_event=failing, key=f"srf-{srf:.4f}-{name}", priority=-case.index)
+        self.tasks[future] = _Task(case, kind, srf, key, event, failing)
         return future
 
     def _cancel(self, future) -> None:
@@ -264,6 +274,7 @@ class Engine:
 
     def _cancel_above_failures(self) -> None:
         reason = "cancelled: above the failed SRF {:g}, cannot move the knee"
+        self._defer_above_certain_failures()
         for future, task in list(self.tasks.items()):
             if task.kind == "gravity":
                 continue
@@ -279,6 +290,44 @@ class Engine:
             if task.srf > ceiling:
                 self.queue.remove(task)
                 task.case.search.cancelled(task.srf, reason.format(ceiling))
+
+    def _defer_above_certain_failures(self) -> None:
+        """Stop the runs and guesses above a run known to fail (module doc, step 6)."""
+        for future, task in list(self.tasks.items()):
+            if task.kind != "gravity" and task.srf > task.case.search.certain_failure():
+                self._cancel(future)
+                if task.kind == "run":
+                    task.case.search.deferred(task.srf)
+                else:
+                    self.guesses.pop((task.case.index, task.srf), None)
+        for task in list(self.queue):
+            if task.srf > task.case.search.certain_failure():
+                self.queue.remove(task)
+                task.case.search.deferred(task.srf)
+
+    def _failures_signalled(self) -> bool:
+        """Tell each case's search which of its running runs have passed the failure displacement
+        since the last look; whether any has."""
+        news = False
+        for task in list(self.tasks.values()):
+            search = task.case.search
+            if task.kind != "run" or task.srf in search.failing or task.srf not in search.pending:
+                continue
+            if Event(task.failing_event, client=self.client).is_set():
+                search.passed_failure(task.srf)
+                news = True
+        return news
+
+    def _wait(self) -> list:
+        """The tasks that finished, once one has; [] as soon as a running run is known to fail
+        (module doc, step 6), so that the loop plans again."""
+        while True:
+            try:
+                finished, _ = wait(list(self.tasks), timeout=SIGNAL_POLL_S, return_when="FIRST_COMPLETED")
+                return list(finished)
+            except TimeoutError:
+                if self._failures_signalled():
+                    return []
 
     def _dispatch(self) -> None:
         """Submit queued runs to free workers, earlier cases and lower SRF first (step 3); a
@@ -342,8 +391,7 @@ class Engine:
                     raise RuntimeError("spfem-fos engine: cases are waiting with no task running (a bug)")
                 continue
             idle_passes = 0
-            finished, _ = wait(list(self.tasks), return_when="FIRST_COMPLETED")
-            for future in finished:
+            for future in self._wait():
                 task = self.tasks.pop(future, None)
                 if task is None:
                     continue  # cancelled meanwhile

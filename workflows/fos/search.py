@@ -22,6 +22,12 @@ maximum displacement and verdict, and says which SRF values to start next.
    sweep runs below it, reaches ``failure_m`` is expected to fail.  Sweep values above it
    are held back until it finishes (they would be cancelled if it fails), and an idle worker
    speculates on its outcome instead, failed branch first.
+5. **Failure known early** (:meth:`SrfSearch.passed_failure`): a pending run whose largest
+   displacement has passed ``failure_m`` will end failed (the displacement only grows), or
+   diverged.  It is then expected to fail for certain, sweep run or not: values above it are
+   held back, runs above it that were started are stopped (:meth:`SrfSearch.deferred`: asked
+   for again only if it diverges), and an idle worker speculates on its failed branch alone.
+   None of this changes the runs used or the FOS: it only frees workers sooner.
 """
 
 from __future__ import annotations
@@ -69,6 +75,8 @@ class SrfSearch:
         self.max_runs = int(max_runs)
         self.outcomes: dict[float, RunOutcome] = {}
         self.pending: set[float] = set()
+        self.failing: set[float] = set()  # pending runs past failure_m (module doc, step 5)
+        self.deferred_by: dict[float, float] = {}  # started runs stopped above a failing one -> that run
         self.skipped: dict[float, str] = {}
         self.stop_reason = ""
 
@@ -83,7 +91,28 @@ class SrfSearch:
 
     def finished(self, outcome: RunOutcome) -> None:
         self.pending.discard(outcome.srf)
+        self.failing.discard(outcome.srf)
         self.outcomes[outcome.srf] = outcome
+        for srf, cause in list(self.deferred_by.items()):
+            if cause == outcome.srf:
+                del self.deferred_by[srf]
+                if outcome.status == FAILED and srf not in self.sweep_set:  # (sweep values: next_values says)
+                    self.skipped[srf] = f"cancelled: above the failed SRF {cause:g}, cannot move the knee"
+
+    def passed_failure(self, srf: float) -> None:
+        """The pending run ``srf`` has moved more than ``failure_m``: it will fail (module doc, step 5)."""
+        if srf in self.pending:
+            self.failing.add(srf)
+
+    def certain_failure(self) -> float:
+        """The lowest pending run known to fail (:meth:`passed_failure`); inf if none."""
+        return min(self.failing, default=math.inf)
+
+    def deferred(self, srf: float) -> None:
+        """The started run ``srf`` was stopped because a run below it will fail: neither finished
+        nor skipped, so the search asks for it again if that run diverges instead."""
+        self.pending.discard(srf)
+        self.deferred_by[srf] = self.certain_failure()
 
     @property
     def lowest_failed(self) -> float:
@@ -91,11 +120,16 @@ class SrfSearch:
         return min(failed) if failed else math.inf
 
     def predicted_failure(self) -> float:
-        """The lowest pending sweep SRF expected to fail (module doc, step 4); inf if none, or
-        once a run has failed.  From the two finished sweep runs F1 < F2 below a pending F,
+        """The lowest pending SRF expected to fail: one known to (:meth:`certain_failure`, step 5),
+        or, before any run has failed, a sweep SRF extrapolated to (step 4); inf if none.  From
+        the two finished sweep runs F1 < F2 below a pending sweep F,
 
             u(F) = u2 (u2 / u1)^((F - F2) / (F2 - F1))  >=  failure_m.
         """
+        return min(self.certain_failure(), self._extrapolated_failure())
+
+    def _extrapolated_failure(self) -> float:
+        """Step 4 of the module doc (inf once a run has failed)."""
         if not math.isfinite(self.failure_m) or math.isfinite(self.lowest_failed):
             return math.inf
         finished = sorted((o.srf, o.max_displacement_m) for o in self.outcomes.values()
@@ -174,7 +208,8 @@ class SrfSearch:
         when that run is expected to fail (:meth:`predicted_failure`).  Its two outcomes are
         imagined: failed with the displacement of the lowest failed run (``failure_m`` before
         any), and stable with the displacement of the run below it; the values each branch
-        would start are interleaved, failed branch first.  That branch puts the bracket in the
+        would start are interleaved, failed branch first.  A run known to fail
+        (:meth:`passed_failure`) has its failed branch only.  That branch puts the bracket in the
         lower part of the split, where it went in every strength-reduction study we ran: above
         the knee log u rises fastest first.
         """
@@ -195,9 +230,11 @@ class SrfSearch:
         below = [o for o in usable if o.srf < srf]
         if not below:
             return []
+        outcomes = [RunOutcome(srf, failed_u, FAILED)]
+        if srf not in self.failing:
+            outcomes.append(RunOutcome(srf, below[-1].max_displacement_m, STABLE))
         branches = []
-        for outcome in (RunOutcome(srf, failed_u, FAILED),
-                        RunOutcome(srf, below[-1].max_displacement_m, STABLE)):
+        for outcome in outcomes:
             branch = copy.deepcopy(self)
             branch.finished(outcome)
             branches.append([f for f in branch.next_values() if f not in self.outcomes and f not in self.pending])

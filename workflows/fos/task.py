@@ -43,13 +43,20 @@ from workflows.scene import build_scene, monitor_particles, solver_settings, sup
 from workflows.study import Study, parse_study
 
 
-def _cancellable(rule, event_name: str):
-    """``rule``, which also stops the run once the dask Event ``event_name`` is set (one round
-    trip to the scheduler per check, about 50 per run)."""
-    event = Event(event_name)
+def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: float):
+    """``rule``, which also stops the run once the dask Event ``cancel_event`` is set (one round
+    trip to the scheduler per check, about 50 per run) and sets the Event ``failing_event`` once
+    the largest displacement passes ``failure_m``: the run will end failed, and the client can
+    plan on it before the run ends (``workflows.fos.search``, step 5)."""
+    cancel = Event(cancel_event)
+    failing = Event(failing_event) if failing_event else None
 
     def checked(time_s, max_u_m, energy):
-        if event.is_set():
+        nonlocal failing
+        if failing is not None and max_u_m.size and float(np.max(max_u_m)) > failure_m:
+            failing.set()
+            failing = None  # once
+        if cancel.is_set():
             return "cancelled by the client: the run can no longer change the answer"
         return rule(time_s, max_u_m, energy)
 
@@ -126,12 +133,15 @@ def default_ramp_time_s(study: Study) -> float:
 
 
 def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float,
-            cancel_event: str | None = None, run_key: str = "", gravity_key: str = ""):
+            cancel_event: str | None = None, run_key: str = "", gravity_key: str = "",
+            failing_event: str | None = None):
     """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
 
     ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
     longer change the answer) the run stops at its next stop-rule check, so that its worker is
-    free for a run that can.  Needs ``stage.early_stop`` (the checks come with the stop rule).
+    free for a run that can.  ``failing_event``: name of a dask ``Event`` set once the run's largest
+    displacement passes the failure displacement (it will end failed).  Both need
+    ``stage.early_stop`` and ``cancel_event`` (the checks come with the stop rule).
     ``run_key`` and ``gravity_key`` (``workflows.fos.keys``, from the client) go into the file.
     """
     started_unix_s = time.time()
@@ -148,7 +158,7 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     remesh_start = sim.counters.remesh_wall_s
     stop = verdict.stop_rule() if stage.early_stop else None
     if stop is not None and cancel_event is not None:
-        stop = _cancellable(stop, cancel_event)
+        stop = _connected(stop, cancel_event, failing_event, verdict.failure_m)
     try:
         series = _run_protocol(study, scene, sim, float(srf), monitors, stop)
         status, reason = verdict.classify(series.time_s, series.max_displacement_m, series.converged)
