@@ -254,15 +254,21 @@ def accelerating_response(srf, f_star):
     return np.where(srf > f_star, 2.0, 0.005 * np.exp(2.0 * (srf - 1.0)) + 0.4 * np.exp(25.0 * (srf - f_star)))
 
 
-@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.45, 1.6789])
-def test_guesses_on_expected_failures_do_not_change_the_runs_used(f_star):
+def plain_and_driven(f_star, driver) -> tuple[SrfSearch, SrfSearch]:
+    """Two searches on ``accelerating_response``: one driven plainly, one by ``driver``."""
     def response(f):
         return accelerating_response(f, f_star)
 
-    plain = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+    plain, driven = (SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
+                     for _ in range(2))
     drive(plain, response, f_star)
-    guessing = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
-    drive_with_guesses(guessing, response, f_star)
+    driver(driven, response, f_star)
+    return plain, driven
+
+
+@pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.45, 1.6789])
+def test_guesses_on_expected_failures_do_not_change_the_runs_used(f_star):
+    plain, guessing = plain_and_driven(f_star, drive_with_guesses)
     assert guessing.outcomes == plain.outcomes
     assert guessing.knee() == plain.knee()
     fos = plain.knee()
@@ -328,13 +334,7 @@ def drive_with_failure_signals(search: SrfSearch, response, f_star):
 
 @pytest.mark.parametrize("f_star", [0.93, 1.2345, 1.3712, 1.45, 1.6789])
 def test_failures_known_early_do_not_change_the_fos(f_star):
-    def response(f):
-        return accelerating_response(f, f_star)
-
-    plain = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
-    drive(plain, response, f_star)
-    signalled = SrfSearch(0.8, 2.0, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, failure_m=1.0)
-    drive_with_failure_signals(signalled, response, f_star)
+    plain, signalled = plain_and_driven(f_star, drive_with_failure_signals)
     assert signalled.knee() == plain.knee()
     first_failure = plain.lowest_failed
     assert ({f: o for f, o in signalled.outcomes.items() if f <= first_failure}
