@@ -46,13 +46,13 @@ def beam(h, beta):
     return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=beta))
 """
 
-COLUMN = """
+SAND_COLUMN = """
 import numpy as np
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
 
-def column(h, beta):
+def sand_column(h, beta):
     xy = particles_in_polygon([[0.0, 0.0], [0.2, 0.0], [0.2, 0.4], [0.0, 0.4]], h)
     sand = MaterialTable.single("sand", "mohr_coulomb", 2000.0, 5e6, 0.3, 0.0, 30.0, 0.0)
     scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), sand, h, gravity_m_s2=[0.0, -9.81])
@@ -60,14 +60,15 @@ def column(h, beta):
     scene.add_wall(0.0, 1.0, 0.0, 0.0, friction=0.0)
     return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=beta))
 """
+"""Source of the sand column (also ``bench_threads``'s): core calls every version has."""
 
-COLUMN_THROUGHPUT = COLUMN + """
+COLUMN_THROUGHPUT = SAND_COLUMN + """
 import json, time
-probe = column(0.0063, {beta!r})  # about 2,000 particles: the code loaded, the column itself at rest
+probe = sand_column(0.0063, {beta!r})  # about 2,000 particles: the code loaded, the column itself at rest
 probe.run(20 * probe.dt_s)
 rates = []
 for _ in range({repeats}):
-    sim = column({h!r}, {beta!r})
+    sim = sand_column({h!r}, {beta!r})
     n = sim.n_particles
     steps = max(200, int(1.5e7 / n))
     start = time.perf_counter()

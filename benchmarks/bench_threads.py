@@ -23,15 +23,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+from benchmarks.bench_core import SAND_COLUMN
+
 ROOT = Path(__file__).resolve().parents[1]
 SIZES = {"5k": 5_000, "20k": 20_000, "80k": 80_000}
 
-SCENES = """
+SCENES = SAND_COLUMN + """
 import json, math, time
-import numpy as np
-from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
-from spfem_core.simulation import Simulation
 
 def beam(n):
     h = math.sqrt(2.0 * 0.2 / n)
@@ -42,13 +40,7 @@ def beam(n):
     return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1)), 20
 
 def column(n):
-    h = math.sqrt(0.2 * 0.4 / n)
-    xy = particles_in_polygon([[0.0, 0.0], [0.2, 0.0], [0.2, 0.4], [0.0, 0.4]], h)
-    sand = MaterialTable.single("sand", "mohr_coulomb", 2000.0, 5e6, 0.3, 0.0, 30.0, 0.0)
-    scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), sand, h, gravity_m_s2=[0.0, -9.81])
-    scene.add_wall(-0.1, 0.0, 2.0, 0.0, friction=0.5)
-    scene.add_wall(0.0, 1.0, 0.0, 0.0, friction=0.0)
-    return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1)), 0
+    return sand_column(math.sqrt(0.2 * 0.4 / n), 0.1), 0
 
 sim, warm_steps = {scene}({n})
 steps = max(100, int({particle_steps} / sim.n_particles))
