@@ -273,37 +273,16 @@ class Engine:
         case.io_s += time.perf_counter() - start
 
     def _cancel_above_failures(self) -> None:
-        reason = "cancelled: above the failed SRF {:g}, cannot move the knee"
-        self._defer_above_certain_failures()
+        """Stop the runs and guesses that can no longer move their case's knee: above a failed run,
+        or above a run known to fail (step 6); their workers are free for runs that can."""
         for future, task in list(self.tasks.items()):
-            if task.kind == "gravity":
-                continue
-            ceiling = task.case.search.lowest_failed
-            if task.srf > ceiling:  # cannot change the answer: stop it, free its worker
+            if task.kind != "gravity" and task.case.search.stopped_above_failure(task.srf, task.kind == "run"):
                 self._cancel(future)
-                if task.kind == "run":
-                    task.case.search.cancelled(task.srf, reason.format(ceiling))
-                else:
+                if task.kind == "guess":
                     self.guesses.pop((task.case.index, task.srf), None)
         for task in list(self.queue):
-            ceiling = task.case.search.lowest_failed
-            if task.srf > ceiling:
+            if task.case.search.stopped_above_failure(task.srf, asked=True):
                 self.queue.remove(task)
-                task.case.search.cancelled(task.srf, reason.format(ceiling))
-
-    def _defer_above_certain_failures(self) -> None:
-        """Stop the runs and guesses above a run known to fail (module doc, step 6)."""
-        for future, task in list(self.tasks.items()):
-            if task.kind != "gravity" and task.srf > task.case.search.certain_failure():
-                self._cancel(future)
-                if task.kind == "run":
-                    task.case.search.deferred(task.srf)
-                else:
-                    self.guesses.pop((task.case.index, task.srf), None)
-        for task in list(self.queue):
-            if task.srf > task.case.search.certain_failure():
-                self.queue.remove(task)
-                task.case.search.deferred(task.srf)
 
     def _failures_signalled(self) -> bool:
         """Tell each case's search which of its running runs have passed the failure displacement
@@ -311,7 +290,7 @@ class Engine:
         news = False
         for task in list(self.tasks.values()):
             search = task.case.search
-            if task.kind != "run" or task.srf in search.failing or task.srf not in search.pending:
+            if task.kind != "run" or task.srf in search.failing:
                 continue
             if Event(task.failing_event, client=self.client).is_set():
                 search.passed_failure(task.srf)

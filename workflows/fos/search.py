@@ -40,6 +40,9 @@ from itertools import chain, zip_longest
 from workflows.fos.criterion import FosPick, pick_fos, refinement_points
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
+CANCELLED_ABOVE_FAILURE = "cancelled: above the failed SRF {:g}, cannot move the knee"
+"""Why a started run was stopped once a run below it had failed."""
+
 REFINE_SPLIT = 2
 """At most this many runs per refinement round (see ``refinement_points``: never more runs in
 total than bisection).  Fixed, not the worker count, so that the runs made, and the FOS, do
@@ -84,10 +87,21 @@ class SrfSearch:
     def started(self, srf: float) -> None:
         self.pending.add(srf)
 
-    def cancelled(self, srf: float, reason: str) -> None:
-        """A started run was stopped before it finished (it will not be in the outcomes)."""
-        self.pending.discard(srf)
-        self.skipped[srf] = reason
+    def stopped_above_failure(self, srf: float, asked: bool) -> bool:
+        """Whether a started value ``srf`` (``asked`` for by the search, or a guess) can no longer
+        move the knee and is to be stopped: above the lowest failed run (an asked-for run is then
+        skipped), or above a run known to fail (step 5: it is deferred)."""
+        failed = self.lowest_failed
+        if srf > failed:
+            if asked:
+                self.pending.discard(srf)
+                self.skipped[srf] = CANCELLED_ABOVE_FAILURE.format(failed)
+            return True
+        if srf > self.certain_failure():
+            if asked:
+                self.deferred(srf)
+            return True
+        return False
 
     def finished(self, outcome: RunOutcome) -> None:
         self.pending.discard(outcome.srf)
@@ -97,7 +111,7 @@ class SrfSearch:
             if cause == outcome.srf:
                 del self.deferred_by[srf]
                 if outcome.status == FAILED and srf not in self.sweep_set:  # (sweep values: next_values says)
-                    self.skipped[srf] = f"cancelled: above the failed SRF {cause:g}, cannot move the knee"
+                    self.skipped[srf] = CANCELLED_ABOVE_FAILURE.format(cause)
 
     def passed_failure(self, srf: float) -> None:
         """The pending run ``srf`` has moved more than ``failure_m``: it will fail (module doc, step 5)."""
