@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 from spfem_core.simulation import Simulation
 from workflows.scene import build_scene, solver_settings
-from workflows.stages import prepare_stage
+from workflows.stages.running import begin_stage
 from workflows.study import parse_study
 
 
@@ -27,10 +27,10 @@ def collapse_stage(study_file: str, spacing_m: float) -> dict:
     default = next(line for line in text.splitlines() if line.startswith("spacing_m"))
     study = parse_study(text.replace(default, f"spacing_m = {spacing_m}"))
     sim = Simulation(build_scene(study), solver_settings(study))
-    prepare_stage(sim, study, study.stages[0], 0)
+    begin_stage(study, sim, 0)
     sim.relax(damping=study.stages[0].damping, tolerance=study.stages[0].tolerance,
               max_duration_s=study.stages[0].max_duration_s)
-    prepare_stage(sim, study, study.stages[1], 1)
+    begin_stage(study, sim, 1)
     remesh_before = sim.counters.remesh_wall_s
     start = time.perf_counter()
     series = sim.run(study.stages[1].duration_s, record_interval_s=study.stages[1].record_interval_s)

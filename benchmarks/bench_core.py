@@ -35,7 +35,7 @@ SPACINGS_M = {"1k": 0.02, "10k": 0.02 / 10**0.5, "40k": 0.02 / 40**0.5, "100k": 
 BEAM = """
 import numpy as np
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
+from spfem_core import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
 
 def beam(h, beta):
@@ -49,7 +49,7 @@ def beam(h, beta):
 SAND_COLUMN = """
 import numpy as np
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
+from spfem_core import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
 
 def sand_column(h, beta):

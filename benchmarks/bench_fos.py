@@ -27,10 +27,8 @@ from pathlib import Path
 import xarray as xr
 
 from spfem_core.warmup import warm_up
-from workflows.fos.gravity import gravity_state
-from workflows.fos.orchestration import FosProgress
+from workflows.fos.gravity import run_gravity
 from workflows.fos.task import run_srf
-from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ROOT / "studies" / "reference_slope.toml"
@@ -74,10 +72,10 @@ def run_case(spacing_m: float, fit: str, workers: int, warm: bool, scratch: Path
 
 def _timed_run(args) -> float:
     """Wall seconds of one SRF run in this (pool) process, after loading the compiled kernels."""
-    study_text, stress, plastic, srf = args
+    study_text, gravity, srf = args
     warm_up()
     start = time.perf_counter()
-    run_srf(study_text, stress, plastic, srf)
+    run_srf(study_text, gravity, srf)
     return time.perf_counter() - start
 
 
@@ -85,10 +83,7 @@ def machine_ceiling(spacing_m: float, srf: float, repeats: int) -> None:
     """How much faster two independent processes finish two identical SRF runs than one process
     finishes them one after the other: the best any 2-worker study can do on this machine."""
     text = STUDY.read_text().replace("spacing_m = 0.3", f"spacing_m = {spacing_m}")
-    study = parse_study(text)
-    with tempfile.TemporaryDirectory() as scratch:
-        stress, plastic, *_ = gravity_state(study, Path(scratch), force=True, progress=FosProgress())
-    job = (text, stress, plastic, srf)
+    job = (text, run_gravity(text, threads=0).state, srf)
     ratios = []
     with ProcessPoolExecutor(max_workers=2) as pool:
         list(pool.map(_timed_run, [job, job]))  # both processes load the kernels

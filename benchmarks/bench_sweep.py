@@ -9,7 +9,7 @@
    times; the medians of the command's wall time and their ratio.
 2. **Worker time**: the compute time of every task the sweep ran on a local cluster of 2
    workers (gravity, runs, runs guessed ahead or cancelled: dask's task stream), against each
-   case run alone as a single study on 1 worker (``run_fos_study``: exactly the runs its search
+   case run alone as a single study on 1 worker (``workflows.study_types.run_study``: exactly the runs its search
    needs, nothing guessed; its gravity runs in the client, its wall time is added).  A strength
    sweep over an elastic gravity stage relaxes gravity once for all cases, so the table gives
    the SRF runs alone too.
@@ -29,11 +29,11 @@ from pathlib import Path
 from distributed import get_task_stream
 
 from spfem_core.warmup import warm_up
+from workflows.cases import RunOptions
 from workflows.fos.cluster import close_client, start_client
-from workflows.fos.orchestration import run_fos_study
 from workflows.study import load_study
 from workflows.study.reading import sweep_cases
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -64,7 +64,7 @@ def sweep_worker_s(study, out: Path) -> tuple[float, float]:
     client, cluster = start_client(2, None)
     try:
         with get_task_stream(client=client) as stream:
-            run_sweep(study, out, scheduler=cluster.scheduler_address)
+            run_study(study, out, RunOptions(scheduler=cluster.scheduler_address))
         return compute_s(stream)
     finally:
         close_client(client, cluster)
@@ -76,7 +76,7 @@ def alone_worker_s(study, out: Path) -> tuple[float, float]:
     client, cluster = start_client(1, None)
     try:
         with get_task_stream(client=client) as stream:
-            outcome = run_fos_study(study, out, scheduler=cluster.scheduler_address)
+            outcome = run_study(study, out, RunOptions(scheduler=cluster.scheduler_address))
         runs, _ = compute_s(stream)
         return runs + outcome.timings_s["gravity"], outcome.timings_s["gravity"]
     finally:

@@ -22,8 +22,8 @@ os.environ["SPFEM_CACHE_DIR"] = tempfile.mkdtemp(prefix="spfem-compile-")  # bef
 import numpy as np  # noqa: E402
 from numba.core import event  # noqa: E402
 
+from spfem_core import MaterialTable, Scene, SolverSettings  # noqa: E402
 from spfem_core.cloud import particles_in_polygon  # noqa: E402
-from spfem_core.scene import MaterialTable, Scene, SolverSettings  # noqa: E402
 from spfem_core.simulation import Simulation  # noqa: E402
 from spfem_core.warmup import warm_up  # noqa: E402
 

@@ -38,10 +38,11 @@ import xarray as xr
 
 from spfem_core.simulation import Simulation
 from verification.oscillation import period_and_mean
-from workflows.fos.orchestration import run_fos_study
+from workflows.cases import RunOptions
 from workflows.output.writing import write_dataset
 from workflows.scene import build_scene, monitor_particles, solver_settings
 from workflows.study import parse_study
+from workflows.study_types import run_study
 
 ROOT = Path(__file__).resolve().parents[1]
 FOS_REFERENCE = 1.368
@@ -133,7 +134,7 @@ def _slope_case(label: str, settings: dict, scratch: Path) -> Case:
     text = text.replace("fos_tolerance = 0.01", f"fos_tolerance = 0.01\ntolerance = {settings['tolerance']}")
     study = parse_study(text)
     start = time.perf_counter()
-    outcome = run_fos_study(study, scratch / label.replace(" ", "_"), workers=2)
+    outcome = run_study(study, scratch / label.replace(" ", "_"), RunOptions(workers=2))
     wall = time.perf_counter() - start
     return Case(label, settings, {"fos": outcome.fos, "fos_low": outcome.fos_low, "fos_high": outcome.fos_high,
                                   "n_particles": outcome.n_particles, "n_runs": len(outcome.runs)},

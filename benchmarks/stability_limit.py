@@ -14,7 +14,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 from spfem_core.divergence import DivergenceError
-from spfem_core.scene import SolverSettings
+from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
 from spfem_core.timestep import max_stable_cfl
 from verification.scenes import beam_scene

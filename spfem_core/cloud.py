@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from spfem_core.geometry import distance_to_edges_m, polygon_problem, ray_casting_inside
+
 MAX_JITTER = 0.3
 """Interior jitter must be below this fraction of h (keeps particles >= 0.2 h off the edges)."""
-
-_ON_EDGE_REL_TOL = 1e-9
-"""Relative tolerance (of the polygon size) for a point to count as lying on an edge."""
 
 
 def particles_in_polygon(polygon_m, spacing_m: float, jitter: float = 0.0, seed=0) -> np.ndarray:
@@ -46,31 +45,13 @@ def particles_in_polygon(polygon_m, spacing_m: float, jitter: float = 0.0, seed=
     return np.ascontiguousarray(node_xy_m[order], dtype=np.float64)
 
 
-def points_in_polygon(points, polygon_m, tol_m: float | None = None) -> np.ndarray:
-    """Boolean mask of ``points`` (n, 2) inside ``polygon_m`` (even-odd ray casting).
-
-    A point crosses edge (x_i, y_i)-(x_j, y_j) to its right when (y_i > y) != (y_j > y) and
-    x < x_i + (y - y_i)(x_j - x_i)/(y_j - y_i); it is inside when the count is odd.  Points
-    within ``tol_m`` of an edge (default 1e-9 times the polygon's bounding-box diagonal)
-    count as inside.
-    """
-    polygon_m = _validated_polygon(polygon_m, "polygon_m")
-    points = np.asarray(points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 2:
-        raise ValueError(f"points: expected shape (n, 2), got {points.shape}")
-    if tol_m is None:
-        tol_m = _ON_EDGE_REL_TOL * _polygon_size_m(polygon_m)
-    inside = _ray_casting_inside(points, polygon_m)
-    on_edge = _distance_to_edges_m(points, polygon_m) <= tol_m
-    return inside | on_edge
-
-
 # --------------------------------------------------------------------------------------
 # validation
 
 
 def _validated_polygon(polygon_m, name: str) -> np.ndarray:
-    """The polygon as an (m, 2) float64 array, checked: >= 3 vertices, finite, simple."""
+    """The polygon as an (m, 2) float64 array, checked (``geometry.polygon_problem``); a closing
+    vertex equal to the first is dropped."""
     try:
         polygon_m = np.array(polygon_m, dtype=np.float64)
     except (TypeError, ValueError) as error:
@@ -79,20 +60,9 @@ def _validated_polygon(polygon_m, name: str) -> np.ndarray:
         raise ValueError(f"{name}: expected shape (m, 2), got {polygon_m.shape}")
     if polygon_m.shape[0] > 3 and np.array_equal(polygon_m[0], polygon_m[-1]):
         polygon_m = polygon_m[:-1]  # a closed ring: drop the repeated first vertex
-    if polygon_m.shape[0] < 3:
-        raise ValueError(f"{name}: needs at least 3 vertices, got {polygon_m.shape[0]}")
-    if not np.all(np.isfinite(polygon_m)):
-        raise ValueError(f"{name}: vertices must be finite")
-    edge_length_m = np.hypot(*(np.roll(polygon_m, -1, axis=0) - polygon_m).T)
-    size_m = _polygon_size_m(polygon_m)
-    short = np.flatnonzero(edge_length_m <= _ON_EDGE_REL_TOL * size_m)
-    if short.size:
-        raise ValueError(f"{name}: zero-length edge after vertex {int(short[0])}")
-    crossing = _first_self_intersection(polygon_m)
-    if crossing is not None:
-        raise ValueError(f"{name}: self-intersecting, edges {crossing[0]} and {crossing[1]} meet")
-    if abs(_signed_area_m2(polygon_m)) <= _ON_EDGE_REL_TOL * size_m**2:
-        raise ValueError(f"{name}: polygon has zero area")
+    problem = polygon_problem(polygon_m)
+    if problem is not None:
+        raise ValueError(f"{name}: {problem}")
     return np.ascontiguousarray(polygon_m)
 
 
@@ -107,79 +77,8 @@ def _validated_spacing(spacing_m) -> float:
     return h
 
 
-def _polygon_size_m(polygon_m: np.ndarray) -> float:
-    """Diagonal of the bounding box, the length scale of tolerances."""
-    return float(np.hypot(*np.ptp(polygon_m, axis=0)))
-
-
-def _signed_area_m2(polygon_m: np.ndarray) -> float:
-    """Shoelace formula A = 1/2 sum (x_i y_{i+1} - x_{i+1} y_i); > 0 counter-clockwise."""
-    x, y = polygon_m[:, 0], polygon_m[:, 1]
-    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-def _first_self_intersection(polygon_m: np.ndarray) -> tuple[int, int] | None:
-    """First pair of non-adjacent edges that touch or cross (O(m^2), polygons are small)."""
-    m = polygon_m.shape[0]
-    start = polygon_m
-    end = np.roll(polygon_m, -1, axis=0)
-    tol = _ON_EDGE_REL_TOL * _polygon_size_m(polygon_m)
-    for i in range(m):
-        for j in range(i + 2, m):
-            if i == 0 and j == m - 1:
-                continue  # adjacent through the closing vertex
-            if _segments_touch(start[i], end[i], start[j], end[j], tol):
-                return i, j
-    return None
-
-
-def _segments_touch(p0, p1, q0, q1, tol: float) -> bool:
-    """True when segments p0-p1 and q0-q1 cross or come within ``tol`` of each other."""
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    d1, d2 = cross(q0, q1, p0), cross(q0, q1, p1)
-    d3, d4 = cross(p0, p1, q0), cross(p0, p1, q1)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
-        return True  # proper crossing
-    ends = np.array([p0, p1, q0, q1])
-    dist = min(
-        _distance_to_edges_m(ends[:2], np.array([q0, q1]), closed=False).min(),
-        _distance_to_edges_m(ends[2:], np.array([p0, p1]), closed=False).min(),
-    )
-    return dist <= tol
-
-
 # --------------------------------------------------------------------------------------
-# geometry
-
-
-def _distance_to_edges_m(points: np.ndarray, polygon_m: np.ndarray, closed: bool = True) -> np.ndarray:
-    """Distance of each point to the nearest edge: |p - a - clip(t, 0, 1)(b - a)|,
-    t = (p - a).(b - a)/|b - a|^2.  ``closed=False`` treats the vertices as a polyline."""
-    start = polygon_m if closed else polygon_m[:-1]
-    end = np.roll(polygon_m, -1, axis=0) if closed else polygon_m[1:]
-    distance_m = np.full(points.shape[0], np.inf)
-    for a, b in zip(start, end):
-        ab = b - a
-        t = np.clip(((points - a) @ ab) / (ab @ ab), 0.0, 1.0)
-        nearest = a + t[:, None] * ab
-        distance_m = np.minimum(distance_m, np.hypot(*(points - nearest).T))
-    return distance_m
-
-
-def _ray_casting_inside(points: np.ndarray, polygon_m: np.ndarray) -> np.ndarray:
-    """Even-odd rule: odd number of edge crossings of the ray from the point towards +x."""
-    x, y = points[:, 0], points[:, 1]
-    inside = np.zeros(points.shape[0], dtype=bool)
-    for (xi, yi), (xj, yj) in zip(polygon_m, np.roll(polygon_m, -1, axis=0)):
-        if yi == yj:
-            continue  # a horizontal edge never straddles
-        straddles = (yi > y) != (yj > y)
-        x_cross = xi + (y - yi) * (xj - xi) / (yj - yi)
-        inside ^= straddles & (x < x_cross)
-    return inside
+# the lattice
 
 
 def _edge_particles(polygon_m: np.ndarray, h: float) -> np.ndarray:
@@ -199,9 +98,9 @@ def _interior_lattice(polygon_m: np.ndarray, h: float) -> np.ndarray:
     n_x, n_y = (np.floor(np.ptp(polygon_m, axis=0) / h + 1e-9).astype(np.int64) + 1).tolist()
     i, j = np.meshgrid(np.arange(n_x), np.arange(n_y), indexing="xy")
     lattice_m = low_m + h * np.column_stack([i.ravel(), j.ravel()]).astype(np.float64)
-    keep = _ray_casting_inside(lattice_m, polygon_m)
+    keep = ray_casting_inside(lattice_m, polygon_m)
     lattice_m = lattice_m[keep]
-    keep = _distance_to_edges_m(lattice_m, polygon_m) >= 0.5 * h * (1.0 - 1e-9)
+    keep = distance_to_edges_m(lattice_m, polygon_m) >= 0.5 * h * (1.0 - 1e-9)
     return lattice_m[keep]
 
 

@@ -13,7 +13,7 @@ Three signs, checked between compiled calls from what the loop reports and recor
 
 from __future__ import annotations
 
-from spfem_core.records import ENERGY_GRAVITY_POTENTIAL, ENERGY_KINETIC, ENERGY_LOAD_POTENTIAL, ENERGY_STRAIN
+from spfem_core.energy_budget import ENERGY_GRAVITY_POTENTIAL, ENERGY_KINETIC, ENERGY_LOAD_POTENTIAL, ENERGY_STRAIN
 
 ENERGY_CREATED_LIMIT = 0.25
 """Divergence when the energy budget has grown by more than this fraction of its scale (module doc)."""

@@ -20,7 +20,15 @@ from numba import prange
 
 from spfem_core.contact import wall_contact_velocity
 from spfem_core.jit import chunk_bounds, inline_kernel, inner_kernel, kernel, n_chunks, parallel_inner_kernel
-from spfem_core.state import LEAPFROG_OUT_WIDTH
+from spfem_core.state import (
+    LEAPFROG_APPLIED_FORCE_SQ,
+    LEAPFROG_CONTACT_LOSS,
+    LEAPFROG_CONTACTS,
+    LEAPFROG_DAMPING_POWER,
+    LEAPFROG_MAX_SPEED_SQ,
+    LEAPFROG_OUT_WIDTH,
+    LEAPFROG_UNBALANCED_FORCE_SQ,
+)
 
 
 @inner_kernel
@@ -40,11 +48,11 @@ def leapfrog(
 ):
     """Advance velocities and positions one step (module doc).
 
-    ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with
-    [max speed^2 (m^2/s^2; NaN if any speed is NaN), |f_unbalanced|^2 on free directions,
-    |m g|^2 on free directions, damping power (W/m, <= 0), energy removed by the walls (J/m),
-    particles touching a wall]; the sums are taken in fixed chunks of particles (``jit``), on
-    threads unless ``n_threads`` is None (``jit.kernel_threads``).
+    ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with the slots of
+    ``state.LEAPFROG_OUT`` (the largest speed squared, the unbalanced and applied forces squared,
+    the damping power, the energy the walls removed, the particles touching a wall); the sums are
+    taken in fixed chunks of particles (``jit``), on threads unless ``n_threads`` is None
+    (``jit.kernel_threads``).
 
     The walls' share is minus the work of their impulse m (w - v) at the mid-step velocity
     (v^{n-1/2} + w) / 2, the measure of a leapfrog step's kinetic energy change
@@ -65,8 +73,9 @@ def leapfrog(
                            dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
-        out[0] = larger_or_nan(out[0], chunk_out[chunk, 0])
-        for c in range(1, LEAPFROG_OUT_WIDTH):
+        fastest = chunk_out[chunk, LEAPFROG_MAX_SPEED_SQ]
+        out[LEAPFROG_MAX_SPEED_SQ] = larger_or_nan(out[LEAPFROG_MAX_SPEED_SQ], fastest)
+        for c in range(LEAPFROG_MAX_SPEED_SQ + 1, LEAPFROG_OUT_WIDTH):  # the sums
             out[c] += chunk_out[chunk, c]
 
 
@@ -135,12 +144,12 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, n
         node_u[k, 0] += dt * vx
         node_u[k, 1] += dt * vy
         max_speed_sq = larger_or_nan(max_speed_sq, vx * vx + vy * vy)
-    out[0] = max_speed_sq
-    out[1] = unbalanced_sq
-    out[2] = applied_sq
-    out[3] = damping_power
-    out[4] = contact_loss
-    out[5] = n_contact
+    out[LEAPFROG_MAX_SPEED_SQ] = max_speed_sq
+    out[LEAPFROG_UNBALANCED_FORCE_SQ] = unbalanced_sq
+    out[LEAPFROG_APPLIED_FORCE_SQ] = applied_sq
+    out[LEAPFROG_DAMPING_POWER] = damping_power
+    out[LEAPFROG_CONTACT_LOSS] = contact_loss
+    out[LEAPFROG_CONTACTS] = n_contact
 
 
 @inline_kernel

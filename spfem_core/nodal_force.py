@@ -21,7 +21,7 @@ from spfem_core.stabilisation import bond_force
 
 
 @kernel
-def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material, mat_youngs, elem_nodes,
+def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material_row, mat_youngs, elem_nodes,
                          elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
                          edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force, n_threads):
     """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
@@ -42,13 +42,14 @@ def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_m
     n_block = edge_block_ptr.shape[0] - 1
     block_power = np.zeros(n_block)
     if n_threads is not None:
-        bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr,
-                             edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq, node_force, block_power)
+        bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, edge_nodes,
+                             edge_block_ptr, edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq,
+                             node_force, block_power)
     else:
         for slot in range(n_block):
             block = edge_colour_block[slot]
             block_power[block] = add_bond_forces(
-                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, edge_nodes, edge_block_ptr[block],
                 edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
     power = 0.0
     for block in range(n_block):
@@ -68,14 +69,14 @@ def element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, 
 
 
 @parallel_inner_kernel
-def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr,
+def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, edge_nodes, edge_block_ptr,
                          edge_colour_ptr, edge_colour_block, dt, half_beta_dt, min_bond_sq, node_force, block_power):
     """:func:`add_bond_forces` of every block, colour after colour, a colour's blocks on threads."""
     for colour in range(edge_colour_ptr.shape[0] - 1):
         for slot in prange(edge_colour_ptr[colour], edge_colour_ptr[colour + 1]):
             block = edge_colour_block[slot]
             block_power[block] = add_bond_forces(
-                node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, edge_block_ptr[block],
+                node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, edge_nodes, edge_block_ptr[block],
                 edge_block_ptr[block + 1], dt, half_beta_dt, min_bond_sq, node_force)
 
 
@@ -100,7 +101,7 @@ def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_forc
 
 
 @inner_kernel
-def add_bond_forces(node_xy, node_v, node_L, node_area, node_material, mat_youngs, edge_nodes, start, end, dt,
+def add_bond_forces(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, edge_nodes, start, end, dt,
                     half_beta_dt, min_bond_sq, node_force):
     """Add the forces of bonds start..end-1 (``stabilisation.bond_force``) into their nodes;
     their power (W/m)."""
@@ -108,7 +109,7 @@ def add_bond_forces(node_xy, node_v, node_L, node_area, node_material, mat_young
     for bond in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = np.uint64(edge_nodes[bond, 0])
         j = np.uint64(edge_nodes[bond, 1])
-        fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt,
+        fx, fy, bond_power = bond_force(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, i, j, dt,
                                         half_beta_dt, min_bond_sq)
         node_force[j, 0] += fx
         node_force[j, 1] += fy

@@ -2,18 +2,7 @@
 
 The compiled loop writes one row every record interval of stage time into growable buffers
 (:class:`RecordBuffers`, one named array per quantity); a finished stage hands them over as a
-:class:`TimeSeries`.  Energies are per metre of out-of-plane thickness (J/m):
-
-    kinetic             sum_k m_k |v_k|^2 / 2
-    strain              sum_k A_k w(sigma_k),  w the complementary energy density of the
-                        material's elasticity (``constitutive.elastic_energy_density``)
-    gravity_potential   -sum_k m_k g . u_k   (relative to the initial positions, see NodeState)
-    *_dissipated        the work removed by damping, stabilisation, plastic flow and the
-                        walls since the stage start (``dissipated`` accumulators, >= 0)
-    load_potential      minus the work done on the skeleton by pore water, ponded water and
-                        surface loads since the stage start (``external_forces``); 0 without them
-
-so that a stable undamped run keeps the sum of all columns constant (the energy balance).
+:class:`TimeSeries`.  The energy columns and their equations: ``energy_budget``.
 """
 
 from __future__ import annotations
@@ -24,35 +13,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from spfem_core.constitutive import elastic_energy_density
-from spfem_core.jit import kernel
-
-ENERGY_COLUMNS = (
-    "kinetic",
-    "strain",
-    "gravity_potential",
-    "damping_dissipated",
-    "stabilisation_dissipated",
-    "plastic_dissipated",
-    "contact_dissipated",
-    "load_potential",
+from spfem_core.energy_budget import (
+    DISSIPATED_FIRST_COLUMN,
+    ENERGY_COLUMNS,
+    ENERGY_GRAVITY_POTENTIAL,
+    ENERGY_KINETIC,
+    ENERGY_STRAIN,
 )
-"""Columns of the recorded energy array (J per metre of out-of-plane thickness)."""
-
-ENERGY_KINETIC = 0
-ENERGY_STRAIN = 1
-ENERGY_GRAVITY_POTENTIAL = 2
-ENERGY_LOAD_POTENTIAL = ENERGY_COLUMNS.index("load_potential")
-
-DISSIPATION_COLUMNS = ("damping", "stabilisation", "plastic", "contact", "loads")
-"""Slots of the ``dissipated`` accumulator array (J/m since the stage start; >= 0 but the loads'); slot i is
-energy column ``DISSIPATED_FIRST_COLUMN + i``."""
-DISSIPATED_DAMPING = 0
-DISSIPATED_STABILISATION = 1
-DISSIPATED_PLASTIC = 2
-DISSIPATED_CONTACT = 3
-DISSIPATED_LOADS = 4  # minus the work of water and surface loads (external_forces): their potential
-DISSIPATED_FIRST_COLUMN = 3
+from spfem_core.jit import kernel
+from spfem_core.materials.elastic import elastic_energy_density
 
 
 class RecordBuffers(NamedTuple):
@@ -131,10 +100,10 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
         uy = node_u[k, 1]
         kinetic += 0.5 * mass * (vx * vx + vy * vy)
         potential -= mass * (gravity[0] * ux + gravity[1] * uy)
-        mat = nodes.material[k]
+        row = nodes.material_row[k]
         strain += node_area[k] * elastic_energy_density(
             node_stress[k, 0], node_stress[k, 1], node_stress[k, 2], node_stress[k, 3],
-            materials.youngs_modulus_pa[mat], materials.poisson_ratio[mat],
+            materials.youngs_modulus_pa[row], materials.poisson_ratio[row],
         )
         u_sq = ux * ux + uy * uy
         if u_sq > max_u_sq:

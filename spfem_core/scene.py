@@ -1,155 +1,22 @@
-"""What a simulation is made of: particles, materials, boundary conditions, numerics.
+"""What a simulation is made of: particles, materials, boundary conditions, loads.
 
 All arrays are SI units, float64 or int64, C-contiguous; vectors are (n, 2) and the
-plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive.
+plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive.  The numerical
+settings of a run are ``settings.SolverSettings``; the material rows ``materials.table.MaterialTable``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from spfem_core.plasticity import default_dp_fit, dp_constants
+from spfem_core.materials.table import ELASTIC_COLUMNS, PROPERTY_MODELS, MaterialTable
+from spfem_core.settings import DEFAULT_ALPHA
 
-MODEL_ELASTIC = 0
-MODEL_DRUCKER_PRAGER = 1
-MODEL_MOHR_COULOMB = 2
-"""Material model codes carried by ``MaterialTable.model``."""
-
-MODEL_NAMES = {"elastic": MODEL_ELASTIC, "drucker_prager": MODEL_DRUCKER_PRAGER, "mohr_coulomb": MODEL_MOHR_COULOMB}
-
-N_MODEL_PARAMS = 11
-"""Columns of the compiled model constants (``MaterialTable.model_params``):
-Drucker-Prager (alpha, k in Pa, alpha_psi, 0, tensile strength in Pa); Mohr-Coulomb (c in Pa, sin phi,
-cos phi, sin psi, tensile strength in Pa).  An infinite tensile strength: no tension cut-off.
-Columns 5-10, strain softening of Mohr-Coulomb (``SOFTENING_*``): residual c (Pa), residual phi (rad),
-peak phi (rad), plastic strain where softening starts, where it ends, the law code."""
-
-SOFTENING_NONE = 0
-SOFTENING_LINEAR = 1
-SOFTENING_EXPONENTIAL = 2
-SOFTENING_LAWS = {"linear": SOFTENING_LINEAR, "exponential": SOFTENING_EXPONENTIAL}
-"""Strain-softening laws: with eps the equivalent plastic strain, s(eps) the share of the drop from
-peak to residual: linear s = clip((eps - eps_1) / (eps_2 - eps_1), 0, 1); exponential
-s = 1 - exp(-3 (eps - eps_1) / (eps_2 - eps_1)) above eps_1 (95% of the drop at eps_2)."""
-
-
-@dataclass(frozen=True)
-class MaterialTable:
-    """Per-material constants; a particle refers to a row by its ``node_material`` index.
-
-    Strength (c, phi, psi) is ignored by elastic rows.  ``dp_fit`` names the Drucker-Prager
-    match to Mohr-Coulomb (``plasticity.DP_FITS``; empty: the default fit for the dilation).
-    """
-
-    name: tuple[str, ...]
-    model: np.ndarray  # (n_mat,) int64, one of the MODEL_* codes
-    density_kg_m3: np.ndarray  # (n_mat,)
-    youngs_modulus_pa: np.ndarray  # (n_mat,)
-    poisson_ratio: np.ndarray  # (n_mat,)
-    cohesion_pa: np.ndarray | None = None  # (n_mat,) c
-    friction_deg: np.ndarray | None = None  # (n_mat,) phi
-    dilation_deg: np.ndarray | None = None  # (n_mat,) psi
-    dp_fit: tuple[str, ...] | None = None
-    tensile_strength_pa: np.ndarray | None = None  # (n_mat,) tension cut-off sigma_t; inf (default): none
-    softening_law: np.ndarray | None = None  # (n_mat,) int64 SOFTENING_* code (Mohr-Coulomb only); 0: none
-    residual_cohesion_pa: np.ndarray | None = None  # (n_mat,) c once softened
-    residual_friction_deg: np.ndarray | None = None  # (n_mat,) phi once softened
-    softening_start_strain: np.ndarray | None = None  # (n_mat,) equivalent plastic strain where it starts
-    softening_end_strain: np.ndarray | None = None  # (n_mat,) where it ends (exponential: 95% of the drop)
-
-    def __post_init__(self):
-        n = len(self.name)
-        for attr in ("model", "density_kg_m3", "youngs_modulus_pa", "poisson_ratio", "cohesion_pa",
-                     "friction_deg", "dilation_deg", "tensile_strength_pa", "softening_law", "residual_cohesion_pa",
-                     "residual_friction_deg", "softening_start_strain", "softening_end_strain"):
-            dtype = np.int64 if attr in ("model", "softening_law") else np.float64
-            raw = getattr(self, attr)
-            empty = np.full(n, np.inf) if attr == "tensile_strength_pa" else np.zeros(n, dtype=dtype)
-            value = empty if raw is None else np.ascontiguousarray(raw, dtype=dtype).reshape(-1)
-            if value.shape != (n,):
-                raise ValueError(f"MaterialTable.{attr}: expected {n} values, got {value.shape[0]}")
-            object.__setattr__(self, attr, value)
-        fits = ("",) * n if self.dp_fit is None else tuple(self.dp_fit)
-        if len(fits) != n:
-            raise ValueError(f"MaterialTable.dp_fit: expected {n} values, got {len(fits)}")
-        object.__setattr__(self, "dp_fit", fits)
-
-    @classmethod
-    def elastic(cls, name: str, density_kg_m3: float, youngs_modulus_pa: float, poisson_ratio: float):
-        """A table with a single linear elastic material."""
-        return cls((name,), [MODEL_ELASTIC], [density_kg_m3], [youngs_modulus_pa], [poisson_ratio])
-
-    @classmethod
-    def single(cls, name, model, density_kg_m3, youngs_modulus_pa, poisson_ratio, cohesion_pa=0.0,
-               friction_deg=0.0, dilation_deg=0.0, dp_fit=""):
-        """A table with one material of ``model`` ("elastic", "drucker_prager", "mohr_coulomb")."""
-        return cls((name,), [MODEL_NAMES[model]], [density_kg_m3], [youngs_modulus_pa], [poisson_ratio],
-                   [cohesion_pa], [friction_deg], [dilation_deg], (dp_fit,))
-
-    @property
-    def n_materials(self) -> int:
-        return len(self.name)
-
-    @property
-    def shear_modulus_pa(self) -> np.ndarray:
-        """G = E / (2 (1 + nu))."""
-        return self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson_ratio))
-
-    @property
-    def bulk_modulus_pa(self) -> np.ndarray:
-        """K = E / (3 (1 - 2 nu))."""
-        return self.youngs_modulus_pa / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
-
-    @property
-    def lame_lambda_pa(self) -> np.ndarray:
-        """lambda = K - 2G/3."""
-        return self.bulk_modulus_pa - 2.0 * self.shear_modulus_pa / 3.0
-
-    @property
-    def p_wave_speed_m_s(self) -> np.ndarray:
-        """c_p = sqrt((K + 4G/3) / rho), the fastest wave of the material."""
-        return np.sqrt((self.bulk_modulus_pa + 4.0 * self.shear_modulus_pa / 3.0) / self.density_kg_m3)
-
-    def model_params(self) -> np.ndarray:
-        """(n_mat, N_MODEL_PARAMS) constants the compiled update reads (see N_MODEL_PARAMS)."""
-        params = np.zeros((self.n_materials, N_MODEL_PARAMS))
-        params[:, 4] = self.tensile_strength_pa
-        for m in range(self.n_materials):
-            c, phi, psi = self.cohesion_pa[m], self.friction_deg[m], self.dilation_deg[m]
-            if self.model[m] == MODEL_DRUCKER_PRAGER:
-                if self.softening_law[m] != SOFTENING_NONE:
-                    raise ValueError(f"MaterialTable: strain softening of material {self.name[m]!r} needs mohr_coulomb")
-                fit = self.dp_fit[m] or default_dp_fit(psi, phi)
-                params[m, :3] = dp_constants(c, phi, psi, fit)
-            elif self.model[m] == MODEL_MOHR_COULOMB:
-                params[m, :4] = (c, np.sin(np.radians(phi)), np.cos(np.radians(phi)), np.sin(np.radians(psi)))
-                if self.softening_law[m] != SOFTENING_NONE:
-                    if not self.softening_end_strain[m] > self.softening_start_strain[m] >= 0.0:
-                        raise ValueError(f"MaterialTable: material {self.name[m]!r} needs 0 <= softening start < end")
-                    params[m, 5:] = (self.residual_cohesion_pa[m], np.radians(self.residual_friction_deg[m]),
-                                     np.radians(phi), self.softening_start_strain[m], self.softening_end_strain[m],
-                                     self.softening_law[m])
-        return params
-
-    def with_strength_reduction(self, srf: float, associated: bool = False) -> "MaterialTable":
-        """Strength divided by ``srf``: c_F = c / F, tan(phi_F) = tan(phi) / F, sigma_t,F = sigma_t / F
-        (the tension cut-off falls with the cohesion), the residual strength alike, and psi_F = min(psi, phi_F), or psi_F = phi_F with
-        ``associated`` (normality: the flow rule under which limit equilibrium and limit analysis give
-        the factor of safety)."""
-        if not srf > 0:
-            raise ValueError(f"srf: must be > 0, got {srf}")
-        phi_f = np.degrees(np.arctan(np.tan(np.radians(self.friction_deg)) / srf))
-        psi_f = phi_f if associated else np.minimum(self.dilation_deg, phi_f)
-        residual_phi_f = np.degrees(np.arctan(np.tan(np.radians(self.residual_friction_deg)) / srf))
-        return replace(self, cohesion_pa=self.cohesion_pa / srf, friction_deg=phi_f, dilation_deg=psi_f,
-                       tensile_strength_pa=self.tensile_strength_pa / srf,
-                       residual_cohesion_pa=self.residual_cohesion_pa / srf, residual_friction_deg=residual_phi_f)
-
-    def as_elastic(self) -> "MaterialTable":
-        """The same table with every material linear elastic (e.g. for a gravity stage)."""
-        return replace(self, model=np.full(self.n_materials, MODEL_ELASTIC, dtype=np.int64))
+PER_PARTICLE_MASS_ONLY = ("density_kg_m3",)
+"""Per-particle properties that only set the masses m_k = rho_k A_k (fixed at the start): they need
+no row per particle in the material table."""
 
 
 @dataclass
@@ -168,10 +35,10 @@ class Scene:
     gravity_m_s2: np.ndarray = field(default_factory=lambda: np.array([0.0, -9.81]))
     node_fixed: np.ndarray | None = None  # (n, 2) bool
     node_fixed_velocity_m_s: np.ndarray | None = None  # (n, 2)
-    alpha: float = 1.5  # alpha-shape factor: drop triangles with circumradius > alpha * h
+    alpha: float = DEFAULT_ALPHA  # alpha-shape factor: drop triangles with circumradius > alpha * h
     wall_xy_m: np.ndarray | None = None  # (n_wall, 4) rigid segments (x1, y1, x2, y2); material on the left
     wall_friction: np.ndarray | None = None  # (n_wall,) Coulomb coefficient mu
-    node_density_kg_m3: np.ndarray | None = None  # (n,) mass density per particle; default its material's
+    node_properties: dict = field(default_factory=dict)  # name -> (n,) a material column per particle; NaN: its own
     node_load_n: np.ndarray | None = None  # (n, 2) constant forces on the particles (surface loads), N/m
     node_pore_pressure_pa: np.ndarray | None = None  # (n,) pore pressure carried by the particle (ru), Pa
     phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x strictly increasing
@@ -204,15 +71,15 @@ class Scene:
             raise ValueError("Scene.wall_friction: one coefficient per wall expected")
         if not self.spacing_m > 0:
             raise ValueError(f"Scene.spacing_m: must be > 0, got {self.spacing_m}")
-        for attr, shape in (("node_density_kg_m3", (n,)), ("node_load_n", (n, 2)), ("node_pore_pressure_pa", (n,))):
+        for attr, shape in (("node_load_n", (n, 2)), ("node_pore_pressure_pa", (n,))):
             value = getattr(self, attr)
             if value is not None:
                 value = np.ascontiguousarray(value, dtype=np.float64).reshape(shape)
                 if not np.all(np.isfinite(value)):
                     raise ValueError(f"Scene.{attr}: values must be finite")
                 setattr(self, attr, value)
-        if self.node_density_kg_m3 is not None and not np.all(self.node_density_kg_m3 > 0):
-            raise ValueError("Scene.node_density_kg_m3: densities must be > 0")
+        self.node_properties = {key: self._checked_property(key, values)
+                                for key, values in self.node_properties.items()}
         lines = []
         for i, line in enumerate(self.phreatic_lines_m):
             line = np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2)
@@ -229,12 +96,39 @@ class Scene:
         if not self.water_unit_weight_n_m3 > 0:
             raise ValueError(f"Scene.water_unit_weight_n_m3: must be > 0, got {self.water_unit_weight_n_m3}")
 
+    def _checked_property(self, key: str, values) -> np.ndarray:
+        """A per-particle property as an (n,) float64 array: a column of the material table, finite or
+        NaN (the particle's material value), a density > 0."""
+        if key not in ELASTIC_COLUMNS and key not in PROPERTY_MODELS:
+            raise ValueError(f"Scene.node_properties: {key!r} is no material property "
+                             f"(known: {', '.join(ELASTIC_COLUMNS + tuple(PROPERTY_MODELS))})")
+        values = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+        if values.shape != (self.n_particles,):
+            raise ValueError(f"Scene.node_properties[{key!r}]: one value per particle expected, got {values.shape[0]}")
+        if np.any(np.isinf(values)) and key != "tensile_strength_pa":
+            raise ValueError(f"Scene.node_properties[{key!r}]: values must be finite (NaN: the material's)")
+        if key == "density_kg_m3" and not np.all(np.isnan(values) | (values > 0.0)):
+            raise ValueError("Scene.node_properties['density_kg_m3']: densities must be > 0")
+        return values
+
     @property
     def particle_density_kg_m3(self) -> np.ndarray:
-        """Mass density of every particle (n,): ``node_density_kg_m3`` or its material's."""
-        if self.node_density_kg_m3 is not None:
-            return self.node_density_kg_m3
-        return self.materials.density_kg_m3[self.node_material]
+        """Mass density of every particle (n,): its own (``node_properties``) or its material's."""
+        density = self.materials.density_kg_m3[self.node_material]
+        own = self.node_properties.get("density_kg_m3")
+        return density if own is None else np.where(np.isnan(own), density, own)
+
+    def particle_materials(self) -> tuple[MaterialTable, np.ndarray]:
+        """(the material table a simulation reads, the row of every particle in it).
+
+        Without per-particle properties (or with a per-particle density alone, which sets only the
+        masses): ``materials`` and ``node_material``.  Otherwise a row per particle, its material's
+        with the particle's own values, and row k for particle k; strength reduction then acts on
+        every particle's own strength."""
+        if set(self.node_properties) <= set(PER_PARTICLE_MASS_ONLY):
+            return self.materials, self.node_material
+        per_particle = self.materials.rows(self.node_material).with_values(self.node_properties)
+        return per_particle, np.arange(self.n_particles, dtype=np.int64)
 
     @property
     def n_particles(self) -> int:
@@ -263,26 +157,3 @@ class Scene:
         """Index of the particle nearest to (x, y) in the initial configuration."""
         d2 = (self.node_xy_m[:, 0] - x_m) ** 2 + (self.node_xy_m[:, 1] - y_m) ** 2
         return int(np.argmin(d2))
-
-
-@dataclass(frozen=True)
-class SolverSettings:
-    """Numerical parameters of a run (the physics lives in :class:`Scene`).
-
-    Time step: ``dt_s`` if given, else ``cfl * dt_crit``, dt_crit = 2 / omega_bound with
-    omega_bound a cell-by-cell bound on the highest frequency of the nodally integrated mesh
-    (``spfem_core.timestep``; on a lattice it equals sqrt(h^2 / 2) / c_p).  A cfl (or a ``dt_s``
-    equivalent to one) above ``timestep.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
-
-    ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and
-    its work is skipped).  The correction force is proportional to the incremental
-    deformation error over one step, so it acts as a bond viscosity eta = beta E dt / 2:
-    at fixed beta, halving dt halves the damping it applies to spurious modes.
-    """
-
-    cfl: float = 0.5
-    dt_s: float | None = None
-    stabilisation_beta: float = 0.0
-    min_angle_deg: float = 20.0  # rebuild the mesh when the smallest angle falls below this (adaptive, see Simulation)
-    crowded_fraction: float = 0.2  # after a rebuild, smooth particles closer than this * h to a neighbour
-    threads: int = 0  # threads of the compiled step (0: all numba has, the cores); results do not depend on it

@@ -8,6 +8,7 @@ whether the run has diverged (``divergence``), when to grow the record buffers
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
@@ -16,12 +17,15 @@ import numpy as np
 
 from spfem_core.divergence import DivergenceError, EnergyWatch, speed_reason
 from spfem_core.jit import kernel_threads, set_threads
+from spfem_core.materials.table import MaterialTable
 from spfem_core.mesh import Mesh, boundary_edges
 from spfem_core.records import RecordBuffers, TimeSeries, record_state
 from spfem_core.remeshing import ANGLE_MARGIN_RAD, Remesher
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
+from spfem_core.scene import Scene
 from spfem_core.schedule import StageSchedule
+from spfem_core.settings import SolverSettings
 from spfem_core.smoothing import smooth_velocity_gradient
+from spfem_core.snapshot import Snapshot, StressState
 from spfem_core.state import ExternalLoads, MaterialArrays, NodeState, StepParameters, StepScratch, Walls
 from spfem_core.stepper import (
     LOOP_CONTACTS,
@@ -43,11 +47,11 @@ from spfem_core.timestep import DT_COLLAPSE_FACTOR, TimeStepPolicy, critical_tim
 
 StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
 """Asked between compiled calls with the records so far (time_s, max_displacement_m,
-energy_j_per_m with the columns of ``records.ENERGY_COLUMNS``; read-only views): a reason (one
+energy_j_per_m with the columns of ``energy_budget.ENERGY_COLUMNS``; read-only views): a reason (one
 line) to end the stage now, or None."""
 
-Snapshot = tuple[float, Callable[[float], None]]
-"""(interval in s, callback(stage time in s)): the callback reads the state from the simulation."""
+SnapshotHook = tuple[float, Callable[[Snapshot], None]]
+"""(interval in s, callback(the particles at that moment, a ``snapshot.Snapshot``))."""
 
 PeriodicAction = tuple[float, Callable[[float], None]]
 """(interval in s, callback(stage time in s)) called every interval of stage time, not at the
@@ -56,6 +60,28 @@ start or the end: it may change the simulation (a step of a strength ramp: ``set
 
 class DetachedParticlesError(ValueError):
     """Particles in no triangle of the first mesh (without ``allow_detached``)."""
+
+
+@dataclass(frozen=True, eq=False)
+class StageSetup:
+    """What a stage sets before it starts; :meth:`Simulation.begin_stage` applies it in the order
+    of the fields: where it starts from, then the materials (which fix the time step), supports,
+    body force, water and load ramp.
+
+    ``start``: "continue" (the state the last stage left), "original_positions" (at rest at the
+    initial positions and mesh, stresses kept, displacements discarded) or a ``StressState`` (that
+    stress and plastic strain, at rest at the initial positions).
+    """
+
+    materials: MaterialTable  # same rows as Simulation.particle_materials (elastic, reduced, ...)
+    node_fixed: np.ndarray  # (n, 2) bool: velocity prescribed
+    node_fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity
+    gravity_m_s2: np.ndarray  # (2,) body acceleration, gravity with any pseudo-static seismic part
+    phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x increasing
+    node_phreatic_line: np.ndarray | None = None  # (n,) line of each particle, -1: none (default: the first, or none)
+    pond_level_m: float | None = None  # ponded water level; None: none
+    load_ramp_s: float = 0.0  # the surface loads grow from zero over this stage time (0: at once)
+    start: "str | StressState" = "continue"
 
 
 @dataclass
@@ -71,7 +97,7 @@ class RunCounters:
 def material_arrays(materials: MaterialTable) -> MaterialArrays:
     """The kernels' view of a material table."""
     return MaterialArrays(materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa,
-                          materials.youngs_modulus_pa, materials.poisson_ratio, materials.model_params())
+                          materials.youngs_modulus_pa, materials.poisson_ratio, materials.kernel_constants())
 
 
 class Simulation:
@@ -80,8 +106,12 @@ class Simulation:
     ``nodes`` (``state.NodeState``) holds the state in SI units: current positions, the
     displacement since the particles last left their initial positions (the first stage, or a stage
     that starts from the original positions), the leapfrog half-step velocity, the stress
-    (xx, yy, zz, xy), the equivalent plastic strain, and the masses fixed at the start
-    (m_k = rho_k A_k on the first mesh).
+    (xx, yy, zz, xy), the equivalent plastic strain, the masses fixed at the start
+    (m_k = rho_k A_k on the first mesh) and each particle's row of ``particle_materials``, the
+    material table of the scene (``Scene.particle_materials``: a row per material, or per particle
+    where properties are given per particle).  ``materials`` is the table in use (elastic, reduced).
+    Stages start with :meth:`begin_stage`, run with :meth:`run` or :meth:`relax`, and hand out
+    :meth:`snapshot` values.
     """
 
     def __init__(self, scene: Scene, settings: SolverSettings | None = None, allow_detached: bool = False):
@@ -91,10 +121,11 @@ class Simulation:
         self.settings = settings or SolverSettings()
         self.threads = set_threads(self.settings.threads, scene.n_particles)  # threads of the compiled step
         n = scene.n_particles
+        self.particle_materials, material_row = scene.particle_materials()
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
             stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n),
-            material=scene.node_material, fixed=scene.node_fixed.copy(),
+            material_row=material_row, fixed=scene.node_fixed.copy(),
             fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(),
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
@@ -109,7 +140,7 @@ class Simulation:
             water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3), pond_level_m=np.nan,
             boundary_edges=np.zeros((0, 2), dtype=np.int64), at_initial_positions=False, ramp_time_s=0.0,
         )
-        self.set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)
+        self._set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
@@ -117,7 +148,7 @@ class Simulation:
                                  self.settings.crowded_fraction)
         self.time_step = TimeStepPolicy(self.settings)
         self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
-        self._set_material_arrays(scene.materials)
+        self._set_material_arrays(self.particle_materials)
 
         self._set_mesh(self.remesher.triangulate(self.nodes.xy_m))
         self._initial_mesh = self.mesh
@@ -137,7 +168,7 @@ class Simulation:
     def _set_material_arrays(self, materials: MaterialTable):
         self.materials = materials
         self.material_arrays = material_arrays(materials)
-        self.speed_limit_m_s = float(materials.p_wave_speed_m_s[self.nodes.material].max())
+        self.speed_limit_m_s = float(materials.p_wave_speed_m_s[self.nodes.material_row].max())
 
     def _set_mesh(self, mesh: Mesh):
         """Use ``mesh`` from now on: element scratch sized for it, cell areas and gradients on it
@@ -157,7 +188,7 @@ class Simulation:
         mesh = self.mesh
         return float(critical_time_step(
             self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.mass_kg,
-            self.nodes.material, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
+            self.nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
         ))
 
     def _choose_time_step(self):
@@ -166,27 +197,39 @@ class Simulation:
         self.dt_s = self.time_step.dynamic(self.critical_dt_s)
         self._stage_first_dt_s = self.dt_s  # a stage sets it again when it starts
 
-    @property
-    def max_cfl(self) -> float:
-        """Largest accepted cfl for the settings' beta (``timestep.max_stable_cfl``)."""
-        return self.time_step.max_cfl
+    def begin_stage(self, setup: StageSetup) -> None:
+        """Set what a stage changes before it starts (``StageSetup``, in the order of its fields):
+        its start, materials, supports, body force, water and load ramp."""
+        if isinstance(setup.start, StressState):
+            self.start_from(setup.start)
+        elif setup.start == "original_positions":
+            self.discard_displacement()
+        elif setup.start != "continue":
+            raise ValueError(f"StageSetup.start: must be 'continue', 'original_positions' or a StressState, "
+                             f"got {setup.start!r}")
+        self.set_materials(setup.materials)
+        self._set_supports(setup.node_fixed, setup.node_fixed_velocity_m_s)
+        self._set_gravity(setup.gravity_m_s2)
+        self._set_water(setup.phreatic_lines_m, setup.node_phreatic_line, setup.pond_level_m)
+        self._set_load_ramp(setup.load_ramp_s)
 
     def set_materials(self, materials: MaterialTable):
-        """Use another material table from now on (same rows; e.g. elastic gravity stage, reduced
-        strength).  The time step is chosen again for the new wave speeds."""
-        if materials.n_materials != self.materials.n_materials:
-            raise ValueError(f"materials: expected {self.materials.n_materials} rows, got {materials.n_materials}")
+        """Use another material table from now on, with the rows of ``particle_materials`` (the
+        elastic or reduced table of a stage, a step of a strength ramp).  The time step is chosen
+        again for the new wave speeds."""
+        if materials.n_rows != self.particle_materials.n_rows:
+            raise ValueError(f"materials: expected {self.particle_materials.n_rows} rows, got {materials.n_rows}")
         self._set_material_arrays(materials)
         self._choose_time_step()
 
-    def set_gravity(self, gravity_m_s2):
+    def _set_gravity(self, gravity_m_s2):
         """Body acceleration (m/s^2) from now on, e.g. gravity with a pseudo-static seismic part."""
         gravity = np.asarray(gravity_m_s2, dtype=np.float64).reshape(2)
         if not np.all(np.isfinite(gravity)):
             raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
         self.gravity_m_s2 = np.ascontiguousarray(gravity)
 
-    def set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
+    def _set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
         """Pore and ponded water from now on (a water-level change): the piezometric lines, the line
         of each particle (-1: none; default: the first line for all, or none), the ponded water level
         (None: none); a simulation starts with the scene's own.  The loads are active (their kernel
@@ -207,14 +250,14 @@ class Simulation:
                             else np.zeros((0, 2), dtype=np.int64)),
         )
 
-    def set_load_ramp(self, ramp_time_s: float):
+    def _set_load_ramp(self, ramp_time_s: float):
         """From the next stage on, the surface loads grow linearly from zero over ``ramp_time_s`` of
         stage time (0: applied at once); a relaxation does not converge before the ramp ends."""
         if not ramp_time_s >= 0.0:
             raise ValueError(f"ramp_time_s: must be >= 0, got {ramp_time_s}")
         self.loads = self.loads._replace(ramp_time_s=float(ramp_time_s))
 
-    def set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
+    def _set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
         """Prescribed velocities from now on (e.g. release a retaining side for a collapse)."""
         self.nodes.fixed[:] = np.asarray(node_fixed, dtype=bool).reshape(self.n_particles, 2)
         self.nodes.fixed_velocity_m_s[:] = np.asarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(
@@ -230,19 +273,14 @@ class Simulation:
         self._choose_time_step()
         self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
 
-    def set_initial_stress(self, node_stress_pa: np.ndarray, node_plastic_strain: np.ndarray | None = None):
-        """Start from a stress state computed elsewhere (a cached gravity stage), at the initial
-        positions and at rest: ``node_stress_pa`` (n, 4) xx, yy, zz, xy; plastic strain (n,)."""
-        stress = np.asarray(node_stress_pa, dtype=np.float64)
-        if stress.shape != (self.n_particles, 4) or not np.all(np.isfinite(stress)):
-            raise ValueError(f"node_stress_pa: expected finite ({self.n_particles}, 4), got shape {stress.shape}")
+    def start_from(self, state: StressState):
+        """Start from a stress state computed elsewhere (a stored gravity stage), at the initial
+        positions and at rest."""
+        if state.n_particles != self.n_particles:
+            raise ValueError(f"StressState: expected {self.n_particles} particles, got {state.n_particles}")
         self.discard_displacement()
-        self.nodes.stress_pa[:] = stress
-        if node_plastic_strain is not None:
-            plastic = np.asarray(node_plastic_strain, dtype=np.float64).reshape(-1)
-            if plastic.shape != (self.n_particles,):
-                raise ValueError(f"node_plastic_strain: expected ({self.n_particles},), got shape {plastic.shape}")
-            self.nodes.plastic_strain[:] = plastic
+        self.nodes.stress_pa[:] = state.stress_pa
+        self.nodes.plastic_strain[:] = state.plastic_strain
 
     # ------------------------------------------------------------------ mesh
     def rebuild_mesh(self):
@@ -278,7 +316,7 @@ class Simulation:
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
         stop: StopRule | None = None,
-        snapshot: Snapshot | None = None,
+        snapshot: SnapshotHook | None = None,
         periodic: PeriodicAction | None = None,
     ) -> TimeSeries:
         """Dynamic stage: ``duration_s`` of explicit steps with local damping ``damping``; water
@@ -286,8 +324,8 @@ class Simulation:
 
         ``stop`` is asked between compiled calls whether the outcome is decided (see
         :data:`StopRule`); the stage then ends early and its notes say why.  ``snapshot``
-        (interval in s, callback) is called with the stage time at its start, every interval
-        and at its end, with the state of that moment in this object.  ``periodic`` (see
+        (:data:`SnapshotHook`: interval in s, callback) is called with the particles at the start,
+        every interval and at the end (:meth:`snapshot`).  ``periodic`` (see
         :data:`PeriodicAction`) may change the simulation every interval.
         """
         self.loads = self.loads._replace(at_initial_positions=False)
@@ -302,7 +340,7 @@ class Simulation:
         record_interval_s: float | None = None,
         monitor_nodes=(),
         progress: Callable[[float], None] | None = None,
-        snapshot: Snapshot | None = None,
+        snapshot: SnapshotHook | None = None,
         stop: StopRule | None = None,
         water_at_initial_positions: bool = False,
     ) -> TimeSeries:
@@ -369,7 +407,7 @@ class Simulation:
                                  None if snapshot is None else float(snapshot[0]),
                                  None if periodic is None else float(periodic[0]))
         if snapshot is not None:
-            snapshot[1](0.0)
+            snapshot[1](self.snapshot(0.0))
 
         def partial_series():
             return self._series(records, n_steps, start, start_wall, converged)
@@ -420,13 +458,13 @@ class Simulation:
                     stop_reason = str(early)
                     break
             if schedule.snapshot_due(stage_time, self.dt_s):
-                snapshot[1](stage_time)
+                snapshot[1](self.snapshot(stage_time))
             if schedule.action_due(stage_time, self.dt_s):
                 periodic[1](stage_time)
             if progress is not None:
                 progress(min(stage_time / duration_s, 1.0))
         if schedule.final_snapshot_due(stage_time, self.dt_s):
-            snapshot[1](stage_time)  # the end, unless it was a snapshot time already
+            snapshot[1](self.snapshot(stage_time))  # the end, unless it was a snapshot time already
         if records.time_s[records.n_filled - 1] < stage_time - 1e-12 * max(stage_time, 1.0):
             if records.n_filled >= records.capacity:
                 records = records.grown()
@@ -450,7 +488,7 @@ class Simulation:
         n_remesh = self.counters.rebuilds - start.rebuilds
         n_checks = int(self.loop[LOOP_MESH_CHECKS] - start.mesh_checks)
         n_walls = self.walls.xy_m.shape[0]
-        plastic = bool(np.any(self.material_arrays.model != 0))
+        plastic = self.materials.plastic
         notes = {
             "stabilisation": f"on (beta = {beta:g})" if beta > 0 else "off (beta = 0): bond loop skipped",
             "contact": (
@@ -504,10 +542,18 @@ class Simulation:
             u[on] += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
         return u
 
-    @property
-    def node_contact(self) -> np.ndarray:
-        """1 where a wall acted on the particle in the last step, a copy."""
-        return self.scratch.contact.copy()
+    def snapshot(self, time_s: float = math.nan) -> Snapshot:
+        """The particles as they are now (copies), at stage time ``time_s``."""
+        nodes = self.nodes
+        return Snapshot(
+            time_s=float(time_s), xy_m=nodes.xy_m.copy(), initial_xy_m=self.initial_xy_m.copy(),
+            displacement_m=nodes.displacement_m.copy(), velocity_m_s=nodes.velocity_m_s.copy(),
+            stress_pa=nodes.stress_pa.copy(), plastic_strain=nodes.plastic_strain.copy(),
+            area_m2=self.node_area_m2, mass_kg=nodes.mass_kg.copy(), density_kg_m3=self.scene.particle_density_kg_m3,
+            pore_pressure_pa=self.pore_pressure_pa, material=self.scene.node_material.copy(),
+            material_names=tuple(self.scene.materials.name), elem_nodes=self.mesh.elem_nodes.copy(),
+            spacing_m=float(self.scene.spacing_m), dt_s=float(self.dt_s), critical_dt_s=float(self.critical_dt_s),
+        )
 
 
 class _StageStart(NamedTuple):

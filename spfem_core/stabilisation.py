@@ -11,7 +11,7 @@ The pair force along e_ij (on j; the opposite on i) is
 
     f_ij = (beta / 2) (E_i A_i delta^i_ij + E_j A_j delta^j_ij) / |x0_ij|^2
 
-with each node's own Young's modulus E and smoothing-cell area A.  Because delta is an
+with each node's own Young's modulus E (of its material row) and smoothing-cell area A.  Because delta is an
 increment over one step, f is a bond viscosity eta = beta E dt / 2 acting on the part of the
 relative velocity a linear field cannot explain: it only removes energy (its work is
 returned so energy budgets can account for it), and at fixed beta it scales with dt.
@@ -36,7 +36,7 @@ from spfem_core.jit import inline_kernel
 
 
 @inline_kernel
-def bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i, j, dt, half_beta_dt, min_bond_sq):
+def bond_force(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs, i, j, dt, half_beta_dt, min_bond_sq):
     """(F_x, F_y, power) of bond i-j: the force F_ij on j (module doc; -F_ij on i) and its power
     F_ij . (v_j - v_i) (W/m, <= 0 when the bond removes energy); zero for a bond of zero length."""
     dx = node_xy[j, 0] - node_xy[i, 0]
@@ -52,8 +52,8 @@ def bond_force(node_xy, node_v, node_L, node_area, node_material, mat_youngs, i,
     # (L x0 - dv) . x for node i and node j: the velocity error of each one's linear field along the bond
     err_i = (node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * dx + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * dy
     err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * dx + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * dy
-    ea_i = mat_youngs[node_material[i]] * node_area[i]
-    ea_j = mat_youngs[node_material[j]] * node_area[j]
+    ea_i = mat_youngs[node_material_row[i]] * node_area[i]
+    ea_j = mat_youngs[node_material_row[j]] * node_area[j]
     factor = half_beta_dt * (ea_i * err_i + ea_j * err_j) / (length_sq * max(length0_sq, min_bond_sq))
     fx = factor * dx
     fy = factor * dy

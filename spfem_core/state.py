@@ -15,8 +15,15 @@ import numpy as np
 ELEM_GEOM_WIDTH = 7
 """Columns of ``StepScratch.elem_geom``: dN/dx of the 3 vertices, dN/dy of the 3 vertices, area (m^2)."""
 
-LEAPFROG_OUT_WIDTH = 6
-"""Length of ``StepScratch.leapfrog_out``, filled by ``integration.leapfrog`` every step."""
+LEAPFROG_OUT = ("max_speed_sq", "unbalanced_force_sq", "applied_force_sq", "damping_power", "contact_loss",
+                "contacts")
+"""Slots of ``StepScratch.leapfrog_out``, filled by ``integration.leapfrog`` every step: the largest
+speed squared (m^2/s^2; NaN if any speed is NaN), |f_unbalanced|^2 and |m g|^2 on the free directions
+(N^2/m^2), the damping power (W/m, <= 0), the energy the walls removed (J/m), the particles touching
+a wall."""
+(LEAPFROG_MAX_SPEED_SQ, LEAPFROG_UNBALANCED_FORCE_SQ, LEAPFROG_APPLIED_FORCE_SQ, LEAPFROG_DAMPING_POWER,
+ LEAPFROG_CONTACT_LOSS, LEAPFROG_CONTACTS) = range(len(LEAPFROG_OUT))
+LEAPFROG_OUT_WIDTH = len(LEAPFROG_OUT)
 
 
 class NodeState(NamedTuple):
@@ -28,7 +35,7 @@ class NodeState(NamedTuple):
     stress_pa: np.ndarray  # (n, 4) Cauchy stress xx, yy, zz, xy
     plastic_strain: np.ndarray  # (n,) equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)
     mass_kg: np.ndarray  # (n,) per metre of thickness, fixed at the start: m_k = rho_k A_k
-    material: np.ndarray  # (n,) int64 row of the material table
+    material_row: np.ndarray  # (n,) int64 row of the simulation's material table (its material's, or its own)
     fixed: np.ndarray  # (n, 2) bool: velocity prescribed in that direction
     fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity where ``fixed``
 
@@ -41,7 +48,7 @@ class StepScratch(NamedTuple):
     force_n: np.ndarray  # (n, 2) f_int + f_stab per metre of thickness
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
     elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
-    leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) see integration.leapfrog
+    leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) the slots of LEAPFROG_OUT
     pore_pressure_pa: np.ndarray  # (n,) u_k of the last step (compression positive); 0 without water
     external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
 
@@ -74,14 +81,14 @@ class MeshArrays(NamedTuple):
 
 
 class MaterialArrays(NamedTuple):
-    """Per-material constants the kernels read (rows of ``scene.MaterialTable``)."""
+    """The constants of the material rows the kernels read (``materials.table.MaterialTable``)."""
 
-    model: np.ndarray  # (n_mat,) int64 MODEL_* code
-    lame_lambda_pa: np.ndarray  # (n_mat,)
-    shear_modulus_pa: np.ndarray  # (n_mat,)
-    youngs_modulus_pa: np.ndarray  # (n_mat,)
-    poisson_ratio: np.ndarray  # (n_mat,)
-    params: np.ndarray  # (n_mat, N_MODEL_PARAMS) constants of the return map (scene.N_MODEL_PARAMS)
+    model: np.ndarray  # (n_rows,) int64 code of the row's model (materials.MODELS)
+    lame_lambda_pa: np.ndarray  # (n_rows,)
+    shear_modulus_pa: np.ndarray  # (n_rows,)
+    youngs_modulus_pa: np.ndarray  # (n_rows,)
+    poisson_ratio: np.ndarray  # (n_rows,)
+    params: np.ndarray  # (n_rows, width) each model's named constants (MaterialTable.kernel_constants)
 
 
 class Walls(NamedTuple):

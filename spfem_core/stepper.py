@@ -23,21 +23,29 @@ import math
 import numpy as np
 
 from spfem_core.constitutive import update_stress
-from spfem_core.external_forces import add_external_forces, external_power
-from spfem_core.integration import leapfrog
-from spfem_core.jit import kernel
-from spfem_core.mesh import element_quality_min_angle
-from spfem_core.nodal_force import assemble_nodal_force
-from spfem_core.records import (
+from spfem_core.energy_budget import (
     DISSIPATED_CONTACT,
     DISSIPATED_DAMPING,
     DISSIPATED_LOADS,
     DISSIPATED_PLASTIC,
     DISSIPATED_STABILISATION,
     DISSIPATION_COLUMNS,
-    record_state,
 )
+from spfem_core.external_forces import add_external_forces, external_power
+from spfem_core.integration import leapfrog
+from spfem_core.jit import kernel
+from spfem_core.mesh import element_quality_min_angle
+from spfem_core.nodal_force import assemble_nodal_force
+from spfem_core.records import record_state
 from spfem_core.smoothing import smooth_velocity_gradient
+from spfem_core.state import (
+    LEAPFROG_APPLIED_FORCE_SQ,
+    LEAPFROG_CONTACT_LOSS,
+    LEAPFROG_CONTACTS,
+    LEAPFROG_DAMPING_POWER,
+    LEAPFROG_MAX_SPEED_SQ,
+    LEAPFROG_UNBALANCED_FORCE_SQ,
+)
 
 STATUS_DONE = 0
 STATUS_MESH_CHECK = 1  # the angle bound used its budget: Python checks the mesh, then goes on
@@ -59,7 +67,7 @@ LOOP_WIDTH = 7
 
 
 def new_accumulators() -> tuple[np.ndarray, np.ndarray]:
-    """(dissipated energy per ``records.DISSIPATION_COLUMNS``, loop bookkeeping per ``LOOP_*``), zeroed."""
+    """(dissipated energy per ``energy_budget.DISSIPATION_COLUMNS``, loop bookkeeping per ``LOOP_*``), zeroed."""
     return np.zeros(len(DISSIPATION_COLUMNS)), np.zeros(LOOP_WIDTH)
 
 
@@ -95,12 +103,12 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
         if n_inverted > 0:
             return STATUS_INVERTED, s
         dissipated[DISSIPATED_PLASTIC] += update_stress(
-            scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material,
+            scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.plastic_strain, nodes.material_row,
             materials.model, materials.lame_lambda_pa, materials.shear_modulus_pa, materials.params, dt,
             params.n_threads,
         )
         stab_power = assemble_nodal_force(
-            node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.material,
+            node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.material_row,
             materials.youngs_modulus_pa, elem_nodes, scratch.elem_geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
             mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block,
             beta, dt, 0.25 * params.spacing_m * params.spacing_m, node_force, params.n_threads,
@@ -115,18 +123,19 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
             step_out, params.n_threads,
         )
-        dissipated[DISSIPATED_DAMPING] -= step_out[3] * dt
-        dissipated[DISSIPATED_CONTACT] += step_out[4]
+        dissipated[DISSIPATED_DAMPING] -= step_out[LEAPFROG_DAMPING_POWER] * dt
+        dissipated[DISSIPATED_CONTACT] += step_out[LEAPFROG_CONTACT_LOSS]
         if loads.active:
             dissipated[DISSIPATED_LOADS] -= external_power(node_v, scratch.external_force_n) * dt
-        loop[LOOP_CONTACTS] = step_out[5]
-        max_speed_sq = step_out[0]
+        loop[LOOP_CONTACTS] = step_out[LEAPFROG_CONTACTS]
+        max_speed_sq = step_out[LEAPFROG_MAX_SPEED_SQ]
         loop[LOOP_LAST_MAX_SPEED] = math.sqrt(max_speed_sq) if max_speed_sq >= 0.0 else max_speed_sq
         if not (max_speed_sq <= speed_limit_sq):
             if max_speed_sq != max_speed_sq or max_speed_sq == math.inf:
                 return STATUS_NOT_FINITE, s + 1
             return STATUS_RUNAWAY, s + 1
-        ratio = math.sqrt(step_out[1] / step_out[2]) if step_out[2] > 0.0 else 0.0
+        unbalanced_sq, applied_sq = step_out[LEAPFROG_UNBALANCED_FORCE_SQ], step_out[LEAPFROG_APPLIED_FORCE_SQ]
+        ratio = math.sqrt(unbalanced_sq / applied_sq) if applied_sq > 0.0 else 0.0
         loop[LOOP_LAST_RATIO] = ratio
         time_now = time_start_s + (s + 1) * dt
         if time_now >= loop[LOOP_NEXT_RECORD] - half_dt:

@@ -119,7 +119,7 @@ def _largest_eigenvalue_sym3(s00, s01, s02, s11, s12, s22):
 
 
 @kernel
-def critical_time_step(node_xy, elem_nodes, node_node_ptr, node_node_idx, node_mass, node_material, mat_lambda,
+def critical_time_step(node_xy, elem_nodes, node_node_ptr, node_node_idx, node_mass, node_material_row, mat_lambda,
                        mat_shear):
     """2 / sqrt(cell-by-cell bound of omega_max^2) in s (module doc); inf for an empty mesh."""
     n = node_xy.shape[0]
@@ -183,7 +183,7 @@ def critical_time_step(node_xy, elem_nodes, node_node_ptr, node_node_idx, node_m
         g02 *= inv_area
         g12 *= inv_area
         # D^1/2 for plane strain: eigenvalues 2 (lambda + G) on (1, 1, 0), 2 G on (1, -1, 0), G on (0, 0, 1)
-        m = node_material[p]
+        m = node_material_row[p]
         lam = mat_lambda[m]
         shear = mat_shear[m]
         ra = math.sqrt(2.0 * (lam + shear))

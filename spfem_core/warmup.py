@@ -13,7 +13,8 @@ import time
 import numpy as np
 
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene
+from spfem_core.materials.table import MaterialTable
+from spfem_core.scene import Scene
 from spfem_core.simulation import Simulation
 
 

@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 from verification.scenes import beam_scene, column_scene
-from workflows.fos.orchestration import run_fos_study
+from workflows.cases import RunOptions
 from workflows.study import load_study
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -32,22 +32,25 @@ def make_column():
     return column_scene
 
 
+def _shipped_study_run(tmp_path_factory, name: str):
+    """(study, output folder, outcome) of ``studies/<name>.toml`` run once on 2 local workers."""
+    out = tmp_path_factory.mktemp(name)
+    study = load_study(REPO / "studies" / f"{name}.toml")
+    return study, out, run_study(study, out, RunOptions(workers=2))
+
+
 @pytest.fixture(scope="session")
 def quickstart_run(tmp_path_factory):
     """studies/quickstart.toml run once through a local cluster of 2 worker processes:
     (study, output folder, FosOutcome)."""
-    out = tmp_path_factory.mktemp("quickstart")
-    study = load_study(REPO / "studies" / "quickstart.toml")
-    return study, out, run_fos_study(study, out, workers=2)
+    return _shipped_study_run(tmp_path_factory, "quickstart")
 
 
 @pytest.fixture(scope="session")
 def strength_sweep(tmp_path_factory):
     """studies/sweep_strength.toml (3 x 3 cases) run once on a local cluster of 2 workers:
     (study, output folder, SweepOutcome)."""
-    out = tmp_path_factory.mktemp("sweep_strength")
-    study = load_study(REPO / "studies" / "sweep_strength.toml")
-    return study, out, run_sweep(study, out, workers=2)
+    return _shipped_study_run(tmp_path_factory, "sweep_strength")
 
 
 @pytest.fixture

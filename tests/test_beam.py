@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from spfem_core.scene import SolverSettings
+from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
 from verification.beam_theory import first_period_s, static_tip_deflection_m
 from verification.oscillation import period_and_mean

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from spfem_core.cloud import particles_in_polygon, points_in_polygon
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.geometry import points_in_polygon
 
 pytestmark = pytest.mark.filterwarnings("error")
 

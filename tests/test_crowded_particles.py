@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from spfem_core import MaterialTable, Scene, SolverSettings
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
 
 H = 0.1

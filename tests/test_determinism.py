@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import spfem_core.schedule as schedule
+from spfem_core import MaterialTable, Scene, SolverSettings
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
 from spfem_core.simulation import Simulation
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from spfem_core.scene import SolverSettings
+from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
 
 RHO, G, H, NU = 2000.0, 10.0, 10.0, 0.3

@@ -11,8 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from verification import fingerprint
-from workflows.stages import run_study
 from workflows.study import load_study
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 

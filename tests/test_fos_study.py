@@ -18,13 +18,15 @@ import pytest
 import xarray as xr
 from distributed import Client, Event, LocalCluster
 
+from workflows.cases import RunOptions
 from workflows.fos.cluster import WORKER_MODULES, close_client, start_client
-from workflows.fos.gravity import gravity_state, read_gravity
+from workflows.fos.gravity import read_gravity, run_gravity, stored_gravity, write_gravity
 from workflows.fos.keys import gravity_key, run_key
-from workflows.fos.orchestration import FosProgress, run_fos_study
 from workflows.fos.run_store import run_file_name
 from workflows.fos.task import run_srf
+from workflows.progress import Messages
 from workflows.study import load_study, parse_study
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
@@ -68,12 +70,6 @@ def kill_group(process) -> None:
     process.wait()
 
 
-class Messages(FosProgress):
-    def __init__(self):
-        self.lines = []
-        super().__init__(message=self.lines.append)
-
-
 def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
     study, out, outcome = quickstart_run
     # limit equilibrium 1.366-1.369; a 1 m cloud is coarse, so a wider band here
@@ -108,19 +104,20 @@ def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
 def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
     """The client stops a run above the first failure through a dask Event, freeing its worker."""
     study, out, outcome = quickstart_run
-    stress, plastic = read_gravity(out / "gravity.nc", gravity_key(study))
+    gravity = read_gravity(out / "gravity.nc", gravity_key(study))
     duration_s = study.strength_reduction.duration_s
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
         Event("spfem-fos-test-cancel", client=client).set()
-        cancelled = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
+        cancelled = client.submit(run_srf, study.source_text, gravity, 1.2,
                                   cancel_event="spfem-fos-test-cancel").result()
-        free = client.submit(run_srf, study.source_text, stress, plastic, 1.2,
+        free = client.submit(run_srf, study.source_text, gravity, 1.2,
                              cancel_event="spfem-fos-test-other").result()
     assert "cancelled" in cancelled.dataset.attrs["note_early_stop"]
-    assert cancelled.stop_time_s <= 0.05 * duration_s
+    assert cancelled.record.stop_time_s <= 0.05 * duration_s
     # the same run not cancelled goes on until the slope is at rest (quasi-static: converged)
-    assert free.stop_time_s > 10 * cancelled.stop_time_s and "converged" in free.dataset.attrs["note_early_stop"]
+    assert free.record.stop_time_s > 10 * cancelled.record.stop_time_s
+    assert "converged" in free.dataset.attrs["note_early_stop"]
 
 
 def _worker_state(dask_worker):
@@ -152,16 +149,16 @@ def test_local_workers_are_forked_from_one_preloaded_server_without_dashboard_up
 
 def test_run_file_holds_the_series_and_the_final_fields(quickstart_run):
     study, out, outcome = quickstart_run
-    failed = [r for r in outcome.runs if r["status"] == "failed"][-1]  # above the FOS: a slide
-    ds = xr.open_dataset(out / run_file_name(failed["srf"]))
-    assert ds.attrs["srf"] == failed["srf"] and ds.attrs["status"] == "failed"
+    failed = [r for r in outcome.runs if r.status == "failed"][-1]  # above the FOS: a slide
+    ds = xr.open_dataset(out / run_file_name(failed.srf))
+    assert ds.attrs["srf"] == failed.srf and ds.attrs["status"] == "failed"
     assert "a mechanism formed and moved" in ds.attrs["status_reason"]
     assert "early_stop" in " ".join(ds.attrs)  # at rest (an arrested slide) or slid past 10% of H
     for name in ("max_displacement", "kinetic_energy", "monitor_ux", "particle_x", "particle_ux",
                  "particle_plastic_strain", "particle_sxx", "mesh2d_face_nodes"):
         assert name in ds, name
     assert ds["mesh2d"].attrs["cf_role"] == "mesh_topology"
-    assert float(ds["max_displacement"].max()) == pytest.approx(failed["max_displacement_m"])
+    assert float(ds["max_displacement"].max()) == pytest.approx(failed.max_displacement_m)
     assert float(ds["particle_plastic_strain"].max()) > 0.01  # a failure mechanism formed
     assert ds.attrs["gravity_key"] == gravity_key(study)
 
@@ -170,14 +167,14 @@ def test_a_second_invocation_reuses_gravity_and_every_run(quickstart_run, tmp_pa
     study, out, outcome = quickstart_run
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")}
     messages = Messages()
-    again = run_fos_study(study, out, workers=1, progress=messages)
+    again = run_study(study, out, RunOptions(workers=1), messages)
     assert again.fos == outcome.fos and again.gravity_reused, messages.lines
     assert any("gravity state reused" in line for line in messages.lines)
     # one worker starts no run above the first failure ahead of time, so it may need fewer runs
-    assert {r["srf"] for r in again.runs} <= {r["srf"] for r in outcome.runs}
+    assert {r.srf for r in again.runs} <= {r.srf for r in outcome.runs}
     assert any(f"{len(again.runs)} SRF runs reused" in line for line in messages.lines)
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("srf_*.nc")} == stamps
-    assert all(math.isnan(r["started_s"]) for r in again.runs)  # no run was made by this invocation
+    assert all(math.isnan(r.started_s) for r in again.runs)  # no run was made by this invocation
 
 
 def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
@@ -186,14 +183,14 @@ def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
     copy.mkdir()
     for path in out.glob("*.nc"):
         (copy / path.name).write_bytes(path.read_bytes())
-    damaged = copy / run_file_name(outcome.runs[1]["srf"])
+    damaged = copy / run_file_name(outcome.runs[1].srf)
     damaged.write_bytes(damaged.read_bytes()[:2000])
     messages = Messages()
-    again = run_fos_study(study, copy, workers=1, progress=messages)
+    again = run_study(study, copy, RunOptions(workers=1), messages)
     assert again.fos == outcome.fos
     assert any(line.endswith("SRF runs reused from " + str(copy) + " (finished by an earlier invocation)")
                and int(line.split()[0]) == len(again.runs) - 1 for line in messages.lines)
-    assert xr.open_dataset(damaged).attrs["status"] == outcome.runs[1]["status"]
+    assert xr.open_dataset(damaged).attrs["status"] == outcome.runs[1].status
 
 
 def test_keys_change_with_what_shapes_a_state_and_not_with_the_search_settings(quickstart_run):
@@ -316,14 +313,16 @@ srf_step = 0.5
 def test_gravity_stage_matches_the_elastic_column(tmp_path):
     """The FOS study's gravity stage: sigma_yy = -rho g (H - y), sigma_xx = nu/(1-nu) sigma_yy."""
     study = parse_study(COLUMN_FOS)
-    stress, plastic, reused, n, _ = gravity_state(study, tmp_path, force=False, progress=FosProgress())
-    assert not reused and np.all(plastic == 0.0)
+    result = run_gravity(study.source_text, threads=0, out_dir=tmp_path)
+    write_gravity(study, tmp_path, result)
+    stress, plastic = result.state.stress_pa, result.state.plastic_strain
+    assert np.all(plastic == 0.0)
     y0 = xr.open_dataset(tmp_path / "gravity.nc")["particle_y0"].values
     band = (y0 >= 1.0) & (y0 <= 8.0)
     syy_exact = -2000.0 * 10.0 * (10.0 - y0[band])
     np.testing.assert_allclose(stress[band, 1], syy_exact, rtol=0.02)
     np.testing.assert_allclose(stress[band, 0], 0.3 / 0.7 * syy_exact, rtol=0.02)
-    assert gravity_state(study, tmp_path, force=False, progress=FosProgress())[2]  # reused the second time
+    assert np.array_equal(stored_gravity(study, tmp_path).stress_pa, stress)  # what a second invocation reuses
 
 
 def test_mohr_coulomb_and_its_drucker_prager_match_give_the_same_fos(quickstart_run, tmp_path):
@@ -331,7 +330,7 @@ def test_mohr_coulomb_and_its_drucker_prager_match_give_the_same_fos(quickstart_
     with the plane-strain psi = 0 Drucker-Prager fit within 1% (method notes, section 2)."""
     _, _, dp = quickstart_run
     text = QUICKSTART.replace('model = "drucker_prager"\ndp_fit = "mohr_coulomb_match"', 'model = "mohr_coulomb"')
-    mc = run_fos_study(parse_study(text), tmp_path, workers=2)
+    mc = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert math.isfinite(mc.fos) and math.isfinite(dp.fos)
     assert abs(mc.fos - dp.fos) <= 0.01 * dp.fos
 
@@ -340,7 +339,7 @@ def test_a_slope_unstable_as_built_is_reported(tmp_path):
     """With c = 2 kPa the reference slope fails at its own strength (FOS 0.963 at h = 1 m): a
     range starting below 1 finds an FOS below 1 and the verdict says the slope is unstable as built."""
     text = QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 2e3").replace("srf_min = 1.0", "srf_min = 0.5")
-    outcome = run_fos_study(parse_study(text), tmp_path, workers=2)
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert outcome.fos < 1.0
     assert "UNSTABLE AS BUILT" in outcome.verdict
     assert xr.open_dataset(tmp_path / "summary.nc")["fos"].attrs["verdict"] == outcome.verdict
@@ -410,7 +409,7 @@ PUBLISHED = {  # study, reference FOS, allowed error (docs/verification.md)
 def test_shipped_fos_study_agrees_with_its_reference_and_its_criteria_agree(name, tmp_path):
     """The published slopes of docs/verification.md at their shipped spacing (2-4 minutes in all)."""
     reference, allowed = PUBLISHED[name]
-    outcome = run_fos_study(load_study(REPO / "studies" / name), tmp_path, workers=2)
+    outcome = run_study(load_study(REPO / "studies" / name), tmp_path, RunOptions(workers=2))
     assert outcome.criteria_agree and not outcome.non_monotone
     assert abs(outcome.fos / reference - 1.0) <= allowed, outcome.fos
     if name.endswith("griffiths_lane_ex4.toml"):

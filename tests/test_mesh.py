@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spfem_core.cloud import particles_in_polygon, points_in_polygon
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.geometry import points_in_polygon
 from spfem_core.mesh import (
     Mesh,
     count_inverted,

@@ -9,14 +9,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from spfem_core.constitutive import elastic_increment
-from spfem_core.plasticity import (
-    DP_FITS,
-    default_dp_fit,
-    dp_constants,
-    drucker_prager_update,
-    mohr_coulomb_update,
-)
+from spfem_core.materials.drucker_prager import DP_FITS, default_dp_fit, dp_constants, drucker_prager_update
+from spfem_core.materials.elastic import elastic_increment
+from spfem_core.materials.mohr_coulomb import mohr_coulomb_update
 
 PROPERTY = settings(deadline=None, max_examples=200)
 SURFACE_RTOL = 1e-9

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import xarray as xr
 
-from spfem_core.records import ENERGY_COLUMNS
-from spfem_core.scene import MaterialTable, Scene
+from spfem_core import MaterialTable, Scene
+from spfem_core.energy_budget import ENERGY_COLUMNS
+from spfem_core.snapshot import Snapshot
 from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
 from workflows.output.writing import write_dataset
 from workflows.study import parse_study
@@ -54,35 +54,24 @@ class FakeTimeSeries:
 
 
 def fake_run(study_text: str, n_rec: int = 6, **series_options):
-    """(study, scene, sim, series, monitor particles) for a 4 x 3 lattice of particles."""
+    """(study, scene, final particles, series, monitor particles) for a 4 x 3 lattice of particles."""
     study = parse_study(study_text)
     x, y = np.meshgrid(np.linspace(0.0, 2.0, 4), np.linspace(0.0, 0.2, 3))
     node_xy_m = np.column_stack([x.ravel(), y.ravel()])
     n = node_xy_m.shape[0]
     materials = MaterialTable(tuple(m.name for m in study.materials), [0], [1850.0], [80e6], [0.25])
     scene = Scene(node_xy_m=node_xy_m, node_material=np.zeros(n, dtype=np.int64), materials=materials, spacing_m=0.5)
-    nodes = SimpleNamespace(
-        xy_m=node_xy_m + 0.01,
-        displacement_m=np.full((n, 2), 0.01),
-        velocity_m_s=np.zeros((n, 2)),
-        stress_pa=np.tile([-1.0, -2.0, -3.0, 0.5], (n, 1)),
-        plastic_strain=np.zeros(n),
-        mass_kg=np.full(n, 1850.0 * 0.25),
-    )
-    sim = SimpleNamespace(
-        n_particles=n,
-        dt_s=1e-4,
-        critical_dt_s=2e-4,
-        nodes=nodes,
-        scene=scene,
-        initial_xy_m=node_xy_m,
-        node_area_m2=np.full(n, 0.5 * 0.5),
-        pore_pressure_pa=np.linspace(0.0, 1e3, n),
-        mesh=SimpleNamespace(elem_nodes=np.array([[0, 1, 5], [0, 5, 4]], dtype=np.int32)),
+    final = Snapshot(
+        time_s=0.5, xy_m=node_xy_m + 0.01, initial_xy_m=node_xy_m, displacement_m=np.full((n, 2), 0.01),
+        velocity_m_s=np.zeros((n, 2)), stress_pa=np.tile([-1.0, -2.0, -3.0, 0.5], (n, 1)), plastic_strain=np.zeros(n),
+        area_m2=np.full(n, 0.5 * 0.5), mass_kg=np.full(n, 1850.0 * 0.25), density_kg_m3=np.full(n, 1850.0),
+        pore_pressure_pa=np.linspace(0.0, 1e3, n), material=np.zeros(n, dtype=np.int64),
+        material_names=materials.name, elem_nodes=np.array([[0, 1, 5], [0, 5, 4]], dtype=np.int64),
+        spacing_m=0.5, dt_s=1e-4, critical_dt_s=2e-4,
     )
     monitors = np.array([scene.nearest_particle(m.x_m, m.y_m) for m in study.monitors], dtype=np.int64)
     series = FakeTimeSeries(n_rec=n_rec, n_mon=len(study.monitors), **series_options)
-    return study, scene, sim, series, monitors
+    return study, scene, final, series, monitors
 
 
 @pytest.fixture
@@ -91,8 +80,8 @@ def beam_text():
 
 
 def beam_dataset(beam_text, **series_options):
-    study, scene, sim, series, monitors = fake_run(beam_text, **series_options)
-    ds = stage_dataset(study=study, stage_index=0, series=series, sim=sim, monitor_particles=monitors)
+    study, scene, final, series, monitors = fake_run(beam_text, **series_options)
+    ds = stage_dataset(study=study, stage_index=0, series=series, final=final, monitor_particles=monitors)
     return ds, series
 
 
@@ -157,8 +146,8 @@ def test_failed_write_leaves_nothing(tmp_path, beam_text, monkeypatch):
 
 def test_a_study_without_monitors_still_writes(tmp_path, beam_text):
     text = beam_text[: beam_text.index("[[monitors]]")]
-    study, scene, sim, series, monitors = fake_run(text)
-    ds = stage_dataset(study=study, stage_index=0, series=series, sim=sim, monitor_particles=monitors)
+    study, scene, final, series, monitors = fake_run(text)
+    ds = stage_dataset(study=study, stage_index=0, series=series, final=final, monitor_particles=monitors)
     write_dataset(ds, tmp_path / "run.nc")
     with xr.open_dataset(tmp_path / "run.nc") as back:
         assert back.sizes["monitor"] == 0 and back.sizes["time"] == 6

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from spfem_core.records import ENERGY_COLUMNS
+from spfem_core.energy_budget import ENERGY_COLUMNS
 from workflows.runout.metrics import runout_summary
 from workflows.runout.rest import time_to_rest_s
-from workflows.stages import run_study
 from workflows.study import StudyError, parse_study
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 SOFTENING = (REPO / "studies" / "runout_softening.toml").read_text()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from spfem_core.divergence import DivergenceError
-from spfem_core.scene import SolverSettings
+from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
 from spfem_core.timestep import UnstableTimeStepError, max_stable_cfl
 

@@ -17,9 +17,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from spfem_core.cloud import MAX_JITTER
+from workflows.fields import specs
+from workflows.materials import ElasticMaterial
+from workflows.stages import DynamicStage, RelaxationStage
 from workflows.study import StudyError, load_study, parse_study, reference
-from workflows.study.fields import point_in_polygon, specs
-from workflows.study.tables import DynamicStage, ElasticMaterial, Geometry, RelaxationStage, Study
+from workflows.study.tables import Geometry, Study
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED_STUDIES = sorted((REPO / "studies").glob("*.toml"))
@@ -246,15 +248,6 @@ def test_any_spacing_loads_or_names_the_field(value):
         assert str(error).startswith("geometry.spacing_m: ") and "\n" not in str(error)
     else:
         assert study.geometry.spacing_m > 0
-
-
-def test_point_in_polygon_counts_the_boundary_as_inside():
-    square = ((0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0))
-    assert point_in_polygon((0.5, 0.5), square)
-    assert point_in_polygon((1.0, 1.0), square) and point_in_polygon((0.5, 0.0), square)
-    assert not point_in_polygon((1.001, 0.5), square) and not point_in_polygon((-0.5, -0.5), square)
-    concave = ((0.0, 0.0), (60.0, 0.0), (60.0, 5.0), (40.0, 5.0), (20.0, 15.0), (0.0, 15.0))
-    assert point_in_polygon((30.0, 10.0), concave) and not point_in_polygon((40.0, 10.0), concave)
 
 
 # ---------------------------------------------------------------------------------------

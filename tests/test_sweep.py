@@ -19,11 +19,12 @@ import pytest
 import xarray as xr
 
 from verification import stability_chart
+from workflows.cases import RunOptions
 from workflows.fos.keys import case_key
 from workflows.study import StudyError, parse_study
 from workflows.study.reading import sweep_cases
 from workflows.study.toml_text import to_toml
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP = (REPO / "studies" / "sweep_strength.toml").read_text()
@@ -112,7 +113,7 @@ def test_zip_of_unequal_axes_is_refused_and_a_stage_study_may_be_swept():
         parse_study(with_sweep(SWEEP, unequal))
     column = (REPO / "studies" / "elastic_column.toml").read_text()
     sweep = '[sweep]\n[[sweep.axes]]\npath = "geometry.spacing_m"\nvalues = [0.1, 0.2]\n'
-    assert parse_study(column + "\n" + sweep).sweep.axes[0].points == (0.1, 0.2)  # workflows.sweep.stage_cases
+    assert parse_study(column + "\n" + sweep).sweep.axes[0].points == (0.1, 0.2)  # workflows.sweep.study_type
 
 
 # ------------------------------------------------------------------ the slope form
@@ -199,7 +200,7 @@ def test_study_nc_holds_every_case_over_the_sweep_dimensions(strength_sweep):
 def test_cases_that_compute_the_same_thing_are_computed_once(tmp_path):
     quick = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("figures = true", "figures = false")
     study = parse_study(quick + '\n[sweep]\n[[sweep.axes]]\npath = "study.description"\nvalues = ["a", "b"]\n')
-    outcome = run_sweep(study, tmp_path, workers=1)
+    outcome = run_study(study, tmp_path, RunOptions(workers=1))
     assert outcome.n_distinct == 1
     ds = xr.open_dataset(tmp_path / "study.nc")
     assert list(ds["case_folder"].values) == ["description=a", "description=a"]
@@ -209,10 +210,10 @@ def test_cases_that_compute_the_same_thing_are_computed_once(tmp_path):
 def test_a_changed_value_recomputes_only_its_case(tmp_path):
     quick = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("figures = true", "figures = false")
     axis = '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [{}]\n'
-    first = run_sweep(parse_study(quick + axis.format("8e3, 10e3")), tmp_path, workers=1)
+    first = run_study(parse_study(quick + axis.format("8e3, 10e3")), tmp_path, RunOptions(workers=1))
     assert first.runs_reused == 0 and first.gravity_computed == 1
     kept = {p: p.stat().st_mtime_ns for p in (tmp_path / "cases" / "cohesion_pa=8000").glob("srf_*.nc")}
-    second = run_sweep(parse_study(quick + axis.format("8e3, 12e3")), tmp_path, workers=1)
+    second = run_study(parse_study(quick + axis.format("8e3, 12e3")), tmp_path, RunOptions(workers=1))
     assert second.runs_reused == first.results["cohesion_pa=8000"].n_runs
     assert second.runs_made == second.results["cohesion_pa=12000"].n_runs
     assert second.gravity_computed == 0  # the new case takes the gravity files of the case it shares them with

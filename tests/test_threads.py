@@ -19,7 +19,7 @@ CHECK = textwrap.dedent("""
     import numpy as np
     import numba
     from spfem_core.cloud import particles_in_polygon
-    from spfem_core.scene import MaterialTable, Scene, SolverSettings
+    from spfem_core import MaterialTable, Scene, SolverSettings
     from spfem_core.simulation import Simulation
 
     assert numba.config.NUMBA_NUM_THREADS == 2
@@ -35,8 +35,7 @@ CHECK = textwrap.dedent("""
     def wet_block(threads):
         h = 0.08
         xy = particles_in_polygon([[0.0, 0.0], [10.0, 0.0], [10.0, 4.0], [0.0, 4.0]], h)
-        clay = MaterialTable(("clay",), [2], [1900.0], [2e7], [0.3], [5e3], [25.0], [0.0],
-                             tensile_strength_pa=[1e3])
+        clay = MaterialTable.single("clay", "mohr_coulomb", 1900.0, 2e7, 0.3, 5e3, 25.0, 0.0, tensile_strength_pa=1e3)
         top = (xy[:, 1] > 4.0 - 1e-9) & (xy[:, 0] >= 2.0) & (xy[:, 0] <= 4.0)
         load = np.zeros((len(xy), 2))
         load[top, 1] = -2e5 * 2.0 / top.sum()

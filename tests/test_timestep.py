@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from spfem_core.materials.table import MaterialTable
 from spfem_core.mesh import triangulate
-from spfem_core.scene import MaterialTable
 from spfem_core.timestep import critical_time_step
 from verification.probes import smoothed_gradient
 

@@ -9,8 +9,8 @@ import numpy as np
 import xarray as xr
 
 from workflows.output.paraview import export_folder, main
-from workflows.stages import run_study
 from workflows.study import parse_study
+from workflows.study_types import run_study
 
 
 def read_vtu(path):
@@ -30,9 +30,9 @@ def test_every_run_reads_back_and_the_collection_steps_through_srf(quickstart_ru
     files = [entry.get("file") for entry in collection]
     assert len(files) == len(outcome.runs) + 1  # gravity.nc and one per SRF run
     steps = [float(entry.get("timestep")) for entry in collection]
-    assert steps == sorted(steps) and set(r["srf"] for r in outcome.runs) <= set(steps)
-    failed = [r for r in outcome.runs if r["status"] == "failed"][-1]
-    name = f"srf_{failed['srf']:.4f}"
+    assert steps == sorted(steps) and set(r.srf for r in outcome.runs) <= set(steps)
+    failed = [r for r in outcome.runs if r.status == "failed"][-1]
+    name = f"srf_{failed.srf:.4f}"
     n_points, n_cells, arrays = read_vtu(tmp_path / "paraview" / f"{name}.vtu")
     with xr.open_dataset(out / f"{name}.nc") as ds:
         assert n_points == ds.sizes["particle"] and n_cells == ds.sizes["face"]

@@ -12,19 +12,17 @@ import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
+from spfem_core import MaterialTable, Scene, SolverSettings
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.plasticity import tension_cutoff
-from spfem_core.records import ENERGY_COLUMNS
-from spfem_core.scene import MaterialTable, Scene, SolverSettings
+from spfem_core.energy_budget import ENERGY_COLUMNS
+from spfem_core.materials.tension_cutoff import tension_cutoff
 from spfem_core.simulation import Simulation
 from verification.water_and_loads import DRAWDOWN_REFERENCE, SEISMIC_KC, prandtl_fos
+from workflows.cases import RunOptions
 from workflows.cli import app
-from workflows.fos.orchestration import run_fos_study
-from workflows.loading import body_acceleration_m_s2
 from workflows.scene import build_scene
-from workflows.stages import run_study
 from workflows.study import parse_study
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 GAMMA_W = 9810.0
@@ -170,12 +168,14 @@ def test_seismic_body_force_points_out_of_the_slope():
     study = parse_study(text)
     g = 9.81
     kh = study.loads.seismic.horizontal_coefficient
-    np.testing.assert_allclose(body_acceleration_m_s2(study, strength_reduction=True), [kh * g, -g])
+    in_runs = study.loads.acceleration_m_s2(study.geometry.polygon_m, strength_reduction=True)
+    np.testing.assert_allclose(in_runs, [kh * g, -g])
     np.testing.assert_allclose(build_scene(study).gravity_m_s2, [kh * g, -g])
     runs_only = parse_study(text.replace('direction = "out_of_slope"', 'direction = "out_of_slope"\nin_gravity = false'))
     np.testing.assert_allclose(build_scene(runs_only).gravity_m_s2, [0.0, -g])
     mirrored = parse_study(text.replace('"out_of_slope"', '"-x"\nvertical_coefficient = 0.1'))
-    np.testing.assert_allclose(body_acceleration_m_s2(mirrored, strength_reduction=True), [-kh * g, -0.9 * g])
+    in_runs = mirrored.loads.acceleration_m_s2(mirrored.geometry.polygon_m, strength_reduction=True)
+    np.testing.assert_allclose(in_runs, [-kh * g, -0.9 * g])
 
 
 def test_strip_load_puts_its_resultant_on_the_surface():
@@ -207,7 +207,7 @@ def test_submerged_slope_has_the_fos_of_the_buoyant_slope(tmp_path):
     buoyant = parse_study(text.replace(f"density_kg_m3 = {rho:.1f}", f"density_kg_m3 = {rho - 1000.0:.1f}"))
     assert buoyant.materials[0].density_kg_m3 == pytest.approx(rho - 1000.0)
     dry = parse_study(text)
-    fos = [run_fos_study(study, tmp_path / name, workers=2)
+    fos = [run_study(study, tmp_path / name, RunOptions(workers=2))
            for name, study in (("wet", wet), ("buoyant", buoyant), ("dry", dry))]
     assert (fos[0].fos_low, fos[0].fos_high) == (fos[1].fos_low, fos[1].fos_high)
     assert fos[0].fos > 1.2 * fos[2].fos  # the water matters: buoyancy halves the weight, not c
@@ -262,7 +262,7 @@ def test_strip_load_fos_against_prandtl(tmp_path):
     """studies/strip_load.toml (h = 0.25 m): FOS = (2 + pi) cu / q within 3% (docs/verification.md
     has three spacings)."""
     study = parse_study((REPO / "studies" / "strip_load.toml").read_text())
-    outcome = run_fos_study(study, tmp_path, workers=2)
+    outcome = run_study(study, tmp_path, RunOptions(workers=2))
     assert outcome.criteria_agree
     assert abs(outcome.fos / prandtl_fos(study) - 1.0) < 0.03
 
@@ -271,7 +271,7 @@ def test_drawdown_sweep_against_griffiths_and_lane(tmp_path):
     """studies/drawdown.toml: FOS within 3% of Griffiths & Lane (1999, Fig. 15) at every L / H, the
     minimum at L / H = 0.7."""
     study = parse_study((REPO / "studies" / "drawdown.toml").read_text())
-    run_sweep(study, tmp_path, workers=2)
+    run_study(study, tmp_path, RunOptions(workers=2))
     height = study.geometry.slope.height_m
     with xr.open_dataset(tmp_path / "study.nc") as ds:
         ratios = [round((height - float(level)) / height, 6) for level in ds["phreatic_level_m"].values]
@@ -285,7 +285,7 @@ def test_seismic_sweep_falls_with_kh_to_one_at_the_critical_coefficient(tmp_path
     """studies/seismic.toml (Loukidis et al. 2003): FOS falls monotonically with kh and is 1 within 5%
     at kc = 0.432."""
     study = parse_study((REPO / "studies" / "seismic.toml").read_text())
-    run_sweep(study, tmp_path, workers=2)
+    run_study(study, tmp_path, RunOptions(workers=2))
     with xr.open_dataset(tmp_path / "study.nc") as ds:
         kh = ds["horizontal_coefficient"].values
         fos = ds["fos"].values
@@ -334,7 +334,7 @@ phreatic_line_m = [[0.0, 4.5], [10.0, 4.5]]
     expected = np.where(upper, GAMMA_W * np.maximum(4.5 - y, 0.0), GAMMA_W * np.maximum(2.0 - y, 0.0))
     np.testing.assert_allclose(Simulation(scene).pore_pressure_pa, expected, rtol=1e-12, atol=1e-9)
     density = np.where(upper, np.where(y <= 4.5, 1900.0, 1700.0), np.where(y <= 2.0, 2000.0, 1800.0))
-    np.testing.assert_array_equal(scene.node_density_kg_m3, density)
+    np.testing.assert_array_equal(scene.node_properties["density_kg_m3"], density)
 
 
 def test_load_ramp_grows_the_load_and_relaxation_waits_for_it(tmp_path):

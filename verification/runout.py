@@ -17,8 +17,9 @@ from pathlib import Path
 
 import xarray as xr
 
-from workflows.stages import run_study
-from workflows.study import RunoutStage, load_study, parse_study
+from workflows.stages import RunoutStage
+from workflows.study import load_study, parse_study
+from workflows.study_types import run_study
 
 COLUMNS = ("runout_m", "retrogression_m", "sliding_mass_area_m2", "max_speed_m_s", "time_to_rest_s",
            "energy_budget_error")

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from spfem_core import MaterialTable, Scene
 from spfem_core.cloud import particles_in_polygon
-from spfem_core.scene import MaterialTable, Scene
 
 BEAM_LENGTH_M = 2.0
 BEAM_DEPTH_M = 0.2

@@ -26,8 +26,9 @@ from pathlib import Path
 
 import xarray as xr
 
+from workflows.cases import RunOptions
 from workflows.study import load_study, parse_study
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 TAYLOR_STUDY = REPO / "studies" / "published" / "taylor_phi0.toml"
@@ -69,7 +70,7 @@ def taylor_points(out_dir: Path, workers: int = 2, foundation_depth: float = 0.0
     if spacing_m is not None:
         text = text.replace(f"spacing_m = {study.geometry.spacing_m}", f"spacing_m = {spacing_m}")
     study = parse_study(text)
-    run_sweep(study, out_dir, workers=workers)
+    run_study(study, out_dir, RunOptions(workers=workers))
     gamma, height = _unit_weight_height(study)
     cu = study.materials[0].cohesion_pa
     with xr.open_dataset(out_dir / "study.nc") as ds:
@@ -87,7 +88,7 @@ def cu_study_text() -> str:
 
 def fos_per_cu(out_dir: Path, workers: int = 2) -> dict[float, float]:
     """Run the cu sweep into ``out_dir``; F / cu (1/kPa) by cu (Pa)."""
-    run_sweep(parse_study(cu_study_text()), out_dir, workers=workers)
+    run_study(parse_study(cu_study_text()), out_dir, RunOptions(workers=workers))
     with xr.open_dataset(out_dir / "study.nc") as ds:
         return {float(cu): float(ds["fos"].sel(cohesion_pa=cu)) / (cu / 1e3) for cu in ds["cohesion_pa"].values}
 

@@ -33,14 +33,14 @@ import xarray as xr
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.divergence import DivergenceError
 from spfem_core.mesh import count_inverted
-from spfem_core.scene import SolverSettings
+from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
 from spfem_core.timestep import UnstableTimeStepError, max_stable_cfl
 from verification.oscillation import period_and_mean
 from verification.scenes import beam_scene, column_scene
 from workflows.output.writing import write_dataset
 from workflows.scene import build_scene, solver_settings
-from workflows.stages import prepare_stage
+from workflows.stages.running import begin_stage
 from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -220,9 +220,9 @@ def case_collapse(kind: str, friction_deg: float | None = None) -> StressResult:
         name += f", phi {friction_deg:g} deg, c = 0"
     study = parse_study(text)
     sim = Simulation(build_scene(study), solver_settings(study))
-    prepare_stage(sim, study, study.stages[0], 0)
+    begin_stage(study, sim, 0)
     sim.relax(damping=0.7, tolerance=1e-4, max_duration_s=5.0)
-    prepare_stage(sim, study, study.stages[1], 1)
+    begin_stage(study, sim, 1)
     try:
         series, problem = _checked_run(sim, duration, parts=6)
     except DivergenceError as error:

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import xarray as xr
 
-from workflows.fos.orchestration import run_fos_study
+from workflows.cases import RunOptions
 from workflows.study import load_study, parse_study
-from workflows.sweep.run import run_sweep
+from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 STUDIES = REPO / "studies"
@@ -53,7 +53,7 @@ def strip(out: Path, spacings: list[float], workers: int) -> None:
     print(f"{'h (m)':>7}  {'particles':>9}  {'FOS':>7}  {'bracket':>17}  {'error':>7}")
     for spacing in spacings:
         study = _with_spacing(STUDIES / "strip_load.toml", spacing)
-        outcome = run_fos_study(study, out / f"strip_h{spacing:g}", workers=workers)
+        outcome = run_study(study, out / f"strip_h{spacing:g}", RunOptions(workers=workers))
         exact = prandtl_fos(study)
         print(f"{spacing:7g}  {outcome.n_particles:9d}  {outcome.fos:7.4f}  [{outcome.fos_low:.4f}, "
               f"{outcome.fos_high:.4f}]  {100 * (outcome.fos / exact - 1):+6.2f}%   (Prandtl {exact:.4f})")
@@ -61,7 +61,7 @@ def strip(out: Path, spacings: list[float], workers: int) -> None:
 
 def drawdown(out: Path, spacing: float | None, workers: int) -> None:
     study = _with_spacing(STUDIES / "drawdown.toml", spacing)
-    run_sweep(study, out / "drawdown", workers=workers)
+    run_study(study, out / "drawdown", RunOptions(workers=workers))
     height = study.geometry.slope.height_m
     print(f"Griffiths & Lane (1999) example 5, h = {study.geometry.spacing_m:g} m: FOS against L / H")
     print(f"{'L / H':>6}  {'FOS':>7}  {'G&L':>5}  {'error':>7}")
@@ -76,7 +76,7 @@ def drawdown(out: Path, spacing: float | None, workers: int) -> None:
 
 def seismic(out: Path, spacing: float | None, workers: int) -> None:
     study = _with_spacing(STUDIES / "seismic.toml", spacing)
-    run_sweep(study, out / "seismic", workers=workers)
+    run_study(study, out / "seismic", RunOptions(workers=workers))
     print(f"Loukidis et al. (2003), h = {study.geometry.spacing_m:g} m: FOS against kh (FOS = 1 at kc = {SEISMIC_KC})")
     with xr.open_dataset(out / "seismic" / "study.nc") as ds:
         kh = ds["horizontal_coefficient"].values

@@ -3,10 +3,10 @@
     spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS] [--max-memory GIB]
     python -m workflows.cli STUDY.toml ...
 
-A study whose last stage is ``strength_reduction`` computes a factor of safety
-(:mod:`workflows.fos`: SRF runs on dask, report and ``summary.nc``), one per case with a
-``[sweep]`` (:mod:`workflows.sweep`: all cases on one cluster, ``study.nc``); any other study
-runs its stages in order (:mod:`workflows.stages`).
+The study's type (:mod:`workflows.study_types`: a single study, or a ``[sweep]`` of cases) makes
+its cases; a study whose last stage is ``strength_reduction`` computes a factor of safety per case
+(:mod:`workflows.fos`: SRF runs on dask, report and ``summary.nc``), any other study runs its
+stages in order (:mod:`workflows.stages`); a sweep brings its cases together in ``study.nc``.
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
@@ -45,19 +45,50 @@ def _raise_terminated(signum, frame):
     raise Terminated
 
 
-class StageBars:
-    """A rich progress bar per stage, fed by the core's progress callback."""
+class BarsProgress:
+    """The study's ``workflows.progress.Progress`` as rich progress bars on stderr: one per stage run
+    in this process, one for the SRF runs (with the cases of a sweep), and the messages.  The
+    display starts with its first bar, so that an error before any work stays one line."""
 
-    def __init__(self, progress: Progress):
-        self.progress = progress
-        self.tasks: dict[str, int] = {}
+    def __init__(self, console: Console, quiet: bool, sweep: bool):
+        columns = (TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
+                   TimeRemainingColumn())
+        self.display = Progress(*columns, console=console)
+        self.quiet = quiet
+        self.sweep = sweep
+        self.bars: dict[str, int] = {}
         self.prefix = ""  # a sweep's case, before the stage
+        self.counts = ""
 
-    def __call__(self, stage, fraction: float) -> None:
-        key = self.prefix + stage.name
-        if key not in self.tasks:
-            self.tasks[key] = self.progress.add_task(f"{key} ({stage.kind})", total=1.0)
-        self.progress.update(self.tasks[key], completed=min(max(fraction, 0.0), 1.0))
+    def _bar(self, key: str, description: str, total: float) -> int:
+        if key not in self.bars:
+            if not self.bars:
+                self.display.start()
+            self.bars[key] = self.display.add_task(description, total=total)
+        return self.bars[key]
+
+    def stage(self, case, name, kind, fraction):
+        key = self.prefix + name
+        self.display.update(self._bar(key, f"{key} ({kind})", 1.0), completed=min(max(fraction, 0.0), 1.0))
+
+    def runs(self, done, planned):
+        description = f"cases {self.counts}, SRF runs" if self.sweep else "SRF runs"
+        self.display.update(self._bar("runs", description, max(planned, 1)), completed=done, total=max(planned, 1),
+                            description=description)
+
+    def cases(self, done, total):
+        self.counts = f"{done}/{total}"
+
+    def case_started(self, index, total, case_id):
+        self.prefix = f"case {index + 1}/{total} {case_id}: "
+
+    def message(self, text):
+        if text.startswith("warning") or ": warning" in text or not self.quiet:
+            self.display.console.print(text, highlight=False, markup=False)
+
+    def stop(self):
+        if self.bars:
+            self.display.stop()
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -124,27 +155,25 @@ def main(
     # Imported only once the study is valid, so that --help and a bad study file answer at once:
     # the core imports numba, the FOS workflow dask (about 1 s together).
     from spfem_core.divergence import DivergenceError
+    from workflows.cases import RunOptions
     from workflows.memory_guard import GIB
+    from workflows.study_types import run_study, study_type
 
-    max_memory_bytes = None if max_memory is None else max_memory * GIB
-    console = Console(stderr=True, quiet=quiet)
-    columns = (
-        TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(), TimeRemainingColumn()
-    )
+    options = RunOptions(workers=workers, scheduler=scheduler, force=force,
+                         max_memory_bytes=None if max_memory is None else max_memory * GIB)
+    kind = study_type(study, out_dir)
+    progress = BarsProgress(Console(stderr=True, quiet=quiet), quiet, sweep=study.sweep is not None)
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        if study.sweep is not None and study.strength_reduction is None:
-            _run_stage_sweep(study, out_dir, console, columns, quiet=quiet, force=force,
-                             max_memory_bytes=max_memory_bytes)
-        elif study.sweep is not None:
-            _run_sweep(study, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
-                       scheduler=scheduler, max_memory_bytes=max_memory_bytes)
-        elif study.strength_reduction is not None:
-            _run_fos(study, study_file, out_dir, console, columns, quiet=quiet, force=force, workers=workers,
-                     scheduler=scheduler, max_memory_bytes=max_memory_bytes)
-        else:
-            _run_stages(study, study_file, out_dir, console, columns, quiet=quiet, force=force,
-                        max_memory_bytes=max_memory_bytes)
+        try:
+            outcome = run_study(study, out_dir, options, progress, kind)
+        finally:
+            progress.stop()
+        report = kind.report(outcome, quiet, study_file)
+        for line in report.warnings:
+            typer.echo(line, err=True)
+        for line in report.lines:
+            typer.echo(line)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
@@ -157,137 +186,6 @@ def main(
                     EXIT_TERMINATED if isinstance(interrupt, Terminated) else EXIT_INTERRUPTED) from None
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
-
-
-def _run_stages(study, study_file, out_dir, console, columns, *, quiet, force, max_memory_bytes) -> None:
-    from workflows.stages import run_study  # deferred, see main()
-
-    with Progress(*columns, console=console) as progress:
-        outcome = run_study(study, out_dir, progress=StageBars(progress), force=force,
-                            max_memory_bytes=max_memory_bytes)
-    for name in outcome.unconverged_stages:
-        typer.echo(f"warning: stage {name!r} reached max_duration_s before converging (converged = 0)", err=True)
-    paths = ", ".join(str(path) for path in outcome.paths)
-    if outcome.up_to_date:
-        typer.echo(f"{paths}: up to date with {study_file}, not run again (--force runs it)")
-        return
-    typer.echo(
-        f"{study.name}: {outcome.n_particles} particles, {outcome.n_steps} steps of {outcome.dt_s:.3g} s, "
-        f"wall time {outcome.wall_time_s:.1f} s"
-    )
-    if not quiet:
-        typer.echo(f"wrote {paths}")
-
-
-def _run_stage_sweep(study, out_dir, console, columns, *, quiet, force, max_memory_bytes) -> None:
-    from workflows.sweep.report import stage_table_lines  # deferred, see main()
-    from workflows.sweep.stage_cases import run_stage_sweep
-
-    with Progress(*columns, console=console) as progress:
-        bars = StageBars(progress)
-
-        def case_started(index, n_cases, case):
-            bars.prefix = f"case {index + 1}/{n_cases} {case.case_id}: "
-
-        outcome = run_stage_sweep(study, out_dir, force=force, progress=bars, case_started=case_started,
-                                  max_memory_bytes=max_memory_bytes)
-    if not quiet:
-        ran = sum(result.ran for result in outcome.results.values())
-        typer.echo(f"{study.name}: {len(outcome.cases)} cases, {ran} run, {len(outcome.cases) - ran} up to date, "
-                   f"wall time {outcome.timings_s['total']:.1f} s")
-    for line in stage_table_lines(outcome):
-        typer.echo(line)
-    for case in outcome.cases:
-        result = outcome.results[case.case_id]
-        if result.message:
-            typer.echo(f"warning: case {case.case_id}: {result.message}", err=True)
-    if not quiet:
-        typer.echo(f"wrote {outcome.study_path}, {outcome.out_dir / 'cases'}/"
-                   + "".join(f", {path.name}" for path in outcome.figures))
-
-
-def _fos_progress(console, columns, quiet: bool, with_cases: bool):
-    """(a FosProgress that drives one rich display, the display's stop function).  The display
-    starts with its first bar, so that an error before any work stays one line."""
-    from workflows.fos.engine import FosProgress  # deferred, see main()
-
-    progress = Progress(*columns, console=console)
-    bars: dict[str, int] = {}
-    counts = {"cases": ""}
-
-    def bar(key: str, description: str, total: float) -> int:
-        if key not in bars:
-            if not bars:
-                progress.start()
-            bars[key] = progress.add_task(description, total=total)
-        return bars[key]
-
-    def stage(name, fraction):
-        progress.update(bar(name, f"{name} (gravity)", 1.0), completed=min(max(fraction, 0.0), 1.0))
-
-    def runs(done, planned):
-        description = f"cases {counts['cases']}, SRF runs" if with_cases else "SRF runs"
-        progress.update(bar("runs", description, max(planned, 1)), completed=done, total=max(planned, 1),
-                        description=description)
-
-    def cases(done, total):
-        counts["cases"] = f"{done}/{total}"
-
-    def message(text):
-        if text.startswith("warning") or ": warning" in text or not quiet:
-            progress.console.print(text, highlight=False, markup=False)
-
-    def stop():
-        if bars:
-            progress.stop()
-
-    return FosProgress(stage=stage, runs=runs, message=message, cases=cases), stop
-
-
-def _on_cluster(run, study, out_dir, console, columns, *, quiet, with_cases, scheduler, **options):
-    """``run(study, out_dir, ...)`` (a FOS study or a sweep) with its progress display; its outcome."""
-    from workflows.fos.cluster import connect  # deferred until the study is valid, see main()
-
-    if scheduler:  # before any output: an unreachable cluster is one line and exit 2
-        connect(scheduler).close()
-    progress, stop = _fos_progress(console, columns, quiet, with_cases=with_cases)
-    try:
-        return run(study, out_dir, scheduler=scheduler, progress=progress, **options)
-    finally:
-        stop()
-
-
-def _run_fos(study, study_file, out_dir, console, columns, *, quiet, **options) -> None:
-    from workflows.fos.orchestration import run_fos_study  # deferred, see main()
-    from workflows.fos.report import report_lines
-
-    outcome = _on_cluster(run_fos_study, study, out_dir, console, columns, quiet=quiet, with_cases=False, **options)
-    if quiet:
-        typer.echo(outcome.verdict)
-        return
-    typer.echo(f"{study.name}: {outcome.n_particles} particles, {len(outcome.runs)} SRF runs, "
-               f"wall time {outcome.timings_s['total']:.1f} s")
-    for line in report_lines(outcome):
-        typer.echo(line)
-    typer.echo(f"wrote {outcome.summary_path}" + "".join(f", {path.name}" for path in outcome.figures))
-
-
-def _run_sweep(study, out_dir, console, columns, *, quiet, **options) -> None:
-    from workflows.sweep.report import table_lines  # deferred, see main()
-    from workflows.sweep.run import run_sweep
-
-    outcome = _on_cluster(run_sweep, study, out_dir, console, columns, quiet=quiet, with_cases=True, **options)
-    if not quiet:
-        reused = f", {outcome.runs_reused} reused" if outcome.runs_reused else ""
-        same = (f" ({len(outcome.cases) - outcome.n_distinct} identical to another)"
-                if outcome.n_distinct < len(outcome.cases) else "")
-        typer.echo(f"{study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
-                   f"wall time {outcome.timings_s['total']:.1f} s")
-    for line in table_lines(outcome.cases, outcome.results):
-        typer.echo(line)
-    if not quiet:
-        typer.echo(f"wrote {outcome.study_path}, {outcome.out_dir / 'cases'}/"
-                   + "".join(f", {path.name}" for path in outcome.figures))
 
 
 if __name__ == "__main__":

@@ -1,5 +1,10 @@
 """From a checked :class:`~workflows.study.Study` to the core's ``Scene`` and ``SolverSettings``.
 
+The particles fill the polygon (``spfem_core.cloud``); each takes the last material whose region
+holds it, whose room gives the core its row (``workflows.materials``); the surface loads put
+their forces on the upper surface (``workflows.loads``); the water gives its lines, pressures and
+saturated densities (``workflows.water``); the ``[[boundary]]`` boxes fix velocities.
+
 Problems that only show once the particles exist (a boundary box that holds no particle,
 particles outside every material region) raise :class:`~workflows.study.StudyError`,
 like the file checks, before anything is run or written.
@@ -7,42 +12,21 @@ like the file checks, before anything is run or written.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from spfem_core.cloud import particles_in_polygon, points_in_polygon
-from spfem_core.scene import MODEL_NAMES, SOFTENING_LAWS, SOFTENING_NONE, MaterialTable, Scene, SolverSettings
-from workflows.loading import body_acceleration_m_s2, surface_load_forces, water_scene_fields
-from workflows.study import DEFAULT_CFL, Study, StudyError
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.geometry import points_in_polygon
+from spfem_core.materials.table import MaterialTable
+from spfem_core.scene import Scene
+from spfem_core.settings import DEFAULT_CFL, SolverSettings
+from workflows import water
+from workflows.loads.surface import UpperSurface
+from workflows.study import Study, StudyError
 
 
 def build_material_table(study: Study) -> MaterialTable:
-    """One row per ``[[materials]]`` entry, in file order."""
-    materials = study.materials
-    return MaterialTable(
-        name=tuple(m.name for m in materials),
-        model=[MODEL_NAMES[m.model] for m in materials],
-        density_kg_m3=[m.density_kg_m3 for m in materials],
-        youngs_modulus_pa=[m.youngs_modulus_pa for m in materials],
-        poisson_ratio=[m.poisson_ratio for m in materials],
-        cohesion_pa=[getattr(m, "cohesion_pa", 0.0) for m in materials],
-        friction_deg=[getattr(m, "friction_deg", 0.0) for m in materials],
-        dilation_deg=[getattr(m, "dilation_deg", 0.0) for m in materials],
-        dp_fit=tuple(_core_dp_fit(getattr(m, "dp_fit", "")) for m in materials),
-        tensile_strength_pa=[math.inf if getattr(m, "tensile_strength_pa", None) is None else m.tensile_strength_pa
-                             for m in materials],
-        softening_law=[SOFTENING_LAWS.get(getattr(m, "softening", "none"), SOFTENING_NONE) for m in materials],
-        residual_cohesion_pa=[getattr(m, "residual_cohesion_or_peak", 0.0) for m in materials],
-        residual_friction_deg=[getattr(m, "residual_friction_or_peak", 0.0) for m in materials],
-        softening_start_strain=[getattr(m, "softening_start_strain", 0.0) for m in materials],
-        softening_end_strain=[getattr(m, "softening_end_strain", None) or 0.0 for m in materials],
-    )
-
-
-def _core_dp_fit(fit: str) -> str:
-    """The study's ``mohr_coulomb_match`` is the core's default fit (empty name)."""
-    return "" if fit in ("", "mohr_coulomb_match") else fit
+    """One row per ``[[materials]]`` entry, in file order, as each model's room translates it."""
+    return MaterialTable.from_rows([material.core_row() for material in study.materials])
 
 
 def material_rows(study: Study, points_xy_m: np.ndarray) -> np.ndarray:
@@ -70,6 +54,19 @@ def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
     return node_material
 
 
+def surface_load_forces(study: Study, node_xy_m: np.ndarray) -> np.ndarray | None:
+    """(n, 2) forces (N/m) of the study's surface loads on the particles of the cloud's upper surface,
+    kind after kind (``workflows.loads``); None without surface loads."""
+    loads = study.loads.surface_loads()
+    if not loads:
+        return None
+    surface = UpperSurface.of_cloud(node_xy_m, study.geometry.spacing_m, study.solver.alpha)
+    force = np.zeros_like(node_xy_m)
+    for where, load in loads:
+        load.add_forces(surface, force, where)
+    return force
+
+
 def build_scene(study: Study) -> Scene:
     """The particle cloud of ``study`` with its materials, supports, gravity (with the seismic part when
     it acts from the first stage), water and surface loads."""
@@ -85,10 +82,10 @@ def build_scene(study: Study) -> Scene:
         node_material=node_material,
         materials=build_material_table(study),
         spacing_m=geometry.spacing_m,
-        gravity_m_s2=body_acceleration_m_s2(study, strength_reduction=False),
+        gravity_m_s2=study.loads.acceleration_m_s2(geometry.polygon_m, strength_reduction=False),
         alpha=study.solver.alpha,
-        node_load_n=surface_load_forces(study, node_xy_m, geometry.spacing_m, study.solver.alpha),
-        **water_scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points)),
+        node_load_n=surface_load_forces(study, node_xy_m),
+        **water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points)),
     )
     for wall in study.walls:
         scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)

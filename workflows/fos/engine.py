@@ -5,9 +5,11 @@ Every case (one study, or one case of a sweep) has its gravity state, its own se
 workers busy with all of them at once, with no barrier between cases:
 
 1. a case without a gravity state reuses the one on disk for its key (in its folder, or in
-   the folder of another case with the same key), or submits a gravity task
-   (``workflows.fos.gravity.run_gravity``) and writes its files when it returns; cases with
-   the same gravity key (a sweep over strength with an elastic gravity stage) share one task;
+   the folder of another case with the same key), or computes it (``workflows.fos.gravity``):
+   in this process before the cluster is needed, for a case placed so (a single study: its
+   gravity runs on all cores while the cluster starts), else as a gravity task on a worker, whose
+   files the client writes when it returns; cases with the same gravity key (a sweep over
+   strength with an elastic gravity stage) share one;
 2. every case with a gravity state asks its search for the next SRF values; each is reused
    from disk when a file with its key exists, else queued.  With several cases running, a case
    releases fewer sweep values at once (the search's ``n_parallel``), as the other cases keep
@@ -16,8 +18,8 @@ workers busy with all of them at once, with no barrier between cases:
    up, earlier cases and lower SRF first: a task submitted ahead would be placed on a busy
    worker's queue by the scheduler while the other worker idled;
 4. finished runs are written, runs above a case's first failure are cancelled or dropped from
-   the queue (they cannot move its knee), and a case whose search is done is concluded (its
-   ``summary.nc``);
+   the queue (they cannot move its knee), and a case whose search is done is handed back
+   (:meth:`Engine.run` yields it) to be concluded (its ``summary.nc``);
 5. only when the queue is empty, an idle worker runs a guess: a value a case's search would
    ask for next under either outcome of its one undecided run (``SrfSearch.speculative_values``),
    used only if the search then asks for it.  A guess gives way (is stopped) as soon as a
@@ -27,41 +29,43 @@ workers busy with all of them at once, with no barrier between cases:
    failed, so the runs and guesses above it are stopped (``SrfSearch.deferred``: asked for again
    only if it diverges instead) and the freed worker guesses the refinement below it.
 
-The runs a case uses, and its FOS, do not depend on the number of workers or on the other
-cases; runs of earlier cases go first, so cases finish roughly in order.
+The runs a case uses, and its FOS, do not depend on the number of workers, on where its gravity
+ran, or on the other cases; runs of earlier cases go first, so cases finish roughly in order.
 """
 
 from __future__ import annotations
 
+import enum
 import functools
 import math
 import time
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from distributed import Event, wait
 
 from spfem_core.divergence import DivergenceError
-from workflows.fos.gravity import GravityResult, copy_gravity, run_gravity, stored_gravity, write_gravity
+from spfem_core.snapshot import StressState
+from workflows.fos.gravity import (
+    GravityResult,
+    copy_gravity,
+    gravity_paths,
+    run_gravity,
+    stored_gravity,
+    why_not_reused,
+    write_gravity,
+)
 from workflows.fos.keys import gravity_key, run_key
-from workflows.fos.run_store import remove_stale_runs, run_file_name, run_scalars, stored_run, write_run
-from workflows.fos.search import RunOutcome, SrfSearch
-from workflows.fos.task import SrfRunResult, run_srf
+from workflows.fos.run_store import remove_stale_runs, run_file_name, stored_run, write_run
+from workflows.fos.search import SrfSearch
+from workflows.fos.task import RunRecord, SrfRunResult, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
+from workflows.progress import Progress
+from workflows.scene import build_scene
+from workflows.stages.running import new_simulation
 from workflows.study import Study
-
-
-@dataclass
-class FosProgress:
-    """Callbacks of a study run (all optional)."""
-
-    stage: Callable[[str, float], None] = lambda name, fraction: None  # gravity stage progress (single study)
-    runs: Callable[[int, int], None] = lambda done, planned: None  # SRF runs done / planned so far
-    message: Callable[[str], None] = lambda text: None  # one line of news (reuse, skips, warnings)
-    cases: Callable[[int, int], None] = lambda done, total: None  # cases concluded / all (sweeps)
 
 
 @dataclass
@@ -72,21 +76,23 @@ class CaseSearch:
     study: Study
     out_dir: Path
     label: str = ""  # how messages name the case ("" for a single study)
-    gravity: tuple | None = None  # (stress, plastic strain) once known
+    gravity_here: bool = False  # compute its gravity in this process (step 1)
+    gravity: StressState | None = None  # once known
     gravity_reused: bool = False
     gravity_wall_s: float = 0.0
     n_particles: int = 0
     search: SrfSearch | None = None
-    runs: dict = field(default_factory=dict)  # srf -> scalars (run_store.run_scalars / stored_run)
-    unwritten: list = field(default_factory=list)  # SrfRunResults, written on the next pass
-    unwritten_gravity: object = None  # a GravityResult, written on the next pass
+    runs: dict[float, RunRecord] = field(default_factory=dict)  # srf -> the run's record
+    unwritten: list[SrfRunResult] = field(default_factory=list)  # written on the next pass
+    unwritten_gravity: GravityResult | None = None  # written on the next pass
     reused_runs: int = 0
     n_guessed: int = 0
     n_guesses_used: int = 0
     io_s: float = 0.0
-    error: str = ""  # the gravity stage diverged: no search
+    error: DivergenceError | None = None  # the gravity stage diverged: no search
     concluded: bool = False
-    shared: tuple = ()  # scattered (study text, stress, plastic) for the run tasks
+    started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
+    shared: tuple = ()  # scattered (study text, gravity state) for the run tasks
 
     @functools.cached_property
     def gkey(self) -> str:
@@ -101,12 +107,20 @@ SIGNAL_POLL_S = 0.2
 failure displacement (module doc, step 6): one scheduler round trip per running run."""
 
 
+class TaskKind(enum.Enum):
+    """What a submitted task is for."""
+
+    GRAVITY = "gravity"  # a case's gravity state
+    RUN = "run"  # an SRF run the search asked for
+    GUESS = "guess"  # an SRF run started ahead of the search (step 5)
+
+
 @dataclass
 class _Task:
-    """A submitted task: what it is for."""
+    """A submitted (or queued) task: what it is for."""
 
     case: CaseSearch
-    kind: str  # "gravity", "run" (asked by the search) or "guess" (started ahead of it)
+    kind: TaskKind
     srf: float = math.nan
     key: str = ""
     event: str = ""  # the Event that stops the run
@@ -114,24 +128,26 @@ class _Task:
 
 
 class Engine:
-    """The loop of the module doc over ``cases`` on ``client``; :meth:`run` returns when every case
-    has concluded (``conclude`` is called with each case as soon as its search is done)."""
+    """The loop of the module doc over ``cases`` on the client of ``session`` (a
+    ``workflows.fos.cluster.DaskSession``, asked for its client only once the cases placed in this
+    process have their gravity); :meth:`run` yields every case as soon as its search is done."""
 
-    def __init__(self, client, cases: list[CaseSearch], progress: FosProgress, start_unix_s: float,
-                 conclude: Callable[[CaseSearch], None], force: bool = False):
-        self.client = client
+    def __init__(self, session, cases: list[CaseSearch], progress: Progress, start_unix_s: float,
+                 force: bool = False):
+        self.session = session
+        self.client = None
         self.cases = cases
         self.progress = progress
         self.start_unix_s = start_unix_s
-        self.conclude = conclude
         self.force = force
-        self.n_workers = max(1, sum(client.nthreads().values()))
+        self.n_workers = 1
         self.token = uuid.uuid4().hex[:12]
         self.tasks: dict = {}  # future -> _Task
         self.guesses: dict = {}  # (case index, srf) -> future of a guess still running
         self.guesses_done: dict = {}  # (case index, srf) -> SrfRunResult
         self.gravity_waiting: dict[str, list[CaseSearch]] = {}  # gravity key -> cases waiting for its task
         self.queue: list[_Task] = []  # runs asked for, not yet submitted (step 3)
+        self.just_concluded: list[CaseSearch] = []  # handed back at the end of the pass
         self.n_submitted = 0
 
     # ------------------------------------------------------------------ submitting
@@ -139,7 +155,7 @@ class Engine:
         self.n_submitted += 1
         return self.client.submit(function, *args, priority=priority, pure=False, **kwargs)
 
-    def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: str):
+    def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: TaskKind):
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
         event, failing = f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}"
         future = self._submit(run_srf, *case.shared, srf, cancel_event=event, run_key=key, gravity_key=case.gkey,
@@ -153,14 +169,34 @@ class Engine:
         Event(task.event, client=self.client).set()
         future.cancel()
 
-    # ------------------------------------------------------------------ one case
+    # ------------------------------------------------------------------ gravity (step 1)
     def _load_stored_gravity(self, case: CaseSearch) -> None:
         """The case's gravity state from its folder, when its files and key are there."""
         if case.gravity is None and not self.force:
             state = stored_gravity(case.study, case.out_dir)
             if state is not None:
-                case.gravity, case.gravity_reused = state, True
-                case.n_particles = int(state[0].shape[0])
+                case.gravity, case.gravity_reused, case.n_particles = state, True, state.n_particles
+
+    def _gravity_here(self, case: CaseSearch) -> None:
+        """The case's gravity state computed in this process (all cores, with the study's snapshots),
+        or reused from its folder once the study's scene passes its checks and has the particles of
+        the stored state."""
+        study, out_dir = case.study, case.out_dir
+        stored = None if self.force else stored_gravity(study, out_dir)
+        path = gravity_paths(study, out_dir)[-1]
+        if stored is not None:
+            scene = build_scene(study)
+            new_simulation(study, scene)  # the study's checks, as when the state is computed
+            if stored.n_particles == scene.n_particles:
+                case.gravity, case.gravity_reused, case.n_particles = stored, True, stored.n_particles
+                self.progress.message(case.say(f"gravity state reused from {path} (its inputs are unchanged)"))
+                return
+        if not self.force and path.is_file():
+            reason = why_not_reused(study, out_dir) if stored is None else f"{path.name} has another particle count"
+            self.progress.message(case.say(f"gravity state relaxed again: {reason}"))
+        result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label)
+        write_gravity(study, out_dir, result)
+        self._gravity_done(case, result, computed=True, written=True)
 
     def _start(self, case: CaseSearch) -> None:
         """Gravity from the case, from another case with the same gravity key (its files copied),
@@ -177,22 +213,37 @@ class Engine:
                 return
             future = self._submit(run_gravity, case.study.source_text, priority=1_000_000 - case.index,
                                   key=f"gravity-{case.gkey}-{self.token}-{case.index}")
-            self.tasks[future] = _Task(case, "gravity")
+            self.tasks[future] = _Task(case, TaskKind.GRAVITY)
             self.gravity_waiting[case.gkey] = [case]
             return
         self._prepare_search(case)
 
-    def _gravity_done(self, case: CaseSearch, result: GravityResult, computed: bool) -> None:
-        """``computed``: the task ran for this case (else it shares another case's state).  Its
+    def _gravity_done(self, case: CaseSearch, result: GravityResult, computed: bool, written: bool = False) -> None:
+        """``computed``: the gravity ran for this case (else it shares another case's state).  Its
         files are written on the next pass, once the case's first runs are on their way."""
         if computed:
             for name in result.unconverged:
                 self.progress.message(case.say(f"warning: stage {name!r} reached max_duration_s before converging"))
-        case.unwritten_gravity = result
-        case.gravity = (result.stress_pa, result.plastic_strain)
+        case.unwritten_gravity = None if written else result
+        case.gravity = result.state
         case.n_particles, case.gravity_wall_s = result.n_particles, result.wall_time_s if computed else 0.0
-        self._prepare_search(case)
 
+    def _gravity_result(self, case: CaseSearch, future) -> None:
+        """The gravity task of ``case`` returned: every case waiting for its key goes on."""
+        waiting = self.gravity_waiting.pop(case.gkey)
+        try:
+            result = future.result()
+        except DivergenceError as error:  # a diverged gravity stage ends these cases only
+            for each in waiting:
+                each.error = error
+                self.progress.message(each.say(f"warning: the gravity stage diverged: {error}"))
+                self._concluded(each)
+            return
+        for each in waiting:
+            self._gravity_done(each, result, computed=each is case)
+            self._prepare_search(each)
+
+    # ------------------------------------------------------------------ one case
     def _prepare_search(self, case: CaseSearch) -> None:
         make_output_folder(case.out_dir)
         if self.force:
@@ -205,24 +256,33 @@ class Engine:
         case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                                 displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,
                                 failure_m=failure_displacement_m(case.study))
-        items = (case.study.source_text, *case.gravity)
+        items = (case.study.source_text, case.gravity)
         case.shared = tuple(self.client.scatter([item], broadcast=True)[0] for item in items)
+        case.started_s = time.perf_counter()
 
     def _finished(self, case: CaseSearch, result: SrfRunResult) -> None:
-        case.runs[result.srf] = run_scalars(result, self.start_unix_s)
+        record = result.record_since(self.start_unix_s)
+        case.runs[record.srf] = record
         case.unwritten.append(result)
-        case.search.finished(RunOutcome(result.srf, result.max_displacement_m, result.status))
-        if result.status == DIVERGED:
-            self.progress.message(case.say(f"warning: SRF {result.srf:g} diverged: {result.status_reason}"))
+        case.search.finished(record.outcome)
+        if record.status == DIVERGED:
+            self.progress.message(case.say(f"warning: SRF {record.srf:g} diverged: {record.status_reason}"))
 
     def _pending(self, case: CaseSearch) -> list:
         """The case's runs and gravity task not finished yet: running or queued."""
-        return ([f for f, t in self.tasks.items() if t.case is case and t.kind in ("run", "gravity")]
+        return ([f for f, t in self.tasks.items() if t.case is case and t.kind in (TaskKind.RUN, TaskKind.GRAVITY)]
                 + [t for t in self.queue if t.case is case])
+
+    def _cancel_guesses(self, case: CaseSearch) -> None:
+        """Stop the case's guesses still running."""
+        for (index, srf), future in list(self.guesses.items()):
+            if index == case.index:
+                self._cancel(future)
+                del self.guesses[(index, srf)]
 
     def _plan(self, case: CaseSearch, n_active: int) -> None:
         """Ask the case's search for values until something runs or it has nothing more to ask;
-        conclude the case when its search is done."""
+        hand the case back when its search is done."""
         search = case.search
         search.n_parallel = max(1, math.ceil(self.n_workers / max(n_active, 1)))
         while True:
@@ -236,31 +296,28 @@ class Engine:
                     continue
                 if guess in self.guesses:  # a guess that came true, still running
                     case.n_guesses_used += 1
-                    self.tasks[self.guesses.pop(guess)].kind = "run"
+                    self.tasks[self.guesses.pop(guess)].kind = TaskKind.RUN
                     continue
                 key = run_key(case.study, srf)
                 stored = stored_run(case.out_dir / run_file_name(srf), key)
                 if stored is not None:
                     case.runs[srf] = stored
                     case.reused_runs += 1
-                    search.finished(RunOutcome(srf, stored["max_displacement_m"], stored["status"]))
+                    search.finished(stored.outcome)
                     continue
-                self.queue.append(_Task(case, "run", srf, key))
+                self.queue.append(_Task(case, TaskKind.RUN, srf, key))
             if planned:  # the decision the case's guesses were made for is taken: stop the unused ones
-                for (index, srf), future in list(self.guesses.items()):
-                    if index == case.index:
-                        self._cancel(future)
-                        del self.guesses[(index, srf)]
+                self._cancel_guesses(case)
             if self._pending(case) or not planned:
                 break  # waiting for runs, or done
         if not self._pending(case):
-            for (index, srf), future in list(self.guesses.items()):  # no decision left to guess ahead of
-                if index == case.index:
-                    self._cancel(future)
-                    del self.guesses[(index, srf)]
+            self._cancel_guesses(case)  # no decision left to guess ahead of
             self._write(case)
-            case.concluded = True
-            self.conclude(case)
+            self._concluded(case)
+
+    def _concluded(self, case: CaseSearch) -> None:
+        case.concluded = True
+        self.just_concluded.append(case)
 
     def _write(self, case: CaseSearch) -> None:
         start = time.perf_counter()
@@ -276,12 +333,16 @@ class Engine:
         """Stop the runs and guesses that can no longer move their case's knee: above a failed run,
         or above a run known to fail (step 6); their workers are free for runs that can."""
         for future, task in list(self.tasks.items()):
-            if task.kind != "gravity" and task.case.search.stopped_above_failure(task.srf, task.kind == "run"):
-                self._cancel(future)
-                if task.kind == "guess":
-                    self.guesses.pop((task.case.index, task.srf), None)
+            if task.kind is TaskKind.GRAVITY or not task.case.search.above_failure(task.srf):
+                continue
+            self._cancel(future)
+            if task.kind is TaskKind.RUN:
+                task.case.search.withdraw(task.srf)
+            else:
+                self.guesses.pop((task.case.index, task.srf), None)
         for task in list(self.queue):
-            if task.case.search.stopped_above_failure(task.srf, asked=True):
+            if task.case.search.above_failure(task.srf):
+                task.case.search.withdraw(task.srf)
                 self.queue.remove(task)
 
     def _failures_signalled(self) -> bool:
@@ -290,7 +351,7 @@ class Engine:
         news = False
         for task in list(self.tasks.values()):
             search = task.case.search
-            if task.kind != "run" or task.srf in search.failing:
+            if task.kind is not TaskKind.RUN or task.srf in search.failing:
                 continue
             if Event(task.failing_event, client=self.client).is_set():
                 search.passed_failure(task.srf)
@@ -314,14 +375,14 @@ class Engine:
         self.queue.sort(key=lambda task: (task.case.index, task.srf))
         while self.queue:
             if len(self.tasks) >= self.n_workers:
-                guesses = [f for f, t in self.tasks.items() if t.kind == "guess"]
+                guesses = [f for f, t in self.tasks.items() if t.kind is TaskKind.GUESS]
                 if not guesses:
                     return
                 task = self.tasks[guesses[-1]]
                 self._cancel(guesses[-1])
                 self.guesses.pop((task.case.index, task.srf), None)
             task = self.queue.pop(0)
-            self._submit_run(task.case, task.srf, task.key, "run")
+            self._submit_run(task.case, task.srf, task.key, TaskKind.RUN)
 
     def _guess(self, active: list[CaseSearch]) -> None:
         """Guesses on idle workers, for cases with one undecided run (module doc, step 5)."""
@@ -336,12 +397,20 @@ class Engine:
                 key = run_key(case.study, srf)
                 if stored_run(case.out_dir / run_file_name(srf), key) is not None:
                     continue  # on disk already: reused when asked for
-                self.guesses[(case.index, srf)] = self._submit_run(case, srf, key, "guess")
+                self.guesses[(case.index, srf)] = self._submit_run(case, srf, key, TaskKind.GUESS)
                 case.n_guessed += 1
                 idle -= 1
 
     # ------------------------------------------------------------------ the loop
-    def run(self) -> None:
+    def run(self):
+        """Run every case (module doc); yield each one as soon as its search is done (or its gravity
+        stage diverged: ``case.error``).  A single case whose gravity diverges raises the
+        DivergenceError instead."""
+        for case in self.cases:
+            if case.gravity_here:
+                self._gravity_here(case)  # before the cluster is needed: it starts meanwhile
+        self.client = self.session.client()
+        self.n_workers = max(1, sum(self.client.nthreads().values()))
         for case in self.cases:
             self._load_stored_gravity(case)
         for case in self.cases:
@@ -350,7 +419,7 @@ class Engine:
         while True:
             active = [case for case in self.cases if not case.concluded]
             for case in active:
-                if case.search is not None and not case.error:
+                if case.search is not None and case.error is None:
                     self._plan(case, len(active))
             self._cancel_above_failures()
             self._dispatch()
@@ -363,7 +432,11 @@ class Engine:
             self.progress.cases(sum(case.concluded for case in self.cases), len(self.cases))
             self._report_runs(active)
             if not active:
-                break
+                for future in list(self.tasks):
+                    self._cancel(future)
+            yield from self._hand_back()
+            if not active:
+                return
             if not self.tasks:  # runs were dropped from the queue above a failure: plan again
                 idle_passes += 1
                 if idle_passes > 3:
@@ -374,37 +447,26 @@ class Engine:
                 task = self.tasks.pop(future, None)
                 if task is None:
                     continue  # cancelled meanwhile
-                if task.kind == "gravity":
+                if task.kind is TaskKind.GRAVITY:
                     self._gravity_result(task.case, future)
-                elif task.kind == "run":
+                elif task.kind is TaskKind.RUN:
                     self._finished(task.case, future.result())  # a task's exception stops the study
                 else:
                     self.guesses.pop((task.case.index, task.srf), None)
                     self.guesses_done[(task.case.index, task.srf)] = future.result()
-        for future in list(self.tasks):
-            self._cancel(future)
 
-    def _gravity_result(self, case: CaseSearch, future) -> None:
-        """The gravity task of ``case`` returned: every case waiting for its key goes on."""
-        waiting = self.gravity_waiting.pop(case.gkey)
-        try:
-            result = future.result()
-        except DivergenceError as error:  # a diverged gravity stage ends these cases only
-            if len(self.cases) == 1:
-                raise
-            for each in waiting:
-                each.error = f"the gravity stage diverged: {error}"
-                self.progress.message(each.say(f"warning: {each.error}"))
-                each.concluded = True
-                self.conclude(each)
-            return
-        for each in waiting:
-            self._gravity_done(each, result, computed=each is case)
+    def _hand_back(self):
+        """The cases concluded in this pass (a lone case whose gravity diverged: its error, raised)."""
+        done, self.just_concluded = self.just_concluded, []
+        for case in done:
+            if case.error is not None and len(self.cases) == 1:
+                raise case.error
+            yield case
 
     def _report_runs(self, active: list[CaseSearch]) -> None:
         done = sum(len(case.runs) for case in self.cases)
-        pending = sum(1 for task in self.tasks.values() if task.kind == "run")
-        finished_cases = [case for case in self.cases if case.concluded and not case.error]
+        pending = sum(1 for task in self.tasks.values() if task.kind is TaskKind.RUN)
+        finished_cases = [case for case in self.cases if case.concluded and case.error is None]
         per_case = sum(len(c.runs) for c in finished_cases) / len(finished_cases) if finished_cases else 8.0
         waiting = sum(max(0.0, per_case - len(case.runs)) for case in active)
         self.progress.runs(done, done + pending + int(round(waiting)))

@@ -1,10 +1,14 @@
-"""The gravity state of a strength-reduction study: run once, stored, reused while its key holds.
+"""The gravity state of a strength-reduction study: one path, run once, stored, reused while its key holds.
 
-The stages before the ``strength_reduction`` stage make the gravity state, stored as
+The stages before the ``strength_reduction`` stage make the gravity state (the stress and plastic
+strain every SRF run starts from, a ``spfem_core.snapshot.StressState``), stored as
 ``OUT/<stage>.nc`` (``gravity.nc``) with ``gravity_key`` (``workflows.fos.keys``).  A later
-invocation with the same key reads the stresses back instead of relaxing again.  A single
-study runs them in its own process, while its cluster starts (:func:`gravity_state`); a sweep
-runs each case's as a dask task (:func:`run_gravity`), and the client writes its files.
+invocation with the same key reads it back instead of relaxing again.
+
+:func:`run_gravity` runs them, wherever the engine places it: in the study's process while the
+cluster starts (a single study: on all cores, with the study's snapshots and animations), or as
+a dask task on a worker (a sweep's cases: one core, no snapshots).  Either way the client writes
+the files (:func:`write_gravity`).
 """
 
 from __future__ import annotations
@@ -13,35 +17,46 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 import xarray as xr
 
+from spfem_core.snapshot import StressState
 from workflows.fos.keys import gravity_key
-from workflows.output.stage_file import particle_stress, provenance
+from workflows.output.stage_file import provenance, stress_state
 from workflows.output.writing import interrupts_deferred, make_output_folder, write_dataset
+from workflows.progress import Progress
 from workflows.scene import build_scene, monitor_particles
-from workflows.stages import new_simulation, run_and_write_stage, run_stage_result
+from workflows.stages.running import new_simulation, run_stage_result, snapshots
 from workflows.study import Study, parse_study
+
+
+@dataclass
+class GravityResult:
+    """What the gravity stages made: the state, a dataset per stage (with ``gravity_key``)."""
+
+    state: StressState
+    datasets: list  # xarray.Dataset per stage before the strength reduction
+    n_particles: int
+    wall_time_s: float
+    unconverged: list[str] = field(default_factory=list)  # stages that reached max_duration_s
 
 
 def gravity_paths(study: Study, out_dir: Path) -> list[Path]:
     return [out_dir / f"{stage.name}.nc" for stage in study.stages[:-1]]
 
 
-def read_gravity(path: Path, key: str):
-    """(stress (n, 4), plastic strain (n,)) from a gravity file with this key, else None
-    (:func:`why_not_reused` says why)."""
+def read_gravity(path: Path, key: str) -> StressState | None:
+    """The gravity state in a gravity file with this key, else None (:func:`why_not_reused` says why)."""
     try:
         with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
             if ds.attrs.get("gravity_key") != key:
                 return None
-            return particle_stress(ds), ds["particle_plastic_strain"].values.copy()
+            return stress_state(ds)
     except (OSError, KeyError, ValueError, RuntimeError):
         return None
 
 
-def stored_gravity(study: Study, out_dir: Path):
-    """The gravity state on disk for this study's key, (stress, plastic strain), or None."""
+def stored_gravity(study: Study, out_dir: Path) -> StressState | None:
+    """The gravity state on disk for this study's key, or None."""
     paths = gravity_paths(study, out_dir)
     if not all(path.is_file() for path in paths):
         return None
@@ -66,67 +81,39 @@ def why_not_reused(study: Study, out_dir: Path) -> str:
     return f"{paths[-1].name} reads now (it did not a moment ago)"
 
 
-def gravity_state(study: Study, out_dir: Path, *, force: bool, progress):
-    """Run (or reuse) the stages before the strength reduction in this process;
-    (stress, plastic strain, reused, n particles, wall s)."""
-    key = gravity_key(study)
-    paths = gravity_paths(study, out_dir)
-    scene = build_scene(study)
-    monitors = monitor_particles(study, scene)
-    sim = new_simulation(study, scene)
-    state = None if force else stored_gravity(study, out_dir)
-    if state is not None and state[0].shape == (scene.n_particles, 4):
-        progress.message(f"gravity state reused from {paths[-1]} (its inputs are unchanged)")
-        return state[0], state[1], True, scene.n_particles, 0.0
-    if not force and paths[-1].is_file():
-        reason = why_not_reused(study, out_dir) if state is None else f"{paths[-1].name} has another particle count"
-        progress.message(f"gravity state relaxed again: {reason}")
-    make_output_folder(out_dir)
-    start = time.perf_counter()
-    for index, (stage, path) in enumerate(zip(study.stages[:-1], paths)):
-        report = lambda fraction, name=stage.name: progress.stage(name, fraction)  # noqa: E731
-        series = run_and_write_stage(study, sim, index, path, monitors, out_dir, progress=report,
-                                     attrs={"gravity_key": key})
-        if series.converged is False:
-            progress.message(f"warning: stage {stage.name!r} reached max_duration_s before converging")
-    return sim.nodes.stress_pa.copy(), sim.nodes.plastic_strain.copy(), False, scene.n_particles, time.perf_counter() - start
-
-
-@dataclass
-class GravityResult:
-    """What a worker sends back for one case's gravity state."""
-
-    stress_pa: np.ndarray  # (n, 4)
-    plastic_strain: np.ndarray  # (n,)
-    datasets: list  # xarray.Dataset per stage before the strength reduction, with gravity_key
-    n_particles: int
-    wall_time_s: float
-    unconverged: list[str] = field(default_factory=list)  # stages that reached max_duration_s
-
-
-def run_gravity(study_text: str) -> GravityResult:
-    """The dask task of a case's gravity state: the stages before the strength reduction, run on
-    a worker; no file is written (no snapshots either)."""
+def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
+                progress: Progress | None = None, case: str = "") -> GravityResult:
+    """Run the stages before the strength reduction of the study ``study_text`` on ``threads`` threads
+    (1: a dask worker's one core; 0: all cores).  With ``out_dir`` (made once the study's checks
+    have passed), the study's snapshots and animations go there and ``progress.stage`` hears of each
+    stage (of case ``case``).  No result file is written (:func:`write_gravity`)."""
     start = time.perf_counter()
     study = parse_study(study_text)
     key = gravity_key(study)
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    sim = new_simulation(study, scene, threads=1)  # a dask worker: one core of its own
+    sim = new_simulation(study, scene, threads=threads)
+    if out_dir is not None:
+        make_output_folder(out_dir)  # once the study's checks have passed: a refused study writes nothing
     datasets, unconverged = [], []
     for index, stage in enumerate(study.stages[:-1]):
-        series, dataset = run_stage_result(study, sim, index, monitors)
-        dataset.attrs["gravity_key"] = key
-        datasets.append(dataset)
-        if series.converged is False:
+        snapshot, recorder = snapshots(study, index, out_dir) if out_dir is not None else (None, None)
+        report = None if progress is None else (
+            lambda fraction, name=stage.name: progress.stage(case, name, "gravity", fraction))
+        result = run_stage_result(study, sim, index, monitors, progress=report, snapshot=snapshot)
+        if recorder is not None:
+            recorder.write()
+        result.dataset.attrs["gravity_key"] = key
+        datasets.append(result.dataset)
+        if result.series.converged is False:
             unconverged.append(stage.name)
-    return GravityResult(sim.nodes.stress_pa.copy(), sim.nodes.plastic_strain.copy(), datasets, scene.n_particles,
-                         time.perf_counter() - start, unconverged)
+    return GravityResult(sim.snapshot().stress_state, datasets, scene.n_particles, time.perf_counter() - start,
+                         unconverged)
 
 
 def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
-    """Write the datasets of a gravity task to the case's folder, with the case's own study text
-    (cases with one gravity key share one task)."""
+    """Write the datasets of a gravity run to the case's folder, with the case's own study text
+    (cases with one gravity key share one run)."""
     make_output_folder(out_dir)
     for dataset, path in zip(result.datasets, gravity_paths(study, out_dir)):
         write_dataset(dataset.assign_attrs(provenance(study)), path)

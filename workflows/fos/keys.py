@@ -21,9 +21,6 @@ from workflows.study import Study
 SEARCH_FIELDS = ("srf_min", "srf_max", "srf_step", "fos_tolerance", "max_runs")
 """Fields of the strength-reduction stage that choose which runs to make, not what a run does."""
 
-STRENGTH_FIELDS = ("cohesion_pa", "friction_deg", "dilation_deg", "dp_fit", "tensile_strength_pa", "softening",
-                   "residual_cohesion_pa", "residual_friction_deg", "softening_start_strain", "softening_end_strain")
-"""Material fields an elastic stage does not use."""
 
 
 def _digest(payload) -> str:
@@ -41,9 +38,9 @@ def gravity_key(study: Study) -> str:
     seismic = study.loads.seismic
     if seismic is not None and not seismic.in_gravity:
         raw["loads"].pop("seismic")  # it acts in the runs only: in the run key
-    if all(stage.elastic for stage in study.stages[:-1]):
-        raw["materials"] = [{k: v for k, v in material.items() if k not in STRENGTH_FIELDS}
-                            for material in raw["materials"]]
+    if all(stage.elastic for stage in study.stages[:-1]):  # a model's own fields: what an elastic stage ignores
+        raw["materials"] = [{k: v for k, v in fields.items() if k not in material.strength_fields()}
+                            for material, fields in zip(study.materials, raw["materials"])]
     raw["core"] = source_hash()
     return _digest(raw)
 

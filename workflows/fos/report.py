@@ -8,16 +8,16 @@ from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 
 def verdict_line(knee, status, agree, runs, stage) -> str:
-    """One line: the FOS or why there is none, and any warning."""
+    """One line: the FOS or why there is none, and any warning (``runs``: the ``task.RunRecord``s by SRF)."""
     if not runs:
         return "no SRF run was made"
-    failed_at_or_below_1 = [r["srf"] for r in runs if r["status"] == FAILED and r["srf"] <= 1.0]
+    failed_at_or_below_1 = [r.srf for r in runs if r.status == FAILED and r.srf <= 1.0]
     parts = []
     if math.isnan(knee.fos):
-        if all(r["status"] == FAILED for r in runs if r["status"] != DIVERGED):
-            parts.append(f"FOS < {runs[0]['srf']:g}: every run failed")
-        elif all(r["status"] == STABLE for r in runs if r["status"] != DIVERGED):
-            parts.append(f"FOS > {runs[-1]['srf']:g}: no run failed (raise srf_max)")
+        if all(r.status == FAILED for r in runs if r.status != DIVERGED):
+            parts.append(f"FOS < {runs[0].srf:g}: every run failed")
+        elif all(r.status == STABLE for r in runs if r.status != DIVERGED):
+            parts.append(f"FOS > {runs[-1].srf:g}: no run failed (raise srf_max)")
         else:
             parts.append(f"no FOS: {knee.reason}")
     else:
@@ -38,7 +38,7 @@ def report_lines(outcome) -> list[str]:
     """The printed report: a table of SRF, largest displacement and status, then the FOS."""
     lines = [f"{'SRF':>8}  {'max disp (m)':>12}  {'t end (s)':>9}  status", f"{'-' * 8}  {'-' * 12}  {'-' * 9}  ------"]
     for r in outcome.runs:
-        lines.append(f"{r['srf']:8.4f}  {r['max_displacement_m']:12.4g}  {r['stop_time_s']:9.3g}  {r['status']}")
+        lines.append(f"{r.srf:8.4f}  {r.max_displacement_m:12.4g}  {r.stop_time_s:9.3g}  {r.status}")
     lines.append(outcome.verdict)
     if not math.isnan(outcome.status_high):
         lines.append(

@@ -2,19 +2,18 @@
 
 Each finished SRF run is written by the study's process to ``OUT/srf_<F>.nc`` (temporary
 name, then rename), as its worker made it: with its key (``workflows.fos.keys``) and its
-scalars as ``run_<name>`` attributes.  A rerun reuses a file with the same key, removes files another study made,
-and recomputes a damaged one.
+record as ``run_<name>`` attributes.  A rerun reuses a file with the same key, removes files
+another study made, and recomputes a damaged one.
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Callable
 
 import xarray as xr
 
-from workflows.fos.task import RESULT_SCALARS, SrfRunResult
+from workflows.fos.task import RESULT_SCALARS, RunRecord, SrfRunResult
 from workflows.output.writing import interrupts_deferred, write_bytes
 
 SUMMARY_NAME = "summary.nc"
@@ -24,9 +23,9 @@ def run_file_name(srf: float) -> str:
     return f"srf_{srf:.4f}.nc"
 
 
-
-def stored_run(path: Path, key: str) -> dict | None:
-    """The scalars of a finished run file with this key; None if missing, stale or damaged."""
+def stored_run(path: Path, key: str) -> RunRecord | None:
+    """The record of a finished run file with this key (made by an earlier invocation: no start and
+    end in this one); None if missing, stale or damaged (a damaged file is removed)."""
     if not path.is_file():
         return None
     try:
@@ -38,19 +37,7 @@ def stored_run(path: Path, key: str) -> dict | None:
         return None
     if attrs.get("run_key") != key:
         return None
-    # made by an earlier invocation: no start and end in this one
-    return {name: attrs[f"run_{name}"] for name in RESULT_SCALARS} | {
-        "srf": float(attrs["srf"]), "started_s": math.nan, "finished_s": math.nan,
-    }
-
-
-def run_scalars(result: SrfRunResult, study_start_unix_s: float) -> dict:
-    """The scalars of a run made now, with its start and end on the worker in s since the study started."""
-    return {name: getattr(result, name) for name in RESULT_SCALARS} | {
-        "srf": result.srf,
-        "started_s": result.started_unix_s - study_start_unix_s,
-        "finished_s": result.finished_unix_s - study_start_unix_s,
-    }
+    return RunRecord(srf=float(attrs["srf"]), **{name: attrs[f"run_{name}"] for name in RESULT_SCALARS})
 
 
 def write_run(result: SrfRunResult, path: Path) -> None:

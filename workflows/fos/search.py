@@ -87,21 +87,20 @@ class SrfSearch:
     def started(self, srf: float) -> None:
         self.pending.add(srf)
 
-    def stopped_above_failure(self, srf: float, asked: bool) -> bool:
-        """Whether a started value ``srf`` (``asked`` for by the search, or a guess) can no longer
-        move the knee and is to be stopped: above the lowest failed run (an asked-for run is then
-        skipped), or above a run known to fail (step 5: it is deferred)."""
+    def above_failure(self, srf: float) -> bool:
+        """Whether a started value ``srf`` can no longer move the knee: above the lowest failed run, or
+        above a run known to fail (step 5).  A query: :meth:`withdraw` acts on it."""
+        return srf > self.lowest_failed or srf > self.certain_failure()
+
+    def withdraw(self, srf: float) -> None:
+        """The asked-for run ``srf`` above a failure (:meth:`above_failure`) is stopped: skipped when a
+        run below it failed, deferred when one below it will (step 5)."""
         failed = self.lowest_failed
         if srf > failed:
-            if asked:
-                self.pending.discard(srf)
-                self.skipped[srf] = CANCELLED_ABOVE_FAILURE.format(failed)
-            return True
-        if srf > self.certain_failure():
-            if asked:
-                self.deferred(srf)
-            return True
-        return False
+            self.pending.discard(srf)
+            self.skipped[srf] = CANCELLED_ABOVE_FAILURE.format(failed)
+        else:
+            self.deferred(srf)
 
     def finished(self, outcome: RunOutcome) -> None:
         self.pending.discard(outcome.srf)

@@ -1,38 +1,120 @@
-"""``summary.nc``: one row per SRF run and the factor of safety.
+"""The conclusion of one strength-reduction case: its FOS from its runs, ``summary.nc`` and the figures.
 
-Variables and attributes as declared in :data:`workflows.output.variables.SUMMARY_FILE`,
-``FOS_ATTRIBUTES`` and ``SUMMARY_FILE_ATTRIBUTES`` (coordinate ``srf``; scalar ``fos``).
+``summary.nc`` holds a row per SRF run and the factor of safety: variables and attributes as
+declared in :data:`workflows.output.variables.SUMMARY_FILE`, ``FOS_ATTRIBUTES`` and
+``SUMMARY_FILE_ATTRIBUTES`` (coordinate ``srf``; scalar ``fos``).
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
 import numpy as np
 import xarray as xr
 
-from workflows.fos.criterion import curvature, first_failed_sweep_srf
-from workflows.fos.verdict import DIVERGED
+from workflows.fos.criterion import brackets_agree, curvature, first_failed_sweep_srf, status_bracket
+from workflows.fos.figures import draw_figures
+from workflows.fos.report import verdict_line
+from workflows.fos.run_store import SUMMARY_NAME
+from workflows.fos.task import RunRecord
+from workflows.fos.verdict import DIVERGED, displacement_floor_m
 from workflows.output.stage_file import provenance
 from workflows.output.variables import SUMMARY_FILE
+from workflows.output.writing import write_dataset
 
 
-def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: float) -> xr.Dataset:
-    """The summary of a finished strength-reduction study (``outcome`` a ``FosOutcome``, ``knee``
-    the ``criterion.FosPick`` and ``status`` the ``criterion.StatusBracket`` of its runs)."""
+@dataclass
+class FosOutcome:
+    """What a strength-reduction study (or one case of a sweep) did and found."""
+
+    out_dir: Path
+    summary_path: Path
+    fos: float
+    fos_low: float
+    fos_high: float
+    criterion: str
+    knee_srf: float  # SRF of maximum curvature of the sweep (NaN: no knee)
+    status_low: float
+    status_high: float
+    criteria_agree: bool
+    non_monotone: list[float]  # stable SRF values above a failed one (verdicts not monotone in F)
+    verdict: str  # one line for the report
+    runs: list[RunRecord] = field(default_factory=list)  # by SRF
+    skipped: dict[float, str] = field(default_factory=dict)
+    gravity_reused: bool = False
+    timings_s: dict[str, float] = field(default_factory=dict)
+    n_particles: int = 0
+    guesses: tuple[int, int] = (0, 0)  # runs started ahead of the search on idle workers, and used
+    figures: list[Path] = field(default_factory=list)
+
+
+def conclude_case(case, progress, wall_start: float, figures: bool) -> FosOutcome:
+    """The FOS and its report from a case's runs (``case`` a ``workflows.fos.engine.CaseSearch`` whose
+    search is done): its messages, ``summary.nc`` and, with ``figures``, the figures."""
+    study, out_dir, search, runs = case.study, case.out_dir, case.search, case.runs
+    if case.reused_runs:
+        progress.message(case.say(f"{case.reused_runs} SRF runs reused from {out_dir} "
+                                  "(finished by an earlier invocation)"))
+    if case.n_guessed:
+        progress.message(case.say(
+            f"{case.n_guessed} runs started ahead of the search on idle workers, {case.n_guesses_used} of them "
+            "used (the others were stopped or left out of the answer)"
+        ))
+    by_reason: dict[str, list[float]] = {}
+    for srf, reason in sorted(search.skipped.items()):
+        if srf not in runs:
+            by_reason.setdefault(reason, []).append(srf)
+    for reason, values in by_reason.items():
+        progress.message(case.say(f"SRF {', '.join(f'{f:g}' for f in values)} not run: {reason}"))
+
+    stage = study.strength_reduction
+    floor_m = displacement_floor_m(study)
+    ordered = [runs[f] for f in sorted(runs)]
+    timings = {"gravity": case.gravity_wall_s, "srf_runs_elapsed": time.perf_counter() - case.started_s,
+               "io": case.io_s, "srf_runs_worker": float(sum(r.wall_time_s for r in ordered)),
+               "remeshing": float(sum(r.remesh_wall_s for r in ordered))}
+    knee = search.knee()
+    status = status_bracket([r.srf for r in ordered], [r.status for r in ordered])
+    agree = brackets_agree(knee, status, stage.fos_tolerance)
+    outcome = FosOutcome(
+        out_dir=out_dir, summary_path=out_dir / SUMMARY_NAME, fos=knee.fos, fos_low=knee.fos_low,
+        fos_high=knee.fos_high, criterion=knee.reason, knee_srf=knee.knee_srf, status_low=status.fos_low,
+        status_high=status.fos_high, criteria_agree=agree, non_monotone=list(status.non_monotone),
+        verdict=verdict_line(knee, status, agree, ordered, stage), runs=ordered,
+        skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=case.gravity_reused,
+        timings_s=timings, n_particles=case.n_particles, guesses=(case.n_guessed, case.n_guesses_used),
+    )
+    io_start = time.perf_counter()
+    summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
+    timings["total"] = time.perf_counter() - wall_start
+    summary.attrs.update({f"time_{name}_s": value for name, value in timings.items()})
+    write_dataset(summary, outcome.summary_path)
+    timings["io"] += time.perf_counter() - io_start
+    if figures:
+        outcome.figures = draw_figures(out_dir, summary)
+    return outcome
+
+
+def summary_dataset(study, outcome: FosOutcome, knee, status, stop_reason: str, floor_m: float) -> xr.Dataset:
+    """The summary of a finished strength-reduction study (``knee`` the ``criterion.FosPick`` and
+    ``status`` the ``criterion.StatusBracket`` of its runs)."""
     var = SUMMARY_FILE
     runs = outcome.runs
-    srf = np.array([r["srf"] for r in runs], dtype=float)
-    u = np.array([r["max_displacement_m"] for r in runs], dtype=float)
+    srf = np.array([r.srf for r in runs], dtype=float)
+    u = np.array([r.max_displacement_m for r in runs], dtype=float)
     stage = study.strength_reduction
-    ceiling = first_failed_sweep_srf(srf, [r["status"] for r in runs], stage.srf_min, stage.srf_step)
+    ceiling = first_failed_sweep_srf(srf, [r.status for r in runs], stage.srf_min, stage.srf_step)
     # the curvature of the runs the search decided with: not of runs that finished only by timing
-    usable = np.array([r["status"] != DIVERGED for r in runs], dtype=bool) & (srf <= ceiling)
+    usable = np.array([r.status != DIVERGED for r in runs], dtype=bool) & (srf <= ceiling)
     kappa = np.full(srf.size, np.nan)
     if usable.sum() >= 3:
         kappa[usable] = curvature(srf[usable], u[usable], floor_m)
     ds = xr.Dataset(coords={"srf": var["srf"](srf)})
 
     def column(name, key, dtype=float):
-        ds[name] = var[name](np.array([r[key] for r in runs], dtype=dtype))
+        ds[name] = var[name](np.array([getattr(r, key) for r in runs], dtype=dtype))
 
     ds["max_displacement"] = var["max_displacement"](u)
     column("final_kinetic_energy", "final_kinetic_energy_j_per_m")
@@ -59,7 +141,6 @@ def summary_dataset(study, outcome, knee, status, stop_reason: str, floor_m: flo
         verdict=outcome.verdict,
     )
     skipped = sorted(outcome.skipped.items())
-    stage = study.strength_reduction
     ds.attrs = {
         "title": f"spfem-fos strength-reduction summary of study {study.name}",
         "Conventions": "CF-1.11",

@@ -1,27 +1,18 @@
-"""One strength-reduction run: the task a dask worker executes for one SRF value.
+"""One strength-reduction run: the task a dask worker executes for one SRF value, and its record.
 
-The task gets the study text, the gravity state (stress and plastic strain per particle)
-and F; it rebuilds the scene (deterministic: same particles, same first mesh), divides the
-strength (c / F, tan(phi) / F; psi_F by the stage's flow rule), runs the stage from the
-original positions by the stage's protocol and returns the run's verdict
-(``workflows.fos.verdict``) and its result file, made in memory on the worker
+The task gets the study text, the gravity state (``spfem_core.snapshot.StressState``) and F; it
+rebuilds the scene (deterministic: same particles, same first mesh), sets the stage up as every
+stage is set up (``workflows.stages.running.stage_setup``, starting from the gravity state), runs
+it by the stage's protocol at F (``StrengthReductionStage.run_at``) and returns the run's verdict
+(``workflows.fos.verdict``) with its result file, made in memory on the worker
 (``workflows.output.writing.dataset_bytes``).  It touches no file: the client only puts the
 bytes on disk, so workers need not share a file system with it, and the client's process
 (which shares the machine's cores with local workers) does little.
-
-Protocols (``strength_reduction.protocol``):
-
-- ``quasi_static``: the reduced strength at once, then dynamic relaxation with local damping
-  (``damping``) at the largest stable step until the unbalanced-force ratio falls below
-  ``tolerance`` (the slope is at rest) or ``duration_s`` (Dawson, Roth & Drescher 1999 in a
-  large-deformation setting);
-- ``ramp``: undamped dynamics with the strength falling linearly in 1/F from full to c / F over
-  ``ramp_time_s`` (in ``RAMP_STEPS`` steps), then held; F <= 1 (a stronger slope) at once;
-- ``sudden``: the reduced strength at once, undamped dynamics.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -33,14 +24,65 @@ from distributed import Event
 from xarray.backends import NetCDF4DataStore
 
 from spfem_core.divergence import DivergenceError
-from spfem_core.simulation import Simulation
-from workflows.fos.scales import response_time_s
+from spfem_core.snapshot import StressState
+from workflows.fos.search import RunOutcome
 from workflows.fos.verdict import DIVERGED, verdict_for
-from workflows.loading import body_acceleration_m_s2
 from workflows.output.stage_file import stage_dataset
 from workflows.output.writing import dataset_bytes
-from workflows.scene import build_scene, monitor_particles, solver_settings, supports
-from workflows.study import Study, parse_study
+from workflows.scene import build_scene, monitor_particles
+from workflows.stages.running import begin_stage, new_simulation
+from workflows.study import parse_study
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One SRF run as the search, ``summary.nc``, the report and a sweep see it."""
+
+    srf: float
+    status: str  # verdict.STABLE, FAILED or DIVERGED
+    status_reason: str
+    max_displacement_m: float  # largest displacement of any particle during the run
+    final_kinetic_energy_j_per_m: float
+    stop_time_s: float  # simulated time reached (< duration_s when stopped early)
+    wall_time_s: float
+    remesh_wall_s: float
+    n_steps: int
+    started_s: float = math.nan  # on its worker, since the study started (NaN: made by an earlier invocation)
+    finished_s: float = math.nan
+
+    @property
+    def outcome(self) -> RunOutcome:
+        """What the search needs of it."""
+        return RunOutcome(self.srf, self.max_displacement_m, self.status)
+
+
+RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
+                  "wall_time_s", "remesh_wall_s", "n_steps")
+"""The fields of a record that its file carries as ``run_<name>`` attributes (read back on reuse)."""
+
+
+@dataclass
+class SrfRunResult:
+    """What a worker sends back for one SRF value: its record, when it ran, its result file."""
+
+    record: RunRecord
+    started_unix_s: float  # wall clock on the worker when the task started and ended (time.time())
+    finished_unix_s: float
+    file_bytes: bytes = b""  # the run's result file (stage_dataset, verdict, scalars and keys as attributes)
+
+    @property
+    def srf(self) -> float:
+        return self.record.srf
+
+    @property
+    def dataset(self) -> xr.Dataset:
+        """The result file, read back (for inspection; the client writes ``file_bytes`` as they are)."""
+        return xr.open_dataset(NetCDF4DataStore(netCDF4.Dataset("run.nc", mode="r", memory=self.file_bytes))).load()
+
+    def record_since(self, study_start_unix_s: float) -> RunRecord:
+        """The record with its start and end on the worker in s since the study started."""
+        return dataclasses.replace(self.record, started_s=self.started_unix_s - study_start_unix_s,
+                                   finished_s=self.finished_unix_s - study_start_unix_s)
 
 
 def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: float):
@@ -63,78 +105,8 @@ def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: fl
     return checked
 
 
-@dataclass
-class SrfRunResult:
-    """What a worker sends back for one SRF value."""
-
-    srf: float
-    status: str
-    status_reason: str
-    max_displacement_m: float  # largest displacement of any particle during the run
-    final_kinetic_energy_j_per_m: float
-    stop_time_s: float  # simulated time reached (< duration_s when stopped early)
-    wall_time_s: float
-    remesh_wall_s: float
-    n_steps: int
-    started_unix_s: float  # wall clock on the worker when the task started and ended (time.time())
-    finished_unix_s: float
-    file_bytes: bytes = b""  # the run's result file (stage_dataset, verdict, scalars and keys as attributes)
-
-    @property
-    def dataset(self) -> xr.Dataset:
-        """The result file, read back (for inspection; the client writes ``file_bytes`` as they are)."""
-        return xr.open_dataset(NetCDF4DataStore(netCDF4.Dataset("run.nc", mode="r", memory=self.file_bytes))).load()
-
-
-RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
-                  "wall_time_s", "remesh_wall_s", "n_steps")
-"""The fields of a result that its file carries as ``run_<name>`` attributes (read back on reuse)."""
-
-RAMP_STEPS = 20
-"""A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
-
-
-def reduced_materials(study: Study, scene, srf: float):
-    """The scene's materials with the strength divided by ``srf`` under the stage's flow rule."""
-    return scene.materials.with_strength_reduction(srf, associated=study.strength_reduction.flow_rule == "associated")
-
-
-def _run_protocol(study: Study, scene, sim: Simulation, srf: float, monitors, stop):
-    """The run of one SRF value by the stage's protocol (module doc); its TimeSeries."""
-    stage = study.strength_reduction
-    record = dict(record_interval_s=stage.record_interval_s, monitor_nodes=monitors, stop=stop)
-    if stage.protocol == "quasi_static":
-        sim.set_materials(reduced_materials(study, scene, srf))
-        return sim.relax(damping=stage.damping_or_default, tolerance=stage.tolerance_or_default,
-                         max_duration_s=stage.duration_s, **record)
-    if stage.protocol == "sudden":
-        sim.set_materials(reduced_materials(study, scene, srf))
-        return sim.run(stage.duration_s, damping=0.0, **record)
-    if srf <= 1.0:  # a stronger slope than built: nothing to ramp (and the slope as built may fail)
-        sim.set_materials(reduced_materials(study, scene, srf))
-        return sim.run(stage.duration_s, damping=0.0, **record)
-    ramp_s = stage.ramp_time_s if stage.ramp_time_s is not None else default_ramp_time_s(study)
-    step_s = ramp_s / RAMP_STEPS
-
-    def ramp(time_s: float) -> None:
-        """Set the strength of the ramp step that starts at ``time_s`` (held constant over it)."""
-        fraction = min((time_s + step_s) / ramp_s, 1.0)
-        if time_s < ramp_s:
-            sim.set_materials(reduced_materials(study, scene, 1.0 / (1.0 - fraction * (1.0 - 1.0 / srf))))
-
-    ramp(0.0)
-    return sim.run(stage.duration_s, damping=0.0, periodic=(step_s, ramp), **record)
-
-
-def default_ramp_time_s(study: Study) -> float:
-    """``ramp_time_s`` when the study gives none: 4 response times of the slope
-    (``scales.response_time_s``), at most half of ``duration_s``."""
-    return min(4.0 * response_time_s(study), 0.5 * study.strength_reduction.duration_s)
-
-
-def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_strain: np.ndarray, srf: float,
-            cancel_event: str | None = None, run_key: str = "", gravity_key: str = "",
-            failing_event: str | None = None):
+def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str | None = None, run_key: str = "",
+            gravity_key: str = "", failing_event: str | None = None) -> SrfRunResult:
     """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
 
     ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
@@ -150,39 +122,30 @@ def run_srf(study_text: str, gravity_stress_pa: np.ndarray, gravity_plastic_stra
     stage_index = len(study.stages) - 1
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    sim = Simulation(scene, solver_settings(study, threads=1))  # a dask worker: one core of its own
-    sim.set_initial_stress(gravity_stress_pa, gravity_plastic_strain)
-    sim.set_supports(*supports(study, scene, stage.boundary))
-    sim.set_gravity(body_acceleration_m_s2(study, strength_reduction=True))
+    sim = new_simulation(study, scene, threads=1)  # a dask worker: one core of its own
+    begin_stage(study, sim, stage_index, start_from=gravity)
     verdict = verdict_for(study)
     remesh_start = sim.counters.remesh_wall_s
     stop = verdict.stop_rule() if stage.early_stop else None
     if stop is not None and cancel_event is not None:
         stop = _connected(stop, cancel_event, failing_event, verdict.failure_m)
     try:
-        series = _run_protocol(study, scene, sim, float(srf), monitors, stop)
+        series = stage.run_at(sim, float(srf), study, monitors, stop)
         status, reason = verdict.classify(series.time_s, series.max_displacement_m, series.converged)
     except DivergenceError as error:
         series = error.partial
         status, reason = DIVERGED, str(error)
         series.notes["diverged"] = str(error)
-    ds = stage_dataset(study=study, stage_index=stage_index, series=series, sim=sim, monitor_particles=monitors)
+    ds = stage_dataset(study=study, stage_index=stage_index, series=series, final=sim.snapshot(series.time_s[-1]),
+                       monitor_particles=monitors)
     max_u = float(np.max(series.max_displacement_m)) if series.max_displacement_m.size else math.nan
-    result = SrfRunResult(
-        srf=float(srf),
-        status=status,
-        status_reason=reason,
-        max_displacement_m=max_u,
-        final_kinetic_energy_j_per_m=float(series.kinetic_energy_j_per_m[-1]),
-        stop_time_s=float(series.time_s[-1]),
-        wall_time_s=float(series.wall_time_s),
-        remesh_wall_s=float(sim.counters.remesh_wall_s - remesh_start),
+    record = RunRecord(
+        srf=float(srf), status=status, status_reason=reason, max_displacement_m=max_u,
+        final_kinetic_energy_j_per_m=float(series.kinetic_energy_j_per_m[-1]), stop_time_s=float(series.time_s[-1]),
+        wall_time_s=float(series.wall_time_s), remesh_wall_s=float(sim.counters.remesh_wall_s - remesh_start),
         n_steps=int(series.n_steps),
-        started_unix_s=started_unix_s,
-        finished_unix_s=math.nan,
     )
     ds.attrs.update(srf=float(srf), status=status, status_reason=reason, run_key=run_key, gravity_key=gravity_key)
-    ds.attrs.update({f"run_{name}": getattr(result, name) for name in RESULT_SCALARS})
-    result.file_bytes = dataset_bytes(ds)
-    result.finished_unix_s = time.time()
-    return result
+    ds.attrs.update({f"run_{name}": getattr(record, name) for name in RESULT_SCALARS})
+    file_bytes = dataset_bytes(ds)
+    return SrfRunResult(record, started_unix_s, time.time(), file_bytes)

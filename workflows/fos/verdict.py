@@ -2,7 +2,7 @@
 
 A run starts from the gravity state with the strength divided by F.  Its largest particle
 displacement u (the running maximum over the run) is compared with the failure displacement
-u_fail, by default 0.5% of the slope height H (``workflows.fos.scales``):
+u_fail, by default 0.5% of the slope height H (``Study.slope_height_m``):
 
 - ``failed``: a mechanism formed and moved: u > u_fail.  Large deformation lets a slide
   stop again once the moved ground has found a new equilibrium; such an arrested slide is a
@@ -32,34 +32,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.fos.scales import slope_height_m
+from workflows.stages.strength_reduction import SLIDE_STOP_FRACTION
 from workflows.study import Study
 
 STABLE = "stable"
 FAILED = "failed"
 DIVERGED = "diverged"
 
-FAILURE_FRACTION_OF_HEIGHT = 0.005
-"""Default failure displacement as a fraction of the slope height (module doc)."""
-
-SLIDE_STOP_FRACTION = 0.1
-"""With early_stop, a run ends once its largest displacement passes this fraction of the slope height."""
-
 
 def failure_displacement_m(study: Study) -> float:
-    """The stage's ``failure_displacement_m``, default 0.5% of the slope height."""
-    stage = study.strength_reduction
-    if stage.failure_displacement_m is not None:
-        return stage.failure_displacement_m
-    return FAILURE_FRACTION_OF_HEIGHT * slope_height_m(study)
+    """The stage's ``failure_displacement_m``, by default a fraction of the slope height
+    (``strength_reduction.FAILURE_FRACTION_OF_HEIGHT``)."""
+    return study.strength_reduction.failure_m(study.slope_height_m)
 
 
 def displacement_floor_m(study: Study) -> float:
     """The stage's ``displacement_floor_m``, default failure_displacement_m / 1000."""
-    stage = study.strength_reduction
-    if stage.displacement_floor_m is not None:
-        return stage.displacement_floor_m
-    return failure_displacement_m(study) / 1000.0
+    return study.strength_reduction.floor_m(study.slope_height_m)
 
 
 def _window_growth(time_s: np.ndarray, max_u_m: np.ndarray, window_s: float) -> tuple[float, float, float]:
@@ -138,7 +127,7 @@ def verdict_for(study: Study) -> Verdict:
     stage = study.strength_reduction
     return Verdict(
         failure_m=failure_displacement_m(study),
-        slide_stop_m=max(SLIDE_STOP_FRACTION * slope_height_m(study), 2.0 * failure_displacement_m(study)),
+        slide_stop_m=max(SLIDE_STOP_FRACTION * study.slope_height_m, 2.0 * failure_displacement_m(study)),
         floor_m=displacement_floor_m(study), quasi_static=stage.protocol == "quasi_static",
         window_s=stage.rest_window_s_or_default, growth=stage.rest_growth_or_default,
     )

@@ -11,34 +11,32 @@ from pathlib import Path
 
 import numpy as np
 
+from workflows.output.figures import pyplot
+
 FRAMES_PER_SECOND = 10
 
 
 class AnimationRecorder:
-    """A ``Simulation.run`` snapshot callback that keeps a frame per call; :meth:`write` draws them."""
+    """A ``Simulation.run`` snapshot callback that keeps a frame per ``spfem_core.snapshot.Snapshot``;
+    :meth:`write` draws them."""
 
-    def __init__(self, path: str | Path, sim, colour_by: str):
+    def __init__(self, path: str | Path, colour_by: str):
         self.path = Path(path)
-        self.sim = sim
         self.colour_by = colour_by
         self.frames: list[tuple[float, np.ndarray, np.ndarray]] = []
 
-    def __call__(self, time_s: float) -> None:
-        nodes = self.sim.nodes
+    def __call__(self, snapshot) -> None:
         if self.colour_by == "displacement":
-            values = np.hypot(nodes.displacement_m[:, 0], nodes.displacement_m[:, 1])
+            values = np.hypot(snapshot.displacement_m[:, 0], snapshot.displacement_m[:, 1])
         else:
-            values = nodes.plastic_strain.copy()
-        self.frames.append((float(time_s), nodes.xy_m.copy(), values))
+            values = snapshot.plastic_strain
+        self.frames.append((float(snapshot.time_s), snapshot.xy_m, values))
 
     def write(self) -> Path | None:
         """Draw the frames into the GIF; None when there are none."""
         if not self.frames:
             return None
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        plt = pyplot()
         from matplotlib.animation import FuncAnimation, PillowWriter
 
         xy_all = np.concatenate([xy for _, xy, _ in self.frames])

@@ -102,25 +102,24 @@ def _pvd_text(entries) -> str:
 class SnapshotWriter:
     """Snapshots of a running stage: ``<stage>_<k>.vtu`` in ``folder`` and ``<stage>.pvd`` (time =
     stage time in s), the collection rewritten after each snapshot so an interrupted run keeps
-    a usable one.  Called by ``Simulation.run(..., snapshot=(interval, writer))``."""
+    a usable one.  Called with each ``spfem_core.snapshot.Snapshot`` by
+    ``Simulation.run(..., snapshot=(interval, writer))``."""
 
-    def __init__(self, folder: str | Path, stage_name: str, sim):
+    def __init__(self, folder: str | Path, stage_name: str):
         self.folder = Path(folder)
         self.stage_name = stage_name
-        self.sim = sim
         self.entries: list[tuple[float, str]] = []
         self.folder.mkdir(parents=True, exist_ok=True)
         for old in self.folder.glob(f"{stage_name}_*.vtu"):
             old.unlink()
 
-    def __call__(self, time_s: float) -> None:
-        sim = self.sim
+    def __call__(self, snapshot) -> None:
         name = f"{self.stage_name}_{len(self.entries):04d}.vtu"
         _write_text(self.folder / name, vtu_text(
-            sim.nodes.xy_m, sim.mesh.elem_nodes, sim.nodes.displacement_m, sim.nodes.velocity_m_s, sim.nodes.stress_pa,
-            sim.pore_pressure_pa, sim.nodes.plastic_strain, sim.nodes.material, sim.initial_xy_m,
+            snapshot.xy_m, snapshot.elem_nodes, snapshot.displacement_m, snapshot.velocity_m_s, snapshot.stress_pa,
+            snapshot.pore_pressure_pa, snapshot.plastic_strain, snapshot.material, snapshot.initial_xy_m,
         ))
-        self.entries.append((float(time_s), name))
+        self.entries.append((float(snapshot.time_s), name))
         _write_text(self.folder / f"{self.stage_name}.pvd", _pvd_text(self.entries))
 
 

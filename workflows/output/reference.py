@@ -90,7 +90,7 @@ def page() -> str:
               "Global attributes:", "", *_attributes(SWEEP_FILE_ATTRIBUTES), ""]
     parts += ["## `study.nc` of a sweep of a stage study", "",
               "A sweep of a study with no strength_reduction stage (a runout, a collapse) runs each case's stages "
-              "(`workflows/sweep/stage_cases.py`); its `study.nc` has the same dimensions and axis coordinates, "
+              "(`workflows/sweep/study_type.py`); its `study.nc` has the same dimensions and axis coordinates, "
               "the attributes above but `n_cases_distinct`, and:", "", *_variables(STAGE_SWEEP_FILE), "",
               "With runout stages, the dimension `runout_stage` (coordinate: the stage names) and every scalar of "
               "the [runout metrics](#runout-metrics) over (`<sweep dims>`, `runout_stage`); with `[metrics]`, every "

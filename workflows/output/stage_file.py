@@ -20,16 +20,17 @@ import numpy as np
 import xarray as xr
 
 from spfem_core import __version__
-from spfem_core.records import ENERGY_COLUMNS
+from spfem_core.energy_budget import ENERGY_COLUMNS
+from spfem_core.snapshot import StressState
+from workflows.fields import specs
 from workflows.output.variables import STAGE_FILE, energy_variable_name
 from workflows.study import Study
-from workflows.study.fields import specs
 
 SINGLE_RUN_NAME = "run.nc"
 
 _VECTOR_COMPONENTS = {"displacement_m": ("ux", "uy"), "velocity_m_s": ("vx", "vy"),
                       "stress_pa": ("sxx", "syy", "szz", "sxy")}
-"""Field of the state (``NodeState``; ``monitor_`` + field of the ``TimeSeries``) -> the suffix of
+"""Field of the state (``Snapshot``; ``monitor_`` + field of the ``TimeSeries``) -> the suffix of
 each component's variable."""
 _MONITOR_COMPONENTS = {f"monitor_{suffix}": (f"monitor_{field}", component)
                        for field, suffixes in _VECTOR_COMPONENTS.items() for component, suffix in enumerate(suffixes)}
@@ -59,12 +60,11 @@ def _attribute_value(value):
     return value
 
 
-def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_particles) -> xr.Dataset:
+def stage_dataset(*, study: Study, stage_index: int, series, final, monitor_particles) -> xr.Dataset:
     """The result of one stage as a dataset (nothing is written).
 
-    ``series`` is the stage's ``TimeSeries``; ``sim`` the ``Simulation`` in its final state
-    (``nodes``, ``mesh``, ``dt_s``, ``critical_dt_s``, the scene with the initial positions and
-    the material of each particle); ``monitor_particles`` the particle index of each
+    ``series`` is the stage's ``TimeSeries``; ``final`` the particles at its end (a
+    ``spfem_core.snapshot.Snapshot``); ``monitor_particles`` the particle index of each
     ``[[monitors]]`` entry.
     """
     var = STAGE_FILE
@@ -73,7 +73,7 @@ def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_partic
         "time": var["time"](np.asarray(series.time_s, dtype=np.float64)),
         "monitor": var["monitor"](np.array([m.name for m in study.monitors], dtype=str)),
     })
-    initial_xy = sim.initial_xy_m
+    initial_xy = final.initial_xy_m
     ds["monitor_particle"] = var["monitor_particle"](monitor_particles)
     ds["monitor_x0"] = var["monitor_x0"](initial_xy[monitor_particles, 0])
     ds["monitor_y0"] = var["monitor_y0"](initial_xy[monitor_particles, 1])
@@ -87,28 +87,28 @@ def stage_dataset(*, study: Study, stage_index: int, series, sim, monitor_partic
     ds["max_speed"] = var["max_speed"](np.asarray(series.max_speed_m_s, dtype=np.float64))
 
     for name, (field, component) in _PARTICLE_COMPONENTS.items():
-        ds[name] = var[name](np.asarray(getattr(sim.nodes, field), dtype=np.float64)[:, component])
+        ds[name] = var[name](np.asarray(getattr(final, field), dtype=np.float64)[:, component])
     ds["particle_x0"] = var["particle_x0"](np.asarray(initial_xy[:, 0]))
     ds["particle_y0"] = var["particle_y0"](np.asarray(initial_xy[:, 1]))
-    ds["particle_plastic_strain"] = var["particle_plastic_strain"](np.asarray(sim.nodes.plastic_strain, dtype=np.float64))
-    ds["particle_area"] = var["particle_area"](np.asarray(sim.node_area_m2, dtype=np.float64))
-    ds["particle_mass"] = var["particle_mass"](np.asarray(sim.nodes.mass_kg, dtype=np.float64))
-    ds["particle_pore_pressure"] = var["particle_pore_pressure"](sim.pore_pressure_pa)
-    material_names = sim.scene.materials.name
+    ds["particle_plastic_strain"] = var["particle_plastic_strain"](final.plastic_strain)
+    ds["particle_area"] = var["particle_area"](final.area_m2)
+    ds["particle_mass"] = var["particle_mass"](final.mass_kg)
+    ds["particle_pore_pressure"] = var["particle_pore_pressure"](final.pore_pressure_pa)
+    material_names = final.material_names
     ds["particle_material"] = var["particle_material"](
-        np.asarray(sim.scene.node_material, dtype=np.int64),
-        flag_values=np.arange(len(material_names), dtype=np.int64), flag_meanings=" ".join(material_names),
+        final.material, flag_values=np.arange(len(material_names), dtype=np.int64),
+        flag_meanings=" ".join(material_names),
     )
     ds["mesh2d"] = var["mesh2d"](
         np.int32(0), cf_role="mesh_topology", topology_dimension=2, node_coordinates="particle_x particle_y",
         node_dimension="particle", face_node_connectivity="mesh2d_face_nodes", face_dimension="face",
     )
     ds["mesh2d_face_nodes"] = var["mesh2d_face_nodes"](
-        np.asarray(sim.mesh.elem_nodes, dtype=np.int64), cf_role="face_node_connectivity", start_index=0,
+        final.elem_nodes, cf_role="face_node_connectivity", start_index=0,
     )
     for name in ("particle_x", "particle_y"):
         ds[name].attrs.update(mesh="mesh2d", location="node")
-    ds.attrs = global_attributes(study, stage_index, series, sim)
+    ds.attrs = global_attributes(study, stage_index, series, final)
     return ds
 
 
@@ -117,7 +117,12 @@ def particle_stress(ds: xr.Dataset) -> np.ndarray:
     return np.stack([ds[name].values for name in STRESS_VARIABLES], axis=1)
 
 
-def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
+def stress_state(ds: xr.Dataset) -> StressState:
+    """The stress state at the end of a result dataset's stage (stress and plastic strain)."""
+    return StressState(particle_stress(ds), ds["particle_plastic_strain"].values)
+
+
+def global_attributes(study: Study, stage_index: int, series, final) -> dict:
     """Provenance and counters of one stage run (``variables.STAGE_FILE_ATTRIBUTES``)."""
     stage = study.stages[stage_index]
     attrs = {
@@ -136,12 +141,12 @@ def global_attributes(study: Study, stage_index: int, series, sim) -> dict:
         if field_name != "name" and value is not None:
             attrs[f"stage_{field_name}"] = _attribute_value(value)
     attrs.update(
-        n_particles=int(sim.n_particles),
+        n_particles=int(final.n_particles),
         n_steps=int(series.n_steps),
         n_remesh=int(series.n_remesh),
         wall_time_s=float(series.wall_time_s),
-        dt_s=float(sim.dt_s),
-        critical_dt_s=float(sim.critical_dt_s),
+        dt_s=float(final.dt_s),
+        critical_dt_s=float(final.critical_dt_s),
     )
     if series.converged is not None:
         attrs["converged"] = int(bool(series.converged))

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from spfem_core.records import ENERGY_COLUMNS
+from spfem_core.energy_budget import ENERGY_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -71,7 +71,7 @@ _ENERGY_LONG_NAMES = {
 
 
 def energy_variable_name(column: str) -> str:
-    """The result variable of energy column ``column`` (``records.ENERGY_COLUMNS``)."""
+    """The result variable of energy column ``column`` (``energy_budget.ENERGY_COLUMNS``)."""
     return "kinetic_energy" if column == "kinetic" else f"energy_{column}"
 
 

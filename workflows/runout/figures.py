@@ -7,19 +7,19 @@ from pathlib import Path
 
 import numpy as np
 
-from workflows.fos.figures import final_state_figure
+from workflows.output.figures import final_state_figure
 
 
-def _initial_outline(ax, study) -> None:
-    outline = np.array(study.geometry.polygon_m + (study.geometry.polygon_m[0],))
-    ax.plot(outline[:, 0], outline[:, 1], "-", color="0.5", lw=0.8)
-
-
-def runout_fields(stage_path: Path, path: Path, strength_factor: float) -> Path:
-    """Draw ``stage_path``'s final state into ``path``, titled with its runout and retrogression."""
+def runout_fields(stage_path: Path, path: Path, strength_factor: float, polygon_m) -> Path:
+    """Draw ``stage_path``'s final state into ``path``, titled with its runout and retrogression, with
+    the initial outline ``polygon_m``."""
+    outline = np.array(tuple(polygon_m) + (tuple(polygon_m[0]),))
 
     def title(ds) -> str:
         return (f"strength / {strength_factor:g}, t = {float(ds['time'].values[-1]):.2f} s: runout "
                 f"{float(ds['runout_m']):.2f} m, retrogression {float(ds['retrogression_m']):.2f} m")
 
-    return final_state_figure(stage_path, path, title, _initial_outline)
+    def initial_outline(ax, attrs) -> None:
+        ax.plot(outline[:, 0], outline[:, 1], "-", color="0.5", lw=0.8)
+
+    return final_state_figure(stage_path, path, title, initial_outline)

@@ -1,8 +1,8 @@
 """What a runout did, from its final state and its records.
 
 The slide goes down the slope: +x when the ground surface is lower at the right end of the domain
-than at the left (the slope form's crest is on the left), -x otherwise (``loading.downslope_sign``); below, x is measured along
-that direction.  With y_0(x) the initial ground surface (the polygon's upper boundary) and y(x) the
+than at the left (the slope form's crest is on the left), -x otherwise
+(``spfem_core.geometry.downslope_sign``); below, x is measured along that direction.  With y_0(x) the initial ground surface (the polygon's upper boundary) and y(x) the
 final one (the upper envelope of the particles in the mesh, in bins of width h), and t the deposit
 thickness (``deposit_thickness_m``):
 
@@ -27,9 +27,9 @@ import math
 
 import numpy as np
 
-from spfem_core.records import ENERGY_GRAVITY_POTENTIAL, ENERGY_LOAD_POTENTIAL
+from spfem_core.energy_budget import ENERGY_GRAVITY_POTENTIAL, ENERGY_LOAD_POTENTIAL
+from spfem_core.geometry import downslope_sign, surface_height_m
 from workflows.collapse.metrics import upper_envelope
-from workflows.loading import downslope_sign, surface_height_m
 from workflows.runout.rest import time_to_rest_s
 
 

@@ -2,7 +2,7 @@
 potential energy it has released.
 
     at rest at t  when  E_k(s) < f * E_released(s)  for every record s in [t - window, t],
-    E_released = -(gravity potential + load potential)   (records.ENERGY_COLUMNS)
+    E_released = -(gravity potential + load potential)   (energy_budget.ENERGY_COLUMNS)
 
 The time to rest is the start of that window.  A flow that released nothing is at rest when its
 kinetic energy is zero.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spfem_core.records import ENERGY_GRAVITY_POTENTIAL, ENERGY_KINETIC, ENERGY_LOAD_POTENTIAL
+from spfem_core.energy_budget import ENERGY_GRAVITY_POTENTIAL, ENERGY_KINETIC, ENERGY_LOAD_POTENTIAL
 
 
 def resting(energy_j_per_m: np.ndarray, fraction: float) -> np.ndarray:

@@ -16,8 +16,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
 from workflows.study import slope_form
-from workflows.study.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
 from workflows.study.tables import SlopeForm, Study
 from workflows.study.toml_text import to_toml
 

@@ -12,7 +12,7 @@ import argparse
 import json
 import sys
 
-from workflows.study.fields import NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
+from workflows.fields import NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"

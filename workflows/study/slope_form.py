@@ -16,7 +16,7 @@ take the layers from the top, in file order.
 
 from __future__ import annotations
 
-from workflows.study.fields import StudyError
+from workflows.fields import StudyError
 from workflows.study.tables import SlopeForm
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from workflows.fos.figures import pyplot
+from workflows.output.figures import pyplot
 from workflows.sweep.results import ABOVE, BELOW, FOUND
 
 

@@ -1,7 +1,7 @@
-"""``study.nc`` of a sweep: every case's FOS over the sweep's dimensions.
+"""``study.nc`` of a sweep: every case's FOS (or, for a stage study, its metrics) over the sweep's dimensions.
 
 Variables and attributes as declared in :data:`workflows.output.variables.SWEEP_FILE`,
-``SWEEP_AXIS_ATTRIBUTES`` and ``SWEEP_FILE_ATTRIBUTES``.  A grid has one dimension per axis
+``STAGE_SWEEP_FILE``, ``SWEEP_AXIS_ATTRIBUTES`` and ``SWEEP_FILE_ATTRIBUTES``.  A grid has one dimension per axis
 (named by its label, the axis values as coordinate); a zip has the dimension ``case``, each
 axis a coordinate over it.  The file holds only what does not depend on the number of workers
 or on what an earlier invocation left, so a resumed sweep writes the same numbers.
@@ -18,7 +18,8 @@ import xarray as xr
 
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 from workflows.output.stage_file import provenance
-from workflows.output.variables import SWEEP_FILE
+from workflows.output.variables import COLLAPSE_METRICS, RUNOUT_METRICS, STAGE_SWEEP_FILE, SWEEP_FILE
+from workflows.stages.runout import RunoutStage
 from workflows.study import Study
 from workflows.study.reading import SweepCase, axis_labels, resolve_sweep_path
 
@@ -28,6 +29,19 @@ CASE_TEXT_NAME = "case.toml"
 """Where a sweep (of a FOS study or a stage study) puts its file, its cases' folders and each case's text."""
 
 FOUND, ABOVE, BELOW, NO_KNEE, GRAVITY_DIVERGED = "found", "above_srf_max", "below_srf_min", "no_knee", "gravity_diverged"
+
+
+def _scalar_names(table) -> list[str]:
+    return [name for name, variable in table.items() if variable.dims == ()]
+
+
+DONE, DIVERGED_CASE = "done", "diverged"
+"""Statuses of a stage study's case."""
+
+RUNOUT_SCALARS = _scalar_names(RUNOUT_METRICS)
+"""The runout metrics ``study.nc`` of a stage study's sweep holds per runout stage."""
+COLLAPSE_SCALARS = _scalar_names(COLLAPSE_METRICS)
+"""The collapse metrics ``study.nc`` of a stage study's sweep holds (with ``[metrics]``)."""
 
 
 @dataclass(frozen=True)
@@ -48,14 +62,14 @@ class CaseResult:
 def case_result(outcome) -> CaseResult:
     """The result of a concluded case from its ``FosOutcome``; with no FOS, the bound the runs give:
     above_srf_max (fos_low = the highest stable SRF) or below_srf_min (fos_high = the lowest failed)."""
-    runs = [r for r in outcome.runs if r["status"] != DIVERGED]
+    runs = [r for r in outcome.runs if r.status != DIVERGED]
     fos, low, high = outcome.fos, outcome.fos_low, outcome.fos_high
     if math.isfinite(fos):
         status = FOUND
-    elif runs and all(r["status"] == STABLE for r in runs):
-        status, low = ABOVE, max(r["srf"] for r in runs)
-    elif runs and all(r["status"] == FAILED for r in runs):
-        status, high = BELOW, min(r["srf"] for r in runs)
+    elif runs and all(r.status == STABLE for r in runs):
+        status, low = ABOVE, max(r.srf for r in runs)
+    elif runs and all(r.status == FAILED for r in runs):
+        status, high = BELOW, min(r.srf for r in runs)
     else:
         status = NO_KNEE
     return CaseResult(fos, low, high, status, bool(outcome.criteria_agree), outcome.knee_srf, outcome.n_particles,
@@ -142,3 +156,63 @@ def study_dataset(study: Study, cases: list[SweepCase], results: dict[str, CaseR
     }
     return ds
 
+
+@dataclass
+class StageCaseResult:
+    """What ``study.nc`` and the printed table hold of one case."""
+
+    status: str  # DONE or DIVERGED_CASE
+    message: str  # the divergence, or ""
+    n_particles: int
+    runout: dict[str, dict[str, float]]  # runout stage name -> scalar metric -> value
+    collapse: dict[str, float]  # scalar collapse metric -> value (empty without [metrics])
+    ran: bool  # False: its results were up to date and were read back
+
+
+def runout_stage_names(study: Study) -> list[str]:
+    """Names of the study's runout stages, in stage order."""
+    return [stage.name for stage in study.stages if stage.kind == RunoutStage.kind]
+
+
+def stage_sweep_dataset(study: Study, cases: list[SweepCase], results: dict[str, StageCaseResult]) -> xr.Dataset:
+    """``study.nc`` of a stage study's sweep (module doc; variables ``STAGE_SWEEP_FILE``,
+    ``RUNOUT_METRICS``, ``COLLAPSE_METRICS``)."""
+    dims, shape, coords = sweep_coordinates(study, cases)
+    stages = runout_stage_names(study)
+    columns = {"case_folder": np.full(shape, "", dtype=object), "status": np.full(shape, "", dtype=object),
+               "status_reason": np.full(shape, "", dtype=object), "n_particles": np.zeros(shape, dtype=np.int64)}
+    runout = {key: np.full((*shape, len(stages)), np.nan) for key in RUNOUT_SCALARS}
+    collapse = {key: np.full(shape, np.nan) for key in COLLAPSE_SCALARS}
+    for case in cases:
+        result, at = results[case.case_id], case.position
+        columns["case_folder"][at] = case.case_id
+        columns["status"][at] = result.status
+        columns["status_reason"][at] = result.message
+        columns["n_particles"][at] = result.n_particles
+        for s, stage in enumerate(stages):
+            for key, value in result.runout.get(stage, {}).items():
+                runout[key][(*at, s)] = value
+        for key, value in result.collapse.items():
+            collapse[key][at] = value
+    ds = xr.Dataset(coords=coords)
+    for name, values in columns.items():
+        ds[name] = STAGE_SWEEP_FILE[name].over(dims, values)
+    if stages:
+        ds = ds.assign_coords(runout_stage=("runout_stage", np.array(stages, dtype=object),
+                                            {"units": "1", "long_name": "name of the runout stage"}))
+        for key, values in runout.items():
+            ds[key] = RUNOUT_METRICS[key].over((*dims, "runout_stage"), values)
+    if study.metrics is not None:
+        for key, values in collapse.items():
+            ds[key] = COLLAPSE_METRICS[key].over(dims, values)
+    sweep = study.sweep
+    ds.attrs = {
+        "title": f"spfem-fos parameter study {study.name}: the metrics of every case",
+        "Conventions": "CF-1.11",
+        "study_name": study.name,
+        "sweep_combination": sweep.combination,
+        "sweep_axes": ", ".join(axis.path for axis in sweep.axes),
+        "n_cases": len(cases),
+        **provenance(study),
+    }
+    return ds

@@ -1,4 +1,4 @@
-"""How a study-file field is declared, checked and converted: the kit the tables are made of.
+"""How a study-file field is declared, checked and converted: the kit every table is made of.
 
 Every field is declared once, on the frozen dataclass of its table, with its type, unit,
 default, bounds and documentation (``number``, ``integer``, ``text``, ``point``, ``polygon``,
@@ -17,6 +17,8 @@ import math
 import re
 from dataclasses import dataclass
 from typing import Any
+
+from spfem_core.geometry import polygon_problem
 
 NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
 """Names of studies, stages, materials, boundaries and monitors: they become folder,
@@ -228,56 +230,15 @@ def _as_pair(value, what: str) -> tuple[float, float]:
     return (_as_number(value[0], f"{what} must be numbers"), _as_number(value[1], f"{what} must be numbers"))
 
 
-def polygon_area(vertices) -> float:
-    """Signed area (shoelace formula), positive for counter-clockwise vertices."""
-    n = len(vertices)
-    return 0.5 * sum(
-        vertices[i][0] * vertices[(i + 1) % n][1] - vertices[(i + 1) % n][0] * vertices[i][1] for i in range(n)
-    )
-
-
-def _segments_cross(p1, p2, q1, q2) -> bool:
-    """True when the closed segments p1-p2 and q1-q2 intersect."""
-
-    def orient(a, b, c):
-        value = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-        return (value > 0) - (value < 0)
-
-    def on_segment(a, b, c):  # c collinear with a-b: is it between them?
-        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
-
-    o1, o2, o3, o4 = orient(p1, p2, q1), orient(p1, p2, q2), orient(q1, q2, p1), orient(q1, q2, p2)
-    if o1 != o2 and o3 != o4:
-        return True
-    return (
-        (o1 == 0 and on_segment(p1, p2, q1))
-        or (o2 == 0 and on_segment(p1, p2, q2))
-        or (o3 == 0 and on_segment(q1, q2, p1))
-        or (o4 == 0 and on_segment(q1, q2, p2))
-    )
-
-
 def _as_polygon(value) -> tuple[tuple[float, float], ...]:
     if not isinstance(value, (list, tuple)):
         raise ValueError(f"must be a list of [x, y] vertices, got {show(value)}")
     vertices = tuple(_as_pair(v, f"vertex {i}") for i, v in enumerate(value))
-    n = len(vertices)
-    if n < 3:
-        raise ValueError(f"needs at least 3 vertices, got {n}")
-    if vertices[0] == vertices[-1]:
+    if len(vertices) > 3 and vertices[0] == vertices[-1]:
         raise ValueError("the last vertex repeats the first; the polygon closes itself, leave it out")
-    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
-    extent = max(max(xs) - min(xs), max(ys) - min(ys))
-    for i in range(n):
-        for j in range(i + 1, n):
-            if j == i + 1 or (i == 0 and j == n - 1):
-                if vertices[i] == vertices[j]:
-                    raise ValueError(f"vertices {i} and {j} coincide")
-                continue
-            if _segments_cross(vertices[i], vertices[(i + 1) % n], vertices[j], vertices[(j + 1) % n]):
-                raise ValueError(f"edges {i} and {j} cross; the polygon must be simple")
-    if abs(polygon_area(vertices)) <= 1e-12 * extent**2 or extent == 0.0:
-        raise ValueError(f"has zero area: {show(value)}")
+    problem = polygon_problem(vertices)
+    if problem is not None:
+        raise ValueError(problem)
     return vertices
 
 
@@ -402,21 +363,3 @@ class Record:
 
     def check(self) -> None:
         """Cross-field rules of this table (none by default)."""
-
-
-def point_in_polygon(xy, vertices) -> bool:
-    """True when ``xy`` is inside the polygon or on its boundary (relative tolerance 1e-9)."""
-    x, y = xy
-    xs, ys = [v[0] for v in vertices], [v[1] for v in vertices]
-    tol = 1e-9 * max(max(xs) - min(xs), max(ys) - min(ys))
-    n = len(vertices)
-    inside = False
-    for i in range(n):
-        (x1, y1), (x2, y2) = vertices[i], vertices[(i + 1) % n]
-        dx, dy = x2 - x1, y2 - y1
-        t = min(1.0, max(0.0, ((x - x1) * dx + (y - y1) * dy) / (dx * dx + dy * dy)))
-        if math.hypot(x - (x1 + t * dx), y - (y1 + t * dy)) <= tol:
-            return True
-        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * dx / dy:
-            inside = not inside
-    return inside

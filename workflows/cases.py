@@ -1,0 +1,164 @@
+"""The case runner: the one place a study's cases are computed, whatever the study type.
+
+A case is one study with its own output folder: the whole study of a single study, or one
+combination of a sweep (``workflows.study_types``).  :func:`run_cases` computes a list of cases:
+
+- cases with a ``strength_reduction`` stage on one dask cluster (local workers, or a scheduler's):
+  the FOS engine (``workflows.fos.engine``) runs every case's gravity state and SRF search at once,
+  and each case is concluded (``workflows.fos.summary.conclude_case``: its FOS, ``summary.nc``,
+  figures when the type wants them) as soon as its search is done;
+- other cases in this process, one after another, each on all cores
+  (``workflows.stages.running.run_stages``): no cluster starts.
+
+What a type decides is in :class:`Placement`: where a case's gravity runs (in this process while
+the cluster starts, or as tasks), whether each case draws its own figures, which messages of a
+case are shown, and whether a case that diverges stops the study or is recorded.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from spfem_core.divergence import DivergenceError
+from workflows.progress import OnlyWarnings, Progress
+from workflows.study import Study
+
+
+@dataclass(frozen=True)
+class Case:
+    """One study to compute in its own folder."""
+
+    study: Study  # its own study (no sweep); ``source_text`` its own TOML text
+    out_dir: Path
+    case_id: str = ""  # "" for a single study; a sweep's folder name under OUT/cases/
+    position: tuple[int, ...] = ()  # index along each axis (grid), or (i,) the i-th case (zip)
+    values: dict = field(default_factory=dict)  # axis label -> the value of this case
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run: the command line's options."""
+
+    workers: int = 2  # local dask worker processes (strength reduction)
+    scheduler: str | None = None  # a running dask scheduler instead of local workers
+    force: bool = False  # run again what is up to date
+    max_memory_bytes: float | None = None  # refuse what needs more (default: what the machine has available)
+
+
+@dataclass(frozen=True)
+class Placement:
+    """What a study type decides about running its cases (module doc)."""
+
+    gravity_in_process: bool  # a case's gravity on this process's cores while the cluster starts
+    figures: bool  # each FOS case draws its own figures
+    quiet_cases: bool  # a case's messages only when they are warnings
+    keep_going: bool  # a case that diverges is recorded (the DivergenceError as its outcome)
+
+
+@dataclass
+class CaseTimings:
+    """Where the wall time of :func:`run_cases` went (s)."""
+
+    cases_elapsed: float = 0.0
+    gravity_worker: float = 0.0  # summed over the cases that computed it
+    srf_runs_worker: float = 0.0  # summed over the runs made now
+
+
+def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
+              wall_start: float) -> tuple[dict, CaseTimings]:
+    """Compute ``cases`` (module doc); (outcome by case id, timings).  An outcome is a
+    ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the ``DivergenceError`` of a
+    case that diverged when the placement keeps going."""
+    if cases[0].study.strength_reduction is not None:
+        return _fos_cases(cases, placement, options, progress, wall_start)
+    return _stage_cases(cases, placement, options, progress)
+
+
+def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float):
+    """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
+    from spfem_core.warmup import warm_up  # dask and the core: once the study is known to be valid
+    from workflows.fos.cluster import dask_session
+    from workflows.fos.engine import CaseSearch, Engine
+    from workflows.fos.summary import conclude_case
+
+    start_unix_s = time.time()
+    searches = [CaseSearch(index, case.study, case.out_dir, label=case.case_id,
+                           gravity_here=placement.gravity_in_process) for index, case in enumerate(cases)]
+    case_progress = OnlyWarnings(progress) if placement.quiet_cases else progress
+    outcomes, timings = {}, CaseTimings()
+    with dask_session(options.workers, options.scheduler, warm_up_worker=placement.gravity_in_process) as session:
+        if not placement.gravity_in_process:
+            warm_up()  # the compiled loop in the disk cache before the first task: compiled once
+        engine_start = time.perf_counter()
+        for search in Engine(session, searches, progress, start_unix_s, force=options.force).run():
+            if all(each.concluded for each in searches):
+                session.close(wait=False)  # the workers shut down while the last summary and figures are made
+            outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
+                                                                   figures=placement.figures)
+        timings.cases_elapsed = time.perf_counter() - engine_start
+    timings.gravity_worker = sum(search.gravity_wall_s for search in searches)
+    timings.srf_runs_worker = sum(record.wall_time_s for search in searches for record in search.runs.values()
+                                  if record.started_s == record.started_s)  # NaN: reused
+    return outcomes, timings
+
+
+def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Progress):
+    """Every case's stages in this process, one case after another."""
+    from workflows.stages.running import run_stages  # the core: once the study is known to be valid
+
+    outcomes, timings = {}, CaseTimings()
+    start = time.perf_counter()
+    for index, case in enumerate(cases):
+        if case.case_id:
+            progress.case_started(index, len(cases), case.case_id)
+        try:
+            outcomes[case.case_id] = run_stages(case.study, case.out_dir, progress=progress, case=case.case_id,
+                                                force=options.force, max_memory_bytes=options.max_memory_bytes)
+        except DivergenceError as error:
+            if not placement.keep_going:
+                raise
+            outcomes[case.case_id] = error
+    timings.cases_elapsed = time.perf_counter() - start
+    return outcomes, timings
+
+
+@dataclass
+class Report:
+    """What the command prints of an outcome: lines for stdout, warnings for stderr."""
+
+    lines: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+class StudyType:
+    """A kind of study (like automan's ``Problem``): the cases it makes, how they run (its
+    :class:`Placement`), and how their outcomes come together into its own result and report.
+    ``workflows.study_types`` lists the kinds and runs one; adding one: docs/architecture.md."""
+
+    placement: Placement
+
+    def __init__(self, study: Study, out_dir: Path):
+        self.study = study
+        self.out_dir = Path(out_dir)
+
+    @staticmethod
+    def applies_to(study: Study) -> bool:
+        """Whether ``study`` is of this type."""
+        raise NotImplementedError
+
+    def check(self, options: RunOptions) -> None:
+        """StudyError for a study that cannot run (before anything is written); none by default."""
+
+    def cases(self) -> list[Case]:
+        """The cases to compute (their folders made where the type needs them)."""
+        raise NotImplementedError
+
+    def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
+        """The type's outcome from its cases' (by case id): its own result file, if any."""
+        raise NotImplementedError
+
+    def report(self, outcome, quiet: bool, study_file) -> Report:
+        """What the command prints for the study read from ``study_file``."""
+        raise NotImplementedError

@@ -1,0 +1,267 @@
+"""``kind = "strength_reduction"``: the factor of safety, one run per strength reduction factor F.
+
+The last stage of a study: every run starts from the gravity state the stages before left (at
+the original positions, at rest) with the strength divided by F as each material's model says
+(c / F, tan(phi) / F; psi_F by the flow rule), the seismic load acting, and goes on by its
+protocol until the slope is at rest or has slid (``workflows.fos``: the search over F, the verdicts
+and the FOS).  Protocols (:meth:`StrengthReductionStage.run_at`):
+
+- ``quasi_static``: the reduced strength at once, then dynamic relaxation with local damping
+  (``damping``) at the largest stable step until the unbalanced-force ratio falls below
+  ``tolerance`` (the slope is at rest) or ``duration_s`` (Dawson, Roth & Drescher 1999 in a
+  large-deformation setting);
+- ``ramp``: undamped dynamics with the strength falling linearly in 1/F from full to c / F over
+  ``ramp_time_s`` (in ``RAMP_STEPS`` steps), then held; F <= 1 (a stronger slope) at once;
+- ``sudden``: the reduced strength at once, undamped dynamics.
+
+The scales of a slope (:meth:`StrengthReductionStage.response_time_s`, ``Study.slope_height_m``)
+set the defaults: a run has failed once it moved ``FAILURE_FRACTION_OF_HEIGHT`` of the slope
+height, and stops once it slid ``SLIDE_STOP_FRACTION`` of it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from workflows.fields import StudyError, boolean, integer, number, text
+from workflows.stages.base import ORIGINAL_POSITIONS, StageBase
+
+PROTOCOLS = ("quasi_static", "ramp", "sudden")
+FLOW_RULES = ("associated", "as_declared")
+DEFAULT_QUASI_STATIC_DAMPING = 0.7
+DEFAULT_QUASI_STATIC_TOLERANCE = 1e-5
+DEFAULT_REST_WINDOW_S = 1.0
+DEFAULT_REST_GROWTH = 0.01
+
+FAILURE_FRACTION_OF_HEIGHT = 0.005
+"""Default failure displacement as a fraction of the slope height (``workflows.fos.verdict``)."""
+SLIDE_STOP_FRACTION = 0.1
+"""With early_stop, a run ends once its largest displacement passes this fraction of the slope height."""
+FLOOR_PER_FAILURE = 1000.0
+"""Default displacement floor: the failure displacement over this."""
+
+RAMP_STEPS = 20
+"""A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
+RAMP_RESPONSE_TIMES = 4.0
+"""Default ``ramp_time_s``: this many response times of the slope (at most half of ``duration_s``)."""
+
+MIN_SPACINGS_PER_HEIGHT = 4
+"""A strength-reduction study needs at least this many particle spacings over the slope height."""
+
+
+def _or_default(field: str, default: float) -> property:
+    """The value of a protocol's optional ``field``, or its ``default`` where the file leaves it out."""
+    return property(lambda stage: default if getattr(stage, field) is None else getattr(stage, field),
+                    doc=f"``{field}``, default {default:g}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class StrengthReductionStage(StageBase):
+    """Strength reduction: one run per SRF F from the previous stage's stresses with c / F and
+    tan(phi) / F; the FOS is where the SRF-displacement curve turns up (last stage only)."""
+
+    kind: ClassVar[str] = "strength_reduction"
+    duration_field: ClassVar[str] = "duration_s"
+    snapshotted: ClassVar[bool] = False  # ``python -m workflows.output.paraview OUT`` gives the runs' final states
+    duration_s: float = number(
+        "s", "longest simulated time of each SRF run; with early_stop a run ends once at rest or once it has "
+        f"slid {SLIDE_STOP_FRACTION:.0%} of the slope height", gt=0.0,
+    )
+    protocol: str = text(
+        "how the strength is reduced: `quasi_static`: at once, with local damping, each run until the "
+        "unbalanced force converges (a slope at rest) or the slope slides; `ramp`: gradually over ramp_time_s, "
+        "undamped; `sudden`: at once, undamped (docs/verification.md compares them)",
+        default="quasi_static", choices=PROTOCOLS,
+    )
+    damping: float | None = number(
+        "1", f"*protocol = quasi_static:* local (Cundall) damping factor; default {DEFAULT_QUASI_STATIC_DAMPING:g}",
+        default=None, gt=0.0, lt=1.0,
+    )
+    tolerance: float | None = number(
+        "1", "*protocol = quasi_static:* at rest once the unbalanced-force ratio is below this; default "
+        f"{DEFAULT_QUASI_STATIC_TOLERANCE:g}", default=None, gt=0.0, lt=1.0,
+    )
+    ramp_time_s: float | None = number(
+        "s", "*protocol = ramp:* the strength falls from full to c / F, tan(phi) / F over this time; default "
+        f"{RAMP_RESPONSE_TIMES:g} response times of the slope, {4 * RAMP_RESPONSE_TIMES:g} H_domain / V_s",
+        default=None, gt=0.0,
+    )
+    flow_rule: str = text(
+        "`associated`: the dilation follows the reduced friction, psi_F = phi_F, the flow rule under which limit "
+        "equilibrium and limit analysis give the FOS; `as_declared`: psi_F = min(psi, phi_F) with each "
+        "material's dilation_deg (psi = 0 gives a lower FOS, about 2% at phi = 20 deg)",
+        default="associated", choices=FLOW_RULES,
+    )
+    srf_min: float = number(
+        "1", "first SRF of the sweep; below 1 tests whether the slope stands as built", ge=0.01,
+    )
+    srf_max: float = number("1", "last SRF of the sweep", gt=0.0)
+    srf_step: float = number(
+        "1", "SRF step of the first sweep (refined around the knee afterwards; SRF values are rounded to 1e-4)",
+        ge=0.001,
+    )
+    fos_tolerance: float = number(
+        "1", "refine until the FOS bracket is at most this wide", default=0.01, gt=0.0
+    )
+    max_runs: int = integer("never make more SRF runs than this", default=40, ge=3, le=1000)
+    slope_height_m: float | None = number(
+        "m", "height H of the slope, the scale of failure; default: the relief of the free surface, the highest "
+        "minus the lowest point of the polygon's upper boundary (crest above toe)", default=None, gt=0.0,
+    )
+    failure_displacement_m: float | None = number(
+        "m", "a run whose largest displacement exceeds this has failed: a mechanism formed and moved; "
+        f"default: {FAILURE_FRACTION_OF_HEIGHT:.1%} of the slope height", default=None, gt=0.0,
+    )
+    displacement_floor_m: float | None = number(
+        "m", "displacements below this count as this in the log-scale curve (no mechanism); "
+        f"default: failure_displacement_m / {FLOOR_PER_FAILURE:g}", default=None, gt=0.0,
+    )
+    rest_window_s: float | None = number(
+        "s", "*protocol = ramp or sudden:* at rest: the largest displacement grew by less than rest_growth of "
+        f"itself over the last window, and by less than over the window before; default {DEFAULT_REST_WINDOW_S}",
+        default=None, gt=0.0,
+    )
+    rest_growth: float | None = number(
+        "1", f"*protocol = ramp or sudden:* see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
+        lt=1.0,
+    )
+    early_stop: bool = boolean(
+        f"end a run once it is at rest or once it has slid {SLIDE_STOP_FRACTION:.0%} of the slope height",
+        default=True,
+    )
+
+    def check(self):
+        super().check()
+        if self.srf_max < self.srf_min:
+            raise StudyError("srf_max", f"must be >= srf_min = {self.srf_min:g}, got {self.srf_max:g}")
+        if self.srf_step > self.srf_max - self.srf_min and self.srf_max > self.srf_min:
+            raise StudyError("srf_step", f"must be <= srf_max - srf_min = {self.srf_max - self.srf_min:g}")
+        if (self.srf_max - self.srf_min) / self.srf_step > 200:
+            raise StudyError("srf_step", "gives more than 200 sweep values; use a coarser step (the knee is refined)")
+        if self.elastic:
+            raise StudyError("elastic", "must be false: a strength-reduction stage needs a plastic material")
+        if self.start != ORIGINAL_POSITIONS:
+            raise StudyError("start", "must be 'original_positions': every SRF run starts from the gravity state")
+        applies = {"damping": ("quasi_static",), "tolerance": ("quasi_static",), "ramp_time_s": ("ramp",),
+                   "rest_window_s": ("ramp", "sudden"), "rest_growth": ("ramp", "sudden")}
+        for name, protocols in applies.items():
+            if getattr(self, name) is not None and self.protocol not in protocols:
+                raise StudyError(name, f"applies to protocol = {' or '.join(protocols)} only, not {self.protocol}")
+        if self.protocol != "quasi_static" and self.early_stop and 2 * self.rest_window_s_or_default > self.duration_s:
+            raise StudyError(
+                "rest_window_s",
+                f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s_or_default:g}",
+            )
+        if self.protocol == "ramp" and self.ramp_time_s is not None and self.ramp_time_s >= self.duration_s:
+            raise StudyError("ramp_time_s", f"must be < duration_s = {self.duration_s:g}, got {self.ramp_time_s:g}")
+        if (
+            self.failure_displacement_m is not None
+            and self.displacement_floor_m is not None
+            and self.displacement_floor_m >= self.failure_displacement_m
+        ):
+            raise StudyError("displacement_floor_m", "must be < failure_displacement_m")
+
+    def check_in_study(self, study, index: int) -> None:
+        """The last stage, after a stage that makes the gravity state, in a study with a plastic
+        material, no runout stage and no collapse metrics."""
+        if index != len(study.stages) - 1:
+            raise StudyError(f"stages[{index}].kind", "a strength_reduction stage must be the last stage")
+        if index == 0:
+            raise StudyError(
+                f"stages[{index}].kind",
+                "a strength_reduction stage starts from a gravity state: put a relaxation stage before it",
+            )
+        if not any(m.plastic for m in study.materials):
+            raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
+        if any(stage.kind == "runout" for stage in study.stages):
+            raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
+        if study.metrics is not None:
+            raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
+
+    def check_resolution(self, study) -> None:
+        """StudyError on ``geometry.spacing_m`` when the slope height spans fewer than
+        ``MIN_SPACINGS_PER_HEIGHT`` spacings (no mechanism can form across a handful of particles)."""
+        height = study.slope_height_m
+        if height < MIN_SPACINGS_PER_HEIGHT * study.geometry.spacing_m:
+            raise StudyError(
+                "geometry.spacing_m",
+                f"{study.geometry.spacing_m:g} m: the slope height {height:g} m spans fewer than "
+                f"{MIN_SPACINGS_PER_HEIGHT} spacings; make it at most {height / MIN_SPACINGS_PER_HEIGHT:g} m "
+                "(10 or more spacings give an FOS within a few per cent, docs/verification.md)",
+            )
+
+    # ------------------------------------------------------------------ defaults
+    rest_window_s_or_default = _or_default("rest_window_s", DEFAULT_REST_WINDOW_S)
+    rest_growth_or_default = _or_default("rest_growth", DEFAULT_REST_GROWTH)
+    damping_or_default = _or_default("damping", DEFAULT_QUASI_STATIC_DAMPING)
+    tolerance_or_default = _or_default("tolerance", DEFAULT_QUASI_STATIC_TOLERANCE)
+
+    def failure_m(self, slope_height_m: float) -> float:
+        """``failure_displacement_m``, default ``FAILURE_FRACTION_OF_HEIGHT`` of the slope height."""
+        if self.failure_displacement_m is not None:
+            return self.failure_displacement_m
+        return FAILURE_FRACTION_OF_HEIGHT * slope_height_m
+
+    def floor_m(self, slope_height_m: float) -> float:
+        """``displacement_floor_m``, default the failure displacement / ``FLOOR_PER_FAILURE``."""
+        if self.displacement_floor_m is not None:
+            return self.displacement_floor_m
+        return self.failure_m(slope_height_m) / FLOOR_PER_FAILURE
+
+    @staticmethod
+    def response_time_s(study) -> float:
+        """T = 4 H_domain / V_s, the fundamental period of a soil layer as thick as the domain on a rigid
+        base, with the shear-wave speed V_s = sqrt(G / rho) of the softest material: the time a
+        disturbance takes to cross the slope and come back, twice."""
+        ys = [y for _, y in study.geometry.polygon_m]
+        speed = min(math.sqrt(m.youngs_modulus_pa / (2.0 * (1.0 + m.poisson_ratio)) / m.density_kg_m3)
+                    for m in study.materials)
+        return 4.0 * (max(ys) - min(ys)) / speed
+
+    def ramp_time_s_or_default(self, study) -> float:
+        """``ramp_time_s``, default ``RAMP_RESPONSE_TIMES`` response times, at most half of ``duration_s``."""
+        if self.ramp_time_s is not None:
+            return self.ramp_time_s
+        return min(RAMP_RESPONSE_TIMES * self.response_time_s(study), 0.5 * self.duration_s)
+
+    # ------------------------------------------------------------------ before a run
+    def materials(self, table):
+        """The declared strength: each run reduces it (:meth:`reduced`)."""
+        return table
+
+    def acceleration_m_s2(self, study) -> np.ndarray:
+        """Gravity with the pseudo-static seismic part, which acts in every run."""
+        return study.loads.acceleration_m_s2(study.geometry.polygon_m, strength_reduction=True)
+
+    def reduced(self, table, srf: float):
+        """``table`` with the strength divided by ``srf`` under the stage's flow rule."""
+        return table.with_strength_reduction(srf, associated=self.flow_rule == "associated")
+
+    # ------------------------------------------------------------------ one run
+    def run_at(self, sim, srf: float, study, monitor_nodes, stop):
+        """The run of one SRF value on ``sim`` (set up for the stage) by the stage's protocol (module
+        doc), asking ``stop`` (a ``Simulation`` stop rule) between compiled calls; its TimeSeries."""
+        record = dict(record_interval_s=self.record_interval_s, monitor_nodes=monitor_nodes, stop=stop)
+        declared = sim.particle_materials
+        if self.protocol == "quasi_static":
+            sim.set_materials(self.reduced(declared, srf))
+            return sim.relax(damping=self.damping_or_default, tolerance=self.tolerance_or_default,
+                             max_duration_s=self.duration_s, **record)
+        if self.protocol == "sudden" or srf <= 1.0:  # (ramp) a stronger slope than built: nothing to ramp
+            sim.set_materials(self.reduced(declared, srf))
+            return sim.run(self.duration_s, damping=0.0, **record)
+        ramp_s = self.ramp_time_s_or_default(study)
+        step_s = ramp_s / RAMP_STEPS
+
+        def ramp(time_s: float) -> None:
+            """Set the strength of the ramp step that starts at ``time_s`` (held constant over it)."""
+            fraction = min((time_s + step_s) / ramp_s, 1.0)
+            if time_s < ramp_s:
+                sim.set_materials(self.reduced(declared, 1.0 / (1.0 - fraction * (1.0 - 1.0 / srf))))
+
+        ramp(0.0)
+        return sim.run(self.duration_s, damping=0.0, periodic=(step_s, ramp), **record)

@@ -1,0 +1,55 @@
+"""The kinds of study, and the one way to run any of them.
+
+A study type (``workflows.cases.StudyType``) makes its cases, says how they run (its
+``Placement``), and brings their outcomes together:
+
+- ``single.SingleStudy``: a study without ``[sweep]``, one case in the output folder;
+- ``sweep.study_type.SweepStudy``: a study with ``[sweep]``, a case per combination of the
+  axes' values, and ``study.nc``.
+
+A probabilistic study (Monte Carlo: cases drawn from random variables and fields, reduced to a
+probability of failure) is the next type: a module of its own and a line in :data:`STUDY_TYPES`.
+:func:`run_study` asks the study for its type once, checks it, makes its cases, computes them
+with the one case runner (``workflows.cases.run_cases``) and concludes.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from workflows.cases import RunOptions, StudyType, run_cases
+from workflows.progress import Progress
+from workflows.single import SingleStudy
+from workflows.study import Study
+from workflows.sweep.study_type import SweepStudy
+
+STUDY_TYPES: tuple[type[StudyType], ...] = (SweepStudy, SingleStudy)
+"""Every study type, asked in this order whether a study is of it (the last takes any study)."""
+
+
+def study_type(study: Study, out_dir: str | Path) -> StudyType:
+    """The type of ``study`` (:data:`STUDY_TYPES`), writing under ``out_dir``."""
+    kind = next(kind for kind in STUDY_TYPES if kind.applies_to(study))
+    return kind(study, Path(out_dir))
+
+
+def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = None,
+              progress: Progress | None = None, kind: StudyType | None = None):
+    """Run ``study`` into ``out_dir`` (module doc); the outcome of its type.
+
+    StudyError (nothing written) for a study that cannot run: a field, the memory, an unreachable
+    scheduler (asked once, before anything is written); the core's DivergenceError where the type
+    stops on it."""
+    options = options or RunOptions()
+    progress = progress or Progress()
+    kind = kind or study_type(study, out_dir)
+    wall_start = time.perf_counter()
+    kind.check(options)
+    if options.scheduler and study.strength_reduction is not None:
+        from workflows.fos.cluster import connect  # dask: once the study is known to be valid
+
+        connect(options.scheduler).close()
+    cases = kind.cases()
+    outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start)
+    return kind.conclude(outcomes, timings, wall_start)

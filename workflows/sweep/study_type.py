@@ -1,0 +1,216 @@
+"""A parameter study: a study with ``[sweep]`` runs once per case, and ``OUT/study.nc`` brings them together.
+
+1. The cases (:func:`workflows.study.reading.sweep_cases`) are checked before anything runs: a
+   strength-reduction case's resolution, the memory of the largest.  Strength-reduction cases that
+   would compute the same thing (equal ``fos.keys.case_key``, e.g. a swept field no stage uses) are
+   computed once.
+2. Each case to compute gets ``OUT/cases/<case>/`` with its study text ``case.toml``; its files are
+   kept there exactly as a single study keeps them (reused by the next invocation while their keys
+   hold).  Strength-reduction cases all run on one cluster (``workflows.cases``: gravity as tasks,
+   no barrier between cases, each ``summary.nc`` as soon as its search is done, no figures); other
+   cases run their stages in this process one after another.  A case that diverges is recorded
+   and the sweep goes on.
+3. ``OUT/study.nc`` and the design charts are written last (``sweep.results``, ``sweep.figures``):
+   a sweep that stopped early leaves no ``study.nc`` (the one of an earlier invocation is removed
+   at the start), and the same command resumes it.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from spfem_core.divergence import DivergenceError
+from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.memory_guard import check_memory, estimated_particles
+from workflows.output.stage_file import result_paths
+from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
+from workflows.study import Study, StudyError
+from workflows.study.reading import SweepCase, sweep_cases
+from workflows.sweep.results import (
+    CASE_TEXT_NAME,
+    CASES_FOLDER,
+    COLLAPSE_SCALARS,
+    DIVERGED_CASE,
+    DONE,
+    RUNOUT_SCALARS,
+    STUDY_FILE_NAME,
+    CaseResult,
+    StageCaseResult,
+    case_result,
+    diverged_result,
+    runout_stage_names,
+    stage_sweep_dataset,
+    study_dataset,
+)
+
+
+@dataclass
+class SweepOutcome:
+    """What a sweep of a strength-reduction study did and found."""
+
+    out_dir: Path
+    study_path: Path  # OUT/study.nc
+    cases: list[SweepCase]
+    results: dict[str, CaseResult]  # by case id
+    n_distinct: int
+    runs_made: int  # SRF runs computed by this invocation
+    runs_reused: int  # SRF runs read back from an earlier invocation
+    gravity_computed: int  # gravity states relaxed by this invocation (cases sharing a gravity key share one)
+    timings_s: dict[str, float] = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
+
+
+@dataclass
+class StageSweepOutcome:
+    """What a sweep of a stage study did and found."""
+
+    out_dir: Path
+    study_path: Path
+    cases: list[SweepCase]
+    results: dict[str, StageCaseResult]  # by case id
+    runout_stages: list[str]
+    timings_s: dict[str, float] = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
+
+
+class SweepStudy(StudyType):
+    """A study with ``[sweep]`` (module doc)."""
+
+    placement = Placement(gravity_in_process=False, figures=False, quiet_cases=True, keep_going=True)
+
+    @staticmethod
+    def applies_to(study: Study) -> bool:
+        return study.sweep is not None
+
+    @property
+    def fos(self) -> bool:
+        return self.study.strength_reduction is not None
+
+    def check(self, options: RunOptions) -> None:
+        """Each strength-reduction case's resolution; the memory of the largest case (StudyError)."""
+        self.sweep_cases = sweep_cases(self.study)
+        if self.fos:
+            for case in self.sweep_cases:
+                try:
+                    case.study.strength_reduction.check_resolution(case.study)
+                except StudyError as error:
+                    raise StudyError("sweep", f"the case {case.case_id.replace('__', ', ')}: {error}") from None
+        largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
+        processes = (options.workers if not options.scheduler else 1) if self.fos else 1
+        check_memory(largest.study, processes=processes, limit_bytes=options.max_memory_bytes)
+
+    def cases(self) -> list[Case]:
+        """A folder and ``case.toml`` per case to compute (module doc, steps 1-2); ``study.nc`` of an
+        earlier invocation removed."""
+        make_output_folder(self.out_dir / CASES_FOLDER)
+        (self.out_dir / STUDY_FILE_NAME).unlink(missing_ok=True)  # a stopped sweep must not show an old one
+        self.same_as = {case.case_id: case.case_id for case in self.sweep_cases}  # case id -> whose files it has
+        distinct = self.sweep_cases
+        if self.fos:
+            from workflows.fos.keys import case_key  # (hashes the core's sources: not for the study reader)
+
+            first_of: dict[str, SweepCase] = {}
+            for case in self.sweep_cases:
+                self.same_as[case.case_id] = first_of.setdefault(case_key(case.study), case).case_id
+            distinct = list(first_of.values())
+        cases = []
+        for case in distinct:
+            folder = self.out_dir / CASES_FOLDER / case.case_id
+            make_output_folder(folder)
+            write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
+            cases.append(Case(case.study, folder, case.case_id, case.position, case.values))
+        return cases
+
+    def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
+        """``OUT/study.nc`` and the design charts from the cases' outcomes (module doc, step 3)."""
+        if self.fos:
+            return self._conclude_fos(outcomes, timings, wall_start)
+        return self._conclude_stages(outcomes, wall_start)
+
+    def _conclude_fos(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> SweepOutcome:
+        results = {}
+        for case_id, outcome in outcomes.items():
+            if isinstance(outcome, DivergenceError):
+                results[case_id] = diverged_result(f"the gravity stage diverged: {outcome}", 0)
+            else:
+                results[case_id] = case_result(outcome)
+        by_id = {case_id: results[original] for case_id, original in self.same_as.items()}
+        study_path = self.out_dir / STUDY_FILE_NAME
+        dataset = study_dataset(self.study, self.sweep_cases, by_id, self.same_as, len(outcomes))
+        write_dataset(dataset, study_path)
+        figures = []
+        if self.study.output.figures:
+            from workflows.sweep.figures import draw_sweep_figures  # matplotlib only when drawing
+
+            figures = draw_sweep_figures(self.out_dir, dataset)
+        runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
+                for record in outcome.runs]
+        runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
+        gravity_computed = sum(outcome.timings_s["gravity"] > 0.0 for outcome in outcomes.values()
+                               if not isinstance(outcome, DivergenceError))
+        timings_s = {"cases_elapsed": timings.cases_elapsed, "gravity_worker": timings.gravity_worker,
+                     "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
+        return SweepOutcome(self.out_dir, study_path, self.sweep_cases, by_id, len(outcomes), runs_made,
+                            len(runs) - runs_made, gravity_computed, timings_s, figures)
+
+    def _conclude_stages(self, outcomes: dict, wall_start: float) -> StageSweepOutcome:
+        results = {}
+        for case in self.sweep_cases:
+            outcome = outcomes[case.case_id]
+            if isinstance(outcome, DivergenceError):
+                results[case.case_id] = StageCaseResult(DIVERGED_CASE, str(outcome), 0, {}, {}, True)
+            else:
+                results[case.case_id] = _read_case(case.study, self.out_dir / CASES_FOLDER / case.case_id,
+                                                   ran=not outcome.up_to_date)
+        study_path = self.out_dir / STUDY_FILE_NAME
+        dataset = stage_sweep_dataset(self.study, self.sweep_cases, results)
+        write_dataset(dataset, study_path)
+        figures = []
+        if self.study.output.figures and runout_stage_names(self.study):
+            from workflows.sweep.figures import draw_runout_sweep  # matplotlib only when drawing
+
+            figures = draw_runout_sweep(self.out_dir, dataset)
+        return StageSweepOutcome(self.out_dir, study_path, self.sweep_cases, results, runout_stage_names(self.study),
+                                 {"total": time.perf_counter() - wall_start}, figures)
+
+    def report(self, outcome, quiet: bool, study_file) -> Report:
+        from workflows.sweep.report import stage_table_lines, table_lines
+
+        wrote = (f"wrote {outcome.study_path}, {outcome.out_dir / CASES_FOLDER}/"
+                 + "".join(f", {path.name}" for path in outcome.figures))
+        if not self.fos:
+            warnings = [f"warning: case {case.case_id}: {outcome.results[case.case_id].message}"
+                        for case in outcome.cases if outcome.results[case.case_id].message]
+            ran = sum(result.ran for result in outcome.results.values())
+            header = (f"{self.study.name}: {len(outcome.cases)} cases, {ran} run, {len(outcome.cases) - ran} up to "
+                      f"date, wall time {outcome.timings_s['total']:.1f} s")
+            table = stage_table_lines(outcome)
+            return Report(table if quiet else [header, *table, wrote], warnings)
+        table = table_lines(outcome.cases, outcome.results)
+        if quiet:
+            return Report(table)
+        reused = f", {outcome.runs_reused} reused" if outcome.runs_reused else ""
+        same = (f" ({len(outcome.cases) - outcome.n_distinct} identical to another)"
+                if outcome.n_distinct < len(outcome.cases) else "")
+        header = (f"{self.study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
+                  f"wall time {outcome.timings_s['total']:.1f} s")
+        return Report([header, *table, wrote])
+
+
+def _read_case(study: Study, folder: Path, ran: bool) -> StageCaseResult:
+    """The metrics of a finished stage case from its stage files."""
+    paths = dict(zip((stage.name for stage in study.stages), result_paths(study, folder)))
+    runout = {}
+    for name in runout_stage_names(study):
+        with xr.open_dataset(paths[name]) as ds:
+            runout[name] = {key: float(ds[key]) for key in RUNOUT_SCALARS}
+    with xr.open_dataset(paths[study.stages[-1].name]) as last:
+        n_particles = int(last.sizes.get("particle", 0))
+        collapse = ({key: float(last[key]) if key in last else np.nan for key in COLLAPSE_SCALARS}
+                    if study.metrics is not None else {})
+    return StageCaseResult(DONE, "", n_particles, runout, collapse, ran)

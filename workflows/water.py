@@ -1,0 +1,154 @@
+"""``[water]``: ground water, drained and steady, and what it does to the scene.
+
+- **Pore pressure** from a piezometric line y_w(x) (the study's, or a material's own perched
+  line), u = gamma_w max(y_w(x) - y, 0), evaluated by the core at the particles' positions
+  (``spfem_core.external_forces``); or from ``ru``, u = ru sigma_v0, carried by the particle:
+  sigma_v0 = g int_y^{y_s(x)} rho dy, the weight of the column above its initial position up to
+  the ground surface y_s (the midpoint rule on ``OVERBURDEN_SAMPLES`` points);
+- **weight**: a material's saturated density at or below its piezometric line, its density above;
+- **ponded water** at ``pond_level_m`` loads the current boundary (the core, ``external_forces``).
+
+The line is fixed in space while the ground deforms.  :func:`scene_fields` gives the scene its
+water; a stage may change it (``workflows.stages.base.StageBase.water``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from spfem_core.geometry import surface_height_m
+from workflows.fields import Record, StudyError, number, polyline
+
+OVERBURDEN_SAMPLES = 64
+"""Points per particle along the vertical to the surface when integrating the overburden (ru)."""
+
+LEVEL_SPAN_M = 1e9
+"""A horizontal piezometric level is the line from -LEVEL_SPAN_M to +LEVEL_SPAN_M: it spans any domain."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Water(Record):
+    """Ground water, drained and steady: a piezometric line (or ru) sets the pore pressure in the ground,
+    ponded water loads its surface.  The line is fixed in space while the ground deforms."""
+
+    unit_weight_n_m3: float = number("N m-3", "unit weight gamma_w of water", default=9810.0, gt=0.0)
+    phreatic_line_m: tuple | None = polyline(
+        "m", "piezometric line [[x, y], ...], x increasing, spanning the domain: u = gamma_w (y_line - y) below "
+        "it, 0 above; give phreatic_line_m, phreatic_level_m or ru", default=None,
+    )
+    phreatic_level_m: float | None = number(
+        "m", "a horizontal piezometric line at this height, instead of phreatic_line_m", default=None,
+    )
+    ru: float | None = number(
+        "1", "pore pressure ratio: u = ru sigma_v0, the vertical total stress of the overburden at the "
+        "particle's initial position (carried by the particle)", default=None, ge=0.0, lt=1.0,
+    )
+    pond_level_m: float | None = number(
+        "m", "level of water standing on the ground surface: the submerged surface carries gamma_w (level - y) "
+        "normal to it, on the current boundary; default: none", default=None,
+    )
+
+    def check(self):
+        given = [name for name in ("phreatic_line_m", "phreatic_level_m", "ru") if getattr(self, name) is not None]
+        if len(given) > 1:
+            raise StudyError(given[1], f"give one of phreatic_line_m, phreatic_level_m and ru, not {given[0]} too")
+        if not given and self.pond_level_m is None:
+            raise StudyError("phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m")
+
+    @property
+    def phreatic_line(self) -> tuple | None:
+        """The piezometric line as points, or None (a level spans any domain: :data:`LEVEL_SPAN_M`)."""
+        if self.phreatic_level_m is not None:
+            return level_line(self.phreatic_level_m)
+        return self.phreatic_line_m
+
+
+def level_line(level_m: float) -> tuple:
+    """The horizontal piezometric line at ``level_m``."""
+    return ((-LEVEL_SPAN_M, level_m), (LEVEL_SPAN_M, level_m))
+
+
+def phreatic_lines(study, node_material: np.ndarray) -> tuple[tuple, np.ndarray]:
+    """(the piezometric lines as (n_points, 2) arrays, the line of every particle: its material's own,
+    else the study's, else -1)."""
+    lines, material_line = [], np.full(len(study.materials), -1, dtype=np.int64)
+    water = study.water
+    if water is not None and water.phreatic_line is not None:
+        lines.append(np.array(water.phreatic_line))
+        material_line[:] = 0
+    for i, material in enumerate(study.materials):
+        if material.phreatic_line_m is not None:
+            material_line[i] = len(lines)
+            lines.append(np.array(material.phreatic_line_m))
+    return tuple(lines), material_line[node_material]
+
+
+def study_water(study, node_material: np.ndarray):
+    """(piezometric lines, line of each particle, pond level or None) of the study: what a stage
+    has unless it changes the water."""
+    lines, node_line = phreatic_lines(study, node_material)
+    return lines, node_line, None if study.water is None else study.water.pond_level_m
+
+
+def particle_densities(study, node_xy_m: np.ndarray, node_material: np.ndarray) -> np.ndarray | None:
+    """Density of every particle (kg/m3): its material's saturated density at or below its piezometric
+    line, its density above; None when no material has a saturated density."""
+    if all(m.saturated_density_kg_m3 is None for m in study.materials):
+        return None
+    dry = np.array([m.density_kg_m3 for m in study.materials])
+    wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
+                    for m in study.materials])
+    lines, node_line = phreatic_lines(study, node_material)
+    below = np.zeros(node_xy_m.shape[0], dtype=bool)
+    for i, line in enumerate(lines):
+        on = node_line == i
+        below[on] = node_xy_m[on, 1] <= np.interp(node_xy_m[on, 0], line[:, 0], line[:, 1])
+    return np.where(below, wet[node_material], dry[node_material])
+
+
+def ru_pore_pressure_pa(study, node_xy_m: np.ndarray, material_at, gravity_m_s2: float) -> np.ndarray:
+    """u = ru sigma_v0 (Pa) of every particle (module doc), with ``material_at(points)`` giving the
+    material row of points."""
+    top = surface_height_m(study.geometry.polygon_m, node_xy_m[:, 0])
+    depth = np.maximum(np.nan_to_num(top - node_xy_m[:, 1]), 0.0)
+    fractions = (np.arange(OVERBURDEN_SAMPLES) + 0.5) / OVERBURDEN_SAMPLES
+    sample_y = node_xy_m[:, 1:2] + depth[:, None] * fractions[None, :]
+    points = np.stack([np.repeat(node_xy_m[:, 0], OVERBURDEN_SAMPLES), sample_y.ravel()], axis=1)
+    density = np.array([m.density_kg_m3 for m in study.materials])[material_at(points)]
+    overburden = gravity_m_s2 * density.reshape(-1, OVERBURDEN_SAMPLES).mean(axis=1) * depth
+    return study.water.ru * overburden
+
+
+def scene_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray, material_at) -> dict:
+    """Keyword arguments of ``spfem_core.scene.Scene`` for the study's water (empty without ``[water]``
+    and without a material's own piezometric line); saturated densities as a per-particle density."""
+    water = study.water
+    if water is None and all(m.phreatic_line_m is None for m in study.materials):
+        return {}
+    lines, node_line = phreatic_lines(study, node_material)
+    fields = dict(phreatic_lines_m=lines, node_phreatic_line=node_line)
+    density = particle_densities(study, node_xy_m, node_material)
+    if density is not None:
+        fields["node_properties"] = {"density_kg_m3": density}
+    if water is None:
+        return fields
+    fields.update(water_unit_weight_n_m3=water.unit_weight_n_m3, pond_level_m=water.pond_level_m)
+    if water.ru is not None:
+        g = float(np.hypot(*study.loads.gravity_m_s2))
+        fields["node_pore_pressure_pa"] = ru_pore_pressure_pa(study, node_xy_m, material_at, g)
+    return fields
+
+
+def draw_water(ax, study, x_m: np.ndarray, ground_m: np.ndarray) -> None:
+    """The piezometric lines (dashed, below the ground) and ponded water (solid) in blue over a
+    figure of the domain, on the abscissae ``x_m`` where the ground is at ``ground_m``."""
+    water = study.water
+    lines = [] if water is None or water.phreatic_line is None else [water.phreatic_line]
+    lines += [m.phreatic_line_m for m in study.materials if m.phreatic_line_m is not None]
+    for line in map(np.array, lines):
+        ax.plot(x_m, np.minimum(np.interp(x_m, line[:, 0], line[:, 1]), ground_m), "--", color="tab:blue", lw=1.2)
+    if water is not None and water.pond_level_m is not None:
+        ax.plot(x_m, np.where(ground_m < water.pond_level_m, water.pond_level_m, np.nan), "-", color="tab:blue",
+                lw=1.5)
