@@ -22,9 +22,9 @@ psi and their reduction) and ``tension_cutoff``.  Adding a model: its module her
 from __future__ import annotations
 
 from spfem_core.jit import inline_kernel
-from spfem_core.materials import drucker_prager, elastic, mohr_coulomb
+from spfem_core.materials import drucker_prager, elastic, mohr_coulomb, tresca
 
-MODELS = (elastic, drucker_prager, mohr_coulomb)
+MODELS = (elastic, drucker_prager, mohr_coulomb, tresca)
 """Every material model, in the order of their codes."""
 
 MODEL_CODES = {model.NAME: model.CODE for model in MODELS}
@@ -44,4 +44,6 @@ def plastic_update(model, stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, 
     if model == mohr_coulomb.CODE:
         return mohr_coulomb.update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row,
                                    plastic_strain)
+    if model == tresca.CODE:
+        return tresca.update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row, plastic_strain)
     return 0.0, 0.0  # no other code: MaterialTable admits the codes of MODELS only

@@ -12,10 +12,12 @@ from workflows.materials.base import MaterialBase
 from workflows.materials.drucker_prager import DruckerPragerMaterial
 from workflows.materials.elastic import ElasticMaterial
 from workflows.materials.mohr_coulomb import MohrCoulombMaterial
+from workflows.materials.tresca import TrescaMaterial
 
 MATERIAL_MODELS: dict[str, type[MaterialBase]] = {
-    model.model: model for model in (ElasticMaterial, DruckerPragerMaterial, MohrCoulombMaterial)
+    model.model: model for model in (ElasticMaterial, DruckerPragerMaterial, MohrCoulombMaterial, TrescaMaterial)
 }
 """Every material model of a study file, by its ``model`` name."""
 
-__all__ = ["MATERIAL_MODELS", "MaterialBase", "DruckerPragerMaterial", "ElasticMaterial", "MohrCoulombMaterial"]
+__all__ = ["MATERIAL_MODELS", "MaterialBase", "DruckerPragerMaterial", "ElasticMaterial", "MohrCoulombMaterial",
+           "TrescaMaterial"]

@@ -1,0 +1,128 @@
+"""Tresca, perfectly plastic: an undrained clay of undrained shear strength c_u, plane strain.
+
+With the principal stresses s1 >= s2 >= s3,
+
+    f = s1 - s3 - 2 c_u,        flow N = e1 - e3 (associated: no plastic volume change).
+
+The return is closed-form and keeps the mean stress p = (s1 + s2 + s3) / 3 (the flow is
+deviatoric), so the returned principal stresses follow from f = 0 alone (de Souza Neto, Peric &
+Owen 2008, section 8.1, box 8.1):
+
+1. main plane:       r1 = m + c_u, r3 = m - c_u, r2 = s2,   m = (s1 + s3) / 2;  valid if r1 >= s2 >= r3;
+2. else an edge:     s2 above r1: r1 = r2 = p + 2 c_u / 3, r3 = p - 4 c_u / 3  (s1 = s2, planes 1-3 and 2-3);
+                     s2 below r3: r1 = p + 4 c_u / 3, r2 = r3 = p - 2 c_u / 3  (s2 = s3, planes 1-3 and 1-2).
+
+There is no apex: the strength does not depend on the pressure.  The principal values go back
+along the trial's principal directions.  An optional Rankine cut-off (``tension_cutoff``) caps
+the largest principal stress at the tensile strength.  Strength reduction divides c_u and the
+tensile strength by F.  It is Mohr-Coulomb with phi = psi = 0 (``tests/test_tresca.py`` holds
+the two against each other).  Conventions of the return map: ``return_map``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from spfem_core.jit import inline_kernel, kernel
+from spfem_core.materials.properties import Property
+from spfem_core.materials.return_map import (
+    YIELD_RTOL,
+    elastic_trial,
+    mohr_circle,
+    plastic_measures,
+    principal_direction,
+    store_principal,
+)
+from spfem_core.materials.tension_cutoff import after_shear_return
+
+NAME = "tresca"
+CODE = 3
+
+PROPERTIES = (
+    Property("undrained_shear_strength_pa", ge=0.0),
+    Property("tensile_strength_pa", default=math.inf, ge=0.0, inf_allowed=True),
+)
+"""c_u (Pa) and the tensile strength sigma_t (Pa; inf: no cut-off)."""
+
+CONSTANTS = ("undrained_shear_strength_pa", "tensile_strength_pa")
+"""Named columns of the kernel constants."""
+UNDRAINED_SHEAR_STRENGTH, TENSILE_STRENGTH = range(len(CONSTANTS))
+
+
+def check(properties: dict) -> str | None:
+    """Tresca's properties need no cross-check."""
+    return None
+
+
+def constants(properties: dict, n_rows: int) -> tuple:
+    """The columns of :data:`CONSTANTS`: the properties themselves."""
+    return properties["undrained_shear_strength_pa"], properties["tensile_strength_pa"]
+
+
+def reduced(properties: dict, srf: float, associated: bool) -> dict:
+    """c_u,F = c_u / F and sigma_t,F = sigma_t / F (the flow is associated anyway)."""
+    return properties | {"undrained_shear_strength_pa": properties["undrained_shear_strength_pa"] / srf,
+                         "tensile_strength_pa": properties["tensile_strength_pa"] / srf}
+
+
+@kernel
+def tresca_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, undrained_strength):
+    """Elastic trial and return of row k_row to Tresca (module doc), in place.  Returns (equivalent
+    plastic strain increment, dissipation in J/m^3)."""
+    g = shear_modulus
+    bulk = lame_lambda + 2.0 * g / 3.0
+    txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
+    centre, half_diff, radius = mohr_circle(txx, tyy, txy)
+    sa = centre + radius
+    sb = centre - radius
+    if tzz >= sa:
+        order = 0  # (zz, a, b)
+        s1, s2, s3 = tzz, sa, sb
+    elif tzz >= sb:
+        order = 1  # (a, zz, b)
+        s1, s2, s3 = sa, tzz, sb
+    else:
+        order = 2  # (a, b, zz)
+        s1, s2, s3 = sa, sb, tzz
+    two_cu = 2.0 * undrained_strength
+    f = (s1 - s3) - two_cu
+    if f <= YIELD_RTOL * (abs(s1) + abs(s3) + two_cu):
+        stress[k_row, 0] = txx
+        stress[k_row, 1] = tyy
+        stress[k_row, 2] = tzz
+        stress[k_row, 3] = txy
+        return 0.0, 0.0
+    mid = 0.5 * (s1 + s3)
+    r1 = mid + undrained_strength
+    r2 = s2
+    r3 = mid - undrained_strength
+    if s2 > r1 or s2 < r3:
+        p = (s1 + s2 + s3) / 3.0
+        if s2 > r1:  # s1 = s2
+            r1 = p + two_cu / 3.0
+            r2 = r1
+            r3 = p - 2.0 * two_cu / 3.0
+        else:  # s2 = s3
+            r1 = p + 2.0 * two_cu / 3.0
+            r2 = p - two_cu / 3.0
+            r3 = r2
+    if order == 0:
+        na, nb, nz = r2, r3, r1
+    elif order == 1:
+        na, nb, nz = r1, r3, r2
+    else:
+        na, nb, nz = r1, r2, r3
+    cos_2t, sin_2t = principal_direction(half_diff, txy, radius)
+    store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t)
+    return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
+
+
+@inline_kernel
+def update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row, plastic_strain):
+    """The stress update of particle k with the constants of row ``row`` of ``params``: the Tresca
+    return, then the Rankine cut-off where the tensile strength is finite.  Returns (equivalent
+    plastic strain increment, dissipation in J/m^3); ``plastic_strain`` is not used."""
+    d_eq, work = tresca_update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
+                               params[row, UNDRAINED_SHEAR_STRENGTH])
+    return after_shear_return(d_eq, work, stress, k, False, params[row, TENSILE_STRENGTH], lame_lambda,
+                              shear_modulus)
