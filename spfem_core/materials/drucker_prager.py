@@ -18,7 +18,7 @@ import numpy as np
 from spfem_core.jit import inline_kernel, kernel
 from spfem_core.materials.frictional import FRICTIONAL_PROPERTIES, check_dilation, reduce_frictional
 from spfem_core.materials.properties import Property
-from spfem_core.materials.return_map import YIELD_RTOL, elastic_trial, plastic_measures
+from spfem_core.materials.return_map import YIELD_RTOL, accept_trial, elastic_trial, plastic_measures
 from spfem_core.materials.tension_cutoff import after_shear_return
 
 NAME = "drucker_prager"
@@ -173,11 +173,7 @@ def drucker_prager_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modul
     pressure_term = 3.0 * alpha * p
     f = pressure_term + sqrt_j2 - k_yield
     if f <= YIELD_RTOL * (abs(p) + abs(pressure_term) + sqrt_j2 + k_yield):
-        stress[k_row, 0] = txx
-        stress[k_row, 1] = tyy
-        stress[k_row, 2] = tzz
-        stress[k_row, 3] = txy
-        return 0.0, 0.0
+        return accept_trial(stress, k_row, txx, tyy, tzz, txy)
     dlambda = f / (g + 9.0 * bulk * alpha * alpha_psi)
     p_new = p - 3.0 * bulk * alpha_psi * dlambda
     # sqrt(J2_new) = sqrt(J2_tr) - G dlambda, taken from f(sigma_new) = 0 itself so that the

@@ -33,11 +33,11 @@ from spfem_core.materials.frictional import (
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import (
     YIELD_RTOL,
+    accept_trial,
     elastic_trial,
-    mohr_circle,
     plastic_measures,
-    principal_direction,
-    store_principal,
+    sorted_principal,
+    store_sorted,
 )
 from spfem_core.materials.tension_cutoff import after_shear_return
 
@@ -155,26 +155,11 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
     txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
-    centre, half_diff, radius = mohr_circle(txx, tyy, txy)
-    sa = centre + radius  # major in-plane
-    sb = centre - radius  # minor in-plane
-    if tzz >= sa:
-        order = 0  # (zz, a, b)
-        s1, s2, s3 = tzz, sa, sb
-    elif tzz >= sb:
-        order = 1  # (a, zz, b)
-        s1, s2, s3 = sa, tzz, sb
-    else:
-        order = 2  # (a, b, zz)
-        s1, s2, s3 = sa, sb, tzz
+    s1, s2, s3, order, half_diff, radius = sorted_principal(txx, tyy, tzz, txy)
     two_c_cos = 2.0 * cohesion * cos_phi
     f = (s1 - s3) + (s1 + s3) * sin_phi - two_c_cos
     if f <= YIELD_RTOL * (abs(s1) + abs(s3) + two_c_cos):
-        stress[k_row, 0] = txx
-        stress[k_row, 1] = tyy
-        stress[k_row, 2] = tzz
-        stress[k_row, 3] = txy
-        return 0.0, 0.0
+        return accept_trial(stress, k_row, txx, tyy, tzz, txy)
 
     sin_prod = sin_phi * sin_psi
     a = 4.0 * g + 4.0 * (g / 3.0 + bulk) * sin_prod
@@ -215,14 +200,7 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
             r2 = r1
             r3 = r1
     # back to (xx, yy, zz, xy) along the trial's principal directions
-    if order == 0:
-        na, nb, nz = r2, r3, r1
-    elif order == 1:
-        na, nb, nz = r1, r3, r2
-    else:
-        na, nb, nz = r1, r2, r3
-    cos_2t, sin_2t = principal_direction(half_diff, txy, radius)
-    store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t)
+    store_sorted(stress, k_row, r1, r2, r3, order, half_diff, txy, radius)
     return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
 
 

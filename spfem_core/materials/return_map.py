@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import inner_kernel
+from spfem_core.jit import inline_kernel, inner_kernel
 
 YIELD_RTOL = 1e-12
 """Relative tolerance of the yield check: f <= YIELD_RTOL * scale counts as elastic."""
@@ -61,6 +61,16 @@ def elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus):
     )
 
 
+@inline_kernel
+def accept_trial(stress, k_row, txx, tyy, tzz, txy):
+    """Write an admissible trial stress to row ``k_row`` as it is: no plastic strain, no dissipation, (0, 0)."""
+    stress[k_row, 0] = txx
+    stress[k_row, 1] = tyy
+    stress[k_row, 2] = tzz
+    stress[k_row, 3] = txy
+    return 0.0, 0.0
+
+
 @inner_kernel
 def mohr_circle(sxx, syy, sxy):
     """(centre, half difference, radius) of the in-plane Mohr circle of (xx, yy, xy): the in-plane
@@ -92,3 +102,31 @@ def store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t):
     stress[k_row, 2] = nz
     stress[k_row, 3] = nxy
     return nxx, nyy, nxy
+
+
+@inline_kernel
+def sorted_principal(sxx, syy, szz, sxy):
+    """The principal stresses of (xx, yy, zz, xy) sorted s1 >= s2 >= s3: (s1, s2, s3, order,
+    half difference, radius), ``order`` saying where zz stands (0: first, 1: second, 2: third)."""
+    centre, half_diff, radius = mohr_circle(sxx, syy, sxy)
+    sa = centre + radius  # major in-plane
+    sb = centre - radius  # minor in-plane
+    if szz >= sa:
+        return szz, sa, sb, 0, half_diff, radius  # (zz, a, b)
+    if szz >= sb:
+        return sa, szz, sb, 1, half_diff, radius  # (a, zz, b)
+    return sa, sb, szz, 2, half_diff, radius  # (a, b, zz)
+
+
+@inline_kernel
+def store_sorted(stress, k_row, r1, r2, r3, order, half_diff, sxy, radius):
+    """Write sorted principal values r1 >= r2 >= r3 back to row ``k_row`` along the directions of the
+    state :func:`sorted_principal` sorted (its ``order``, half difference, xy and radius)."""
+    if order == 0:
+        na, nb, nz = r2, r3, r1
+    elif order == 1:
+        na, nb, nz = r1, r3, r2
+    else:
+        na, nb, nz = r1, r2, r3
+    cos_2t, sin_2t = principal_direction(half_diff, sxy, radius)
+    store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t)

@@ -27,11 +27,11 @@ from spfem_core.jit import inline_kernel, kernel
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import (
     YIELD_RTOL,
+    accept_trial,
     elastic_trial,
-    mohr_circle,
     plastic_measures,
-    principal_direction,
-    store_principal,
+    sorted_principal,
+    store_sorted,
 )
 from spfem_core.materials.tension_cutoff import after_shear_return
 
@@ -72,26 +72,11 @@ def tresca_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, undr
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
     txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
-    centre, half_diff, radius = mohr_circle(txx, tyy, txy)
-    sa = centre + radius
-    sb = centre - radius
-    if tzz >= sa:
-        order = 0  # (zz, a, b)
-        s1, s2, s3 = tzz, sa, sb
-    elif tzz >= sb:
-        order = 1  # (a, zz, b)
-        s1, s2, s3 = sa, tzz, sb
-    else:
-        order = 2  # (a, b, zz)
-        s1, s2, s3 = sa, sb, tzz
+    s1, s2, s3, order, half_diff, radius = sorted_principal(txx, tyy, tzz, txy)
     two_cu = 2.0 * undrained_strength
     f = (s1 - s3) - two_cu
     if f <= YIELD_RTOL * (abs(s1) + abs(s3) + two_cu):
-        stress[k_row, 0] = txx
-        stress[k_row, 1] = tyy
-        stress[k_row, 2] = tzz
-        stress[k_row, 3] = txy
-        return 0.0, 0.0
+        return accept_trial(stress, k_row, txx, tyy, tzz, txy)
     mid = 0.5 * (s1 + s3)
     r1 = mid + undrained_strength
     r2 = s2
@@ -106,14 +91,7 @@ def tresca_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, undr
             r1 = p + 2.0 * two_cu / 3.0
             r2 = p - two_cu / 3.0
             r3 = r2
-    if order == 0:
-        na, nb, nz = r2, r3, r1
-    elif order == 1:
-        na, nb, nz = r1, r3, r2
-    else:
-        na, nb, nz = r1, r2, r3
-    cos_2t, sin_2t = principal_direction(half_diff, txy, radius)
-    store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t)
+    store_sorted(stress, k_row, r1, r2, r3, order, half_diff, txy, radius)
     return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
 
 
