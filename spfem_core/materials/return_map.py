@@ -71,7 +71,7 @@ def accept_trial(stress, k_row, txx, tyy, tzz, txy):
     return 0.0, 0.0
 
 
-@inner_kernel
+@inline_kernel
 def mohr_circle(sxx, syy, sxy):
     """(centre, half difference, radius) of the in-plane Mohr circle of (xx, yy, xy): the in-plane
     principal values are centre +- radius."""
@@ -80,7 +80,7 @@ def mohr_circle(sxx, syy, sxy):
     return centre, half_diff, math.sqrt(half_diff * half_diff + sxy * sxy)
 
 
-@inner_kernel
+@inline_kernel
 def principal_direction(half_diff, sxy, radius):
     """(cos 2 theta, sin 2 theta) of the major in-plane principal direction; (1, 0) for a point circle."""
     if radius > 0.0:
@@ -88,7 +88,7 @@ def principal_direction(half_diff, sxy, radius):
     return 1.0, 0.0
 
 
-@inner_kernel
+@inline_kernel
 def store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t):
     """Write principal values na, nb (in-plane, along the directions of cos 2 theta, sin 2 theta)
     and nz (out of plane) back to row ``k_row`` as (xx, yy, zz, xy); returns the new (xx, yy, xy)."""
