@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 from spfem_core import simulation
 from workflows.cli import app
+from workflows.materials import MATERIAL_MODELS
 
 REPO = Path(__file__).resolve().parents[1]
 BEAM = (REPO / "studies" / "cantilever_beam.toml").read_text()
@@ -61,8 +62,9 @@ def test_python_dash_m_entry_point(tmp_path):
         text=True,
         cwd=REPO,
     )
+    models = ", ".join(f'"{name}"' for name in MATERIAL_MODELS)
     assert run.returncode == 2
-    assert run.stderr == f'error: {study}: materials[0].model: must be one of "elastic", "drucker_prager", "mohr_coulomb", got "plastic"\n'
+    assert run.stderr == f'error: {study}: materials[0].model: must be one of {models}, got "plastic"\n'
     assert not (tmp_path / "out").exists()
 
 

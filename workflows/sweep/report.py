@@ -62,7 +62,7 @@ STAGE_SWEEP_COLUMNS = (("runout_m", "runout (m)"), ("retrogression_m", "retrogre
 
 
 def stage_table_lines(outcome) -> list[str]:
-    """A fixed-width table of a stage study's sweep (``stage_cases.StageSweepOutcome``): the axis
+    """A fixed-width table of a stage study's sweep (``workflows.sweep.study_type.StageSweepOutcome``): the axis
     values, then per runout stage its runout, retrogression, sliding mass and time to rest (- when still
     moving at the end), the status."""
     labels = list(outcome.cases[0].values)
