@@ -7,19 +7,27 @@ velocity gradient L over a step dt:
     Jaumann:  sigma += w sigma - sigma w
               s_xx += 2 omega s_xy,  s_yy -= 2 omega s_xy,  s_xy += omega (s_yy - s_xx)
     elastic:  sigma += lambda tr(d) I + 2 G d      (``materials.elastic``)
-    plastic:  the elastic trial and return map of the row's model (``materials.plastic_update``)
+    plastic:  the elastic trial and return map of the row's model (``materials.<model>``), then
+              the tension cut-off where the row's tensile strength is finite: the one dispatch
+              on the model code, in :func:`update_stress_range`
 
 Particle k reads row ``material_row[k]`` of the material arrays (``materials.table``).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import prange
 
 from spfem_core.jit import chunk_bounds, inner_kernel, kernel, n_chunks, parallel_inner_kernel
-from spfem_core.materials import elastic, plastic_update
+from spfem_core.materials import drucker_prager, elastic, mohr_coulomb, tresca
+from spfem_core.materials.drucker_prager import drucker_prager_update
 from spfem_core.materials.elastic import elastic_increment
+from spfem_core.materials.mohr_coulomb import mohr_coulomb_update, softened_strength
+from spfem_core.materials.tension_cutoff import tension_cutoff
+from spfem_core.materials.tresca import tresca_update
 
 
 @kernel
@@ -100,8 +108,33 @@ def update_stress_range(
         if model == elastic.CODE:
             elastic_increment(node_stress, k, dxx, dyy, dxy, mat_lambda[row], mat_shear[row])
             continue
-        d_eq, work = plastic_update(model, node_stress, k, dxx, dyy, dxy, mat_lambda[row], mat_shear[row], mat_params,
-                                    row, node_plastic_strain[k])
+        lame_lambda = mat_lambda[row]
+        shear_modulus = mat_shear[row]
+        if model == drucker_prager.CODE:
+            d_eq, work = drucker_prager_update(
+                node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, mat_params[row, drucker_prager.ALPHA],
+                mat_params[row, drucker_prager.K], mat_params[row, drucker_prager.ALPHA_PSI])
+            tensile_strength = mat_params[row, drucker_prager.TENSILE_STRENGTH]
+        elif model == mohr_coulomb.CODE:
+            if mat_params[row, mohr_coulomb.SOFTENING_LAW] == mohr_coulomb.SOFTENING_NONE:
+                d_eq, work = mohr_coulomb_update(
+                    node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, mat_params[row, mohr_coulomb.COHESION],
+                    mat_params[row, mohr_coulomb.SIN_PHI], mat_params[row, mohr_coulomb.COS_PHI],
+                    mat_params[row, mohr_coulomb.SIN_PSI])
+            else:
+                cohesion, sin_phi, cos_phi, sin_psi = softened_strength(mat_params, row, node_plastic_strain[k])
+                d_eq, work = mohr_coulomb_update(node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, cohesion,
+                                                 sin_phi, cos_phi, sin_psi)
+            tensile_strength = mat_params[row, mohr_coulomb.TENSILE_STRENGTH]
+        else:  # tresca: MaterialTable admits the codes of MODELS only
+            d_eq, work = tresca_update(node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
+                                       mat_params[row, tresca.UNDRAINED_SHEAR_STRENGTH])
+            tensile_strength = mat_params[row, tresca.TENSILE_STRENGTH]
+        if tensile_strength < math.inf:
+            d_eq_t, work_t = tension_cutoff(node_stress, k, model == drucker_prager.CODE, tensile_strength,
+                                            lame_lambda, shear_modulus)
+            d_eq += d_eq_t
+            work += work_t
         node_plastic_strain[k] += d_eq
         plastic_work += area * work
     return plastic_work

@@ -15,11 +15,10 @@ import math
 
 import numpy as np
 
-from spfem_core.jit import inline_kernel, kernel
+from spfem_core.jit import kernel
 from spfem_core.materials.frictional import FRICTIONAL_PROPERTIES, check_dilation, reduce_frictional
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import YIELD_RTOL, accept_trial, elastic_trial, plastic_measures
-from spfem_core.materials.tension_cutoff import after_shear_return
 
 NAME = "drucker_prager"
 CODE = 1
@@ -194,13 +193,3 @@ def drucker_prager_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modul
     stress[k_row, 3] = nxy
     return plastic_measures(txx - nxx, tyy - nyy, tzz - nzz, txy - nxy, nxx, nyy, nzz, nxy, bulk, g)
 
-
-@inline_kernel
-def update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row, plastic_strain):
-    """The stress update of particle k with the constants of row ``row`` of ``params``: the return
-    to the cone, then the mean-stress cut-off where the tensile strength is finite.  Returns
-    (equivalent plastic strain increment, dissipation in J/m^3); ``plastic_strain`` is not used."""
-    d_eq, work = drucker_prager_update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
-                                       params[row, ALPHA], params[row, K], params[row, ALPHA_PSI])
-    return after_shear_return(d_eq, work, stress, k, True, params[row, TENSILE_STRENGTH], lame_lambda,
-                              shear_modulus)

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from spfem_core.jit import inline_kernel, inner_kernel, kernel
+from spfem_core.jit import inner_kernel, kernel
 from spfem_core.materials.frictional import (
     FRICTIONAL_PROPERTIES,
     check_dilation,
@@ -33,13 +33,9 @@ from spfem_core.materials.frictional import (
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import (
     YIELD_RTOL,
-    accept_trial,
     elastic_trial,
     plastic_measures,
-    sorted_principal,
-    store_sorted,
 )
-from spfem_core.materials.tension_cutoff import after_shear_return
 
 NAME = "mohr_coulomb"
 CODE = 2
@@ -155,11 +151,28 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
     txx, tyy, tzz, txy = elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, g)
-    s1, s2, s3, order, half_diff, radius = sorted_principal(txx, tyy, tzz, txy)
+    centre = 0.5 * (txx + tyy)
+    half_diff = 0.5 * (txx - tyy)
+    radius = math.sqrt(half_diff * half_diff + txy * txy)
+    sa = centre + radius  # major in-plane
+    sb = centre - radius  # minor in-plane
+    if tzz >= sa:
+        order = 0  # (zz, a, b)
+        s1, s2, s3 = tzz, sa, sb
+    elif tzz >= sb:
+        order = 1  # (a, zz, b)
+        s1, s2, s3 = sa, tzz, sb
+    else:
+        order = 2  # (a, b, zz)
+        s1, s2, s3 = sa, sb, tzz
     two_c_cos = 2.0 * cohesion * cos_phi
     f = (s1 - s3) + (s1 + s3) * sin_phi - two_c_cos
     if f <= YIELD_RTOL * (abs(s1) + abs(s3) + two_c_cos):
-        return accept_trial(stress, k_row, txx, tyy, tzz, txy)
+        stress[k_row, 0] = txx
+        stress[k_row, 1] = tyy
+        stress[k_row, 2] = tzz
+        stress[k_row, 3] = txy
+        return 0.0, 0.0
 
     sin_prod = sin_phi * sin_psi
     a = 4.0 * g + 4.0 * (g / 3.0 + bulk) * sin_prod
@@ -200,23 +213,26 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
             r2 = r1
             r3 = r1
     # back to (xx, yy, zz, xy) along the trial's principal directions
-    store_sorted(stress, k_row, r1, r2, r3, order, half_diff, txy, radius)
+    if order == 0:
+        na, nb, nz = r2, r3, r1
+    elif order == 1:
+        na, nb, nz = r1, r3, r2
+    else:
+        na, nb, nz = r1, r2, r3
+    if radius > 0.0:
+        cos_2t = half_diff / radius
+        sin_2t = txy / radius
+    else:
+        cos_2t = 1.0
+        sin_2t = 0.0
+    new_centre = 0.5 * (na + nb)
+    new_half = 0.5 * (na - nb)
+    nxx = new_centre + new_half * cos_2t
+    nyy = new_centre - new_half * cos_2t
+    nxy = new_half * sin_2t
+    stress[k_row, 0] = nxx
+    stress[k_row, 1] = nyy
+    stress[k_row, 2] = nz
+    stress[k_row, 3] = nxy
     return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
 
-
-@inline_kernel
-def update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row, plastic_strain):
-    """The stress update of particle k (equivalent plastic strain ``plastic_strain`` before the
-    step) with the constants of row ``row`` of ``params``: the return map at the peak or softened
-    strength, then the Rankine cut-off where the tensile strength is finite.  Returns
-    (equivalent plastic strain increment, dissipation in J/m^3)."""
-    if params[row, SOFTENING_LAW] == SOFTENING_NONE:
-        d_eq, work = mohr_coulomb_update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
-                                         params[row, COHESION], params[row, SIN_PHI], params[row, COS_PHI],
-                                         params[row, SIN_PSI])
-    else:
-        cohesion, sin_phi, cos_phi, sin_psi = softened_strength(params, row, plastic_strain)
-        d_eq, work = mohr_coulomb_update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, cohesion, sin_phi,
-                                         cos_phi, sin_psi)
-    return after_shear_return(d_eq, work, stress, k, False, params[row, TENSILE_STRENGTH], lame_lambda,
-                              shear_modulus)

@@ -7,9 +7,7 @@ material with an infinite tensile strength (the default) skips it.  Conventions 
 
 from __future__ import annotations
 
-import math
-
-from spfem_core.jit import inline_kernel, kernel
+from spfem_core.jit import kernel
 from spfem_core.materials.return_map import (
     YIELD_RTOL,
     mohr_circle,
@@ -95,13 +93,3 @@ def tension_cutoff(stress, k_row, mean_stress_cap, tensile_strength, lame_lambda
     nxx, nyy, nxy = store_principal(stress, k_row, sa, sb, sz, cos_2t, sin_2t)
     return plastic_measures(sxx - nxx, syy - nyy, szz - sz, sxy - nxy, nxx, nyy, sz, nxy, bulk, g)
 
-
-@inline_kernel
-def after_shear_return(d_eq, work, stress, k_row, mean_stress_cap, tensile_strength, lame_lambda, shear_modulus):
-    """(d_eq, work) of a shear return with the cut-off's own added, where the tensile strength is
-    finite (a model's update calls it last): :func:`tension_cutoff` of row ``k_row``."""
-    if tensile_strength < math.inf:
-        d_eq_t, work_t = tension_cutoff(stress, k_row, mean_stress_cap, tensile_strength, lame_lambda, shear_modulus)
-        d_eq += d_eq_t
-        work += work_t
-    return d_eq, work

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 
-from spfem_core.jit import inline_kernel, kernel
+from spfem_core.jit import kernel
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import (
     YIELD_RTOL,
@@ -33,7 +33,6 @@ from spfem_core.materials.return_map import (
     sorted_principal,
     store_sorted,
 )
-from spfem_core.materials.tension_cutoff import after_shear_return
 
 NAME = "tresca"
 CODE = 3
@@ -94,13 +93,3 @@ def tresca_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, undr
     store_sorted(stress, k_row, r1, r2, r3, order, half_diff, txy, radius)
     return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
 
-
-@inline_kernel
-def update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, params, row, plastic_strain):
-    """The stress update of particle k with the constants of row ``row`` of ``params``: the Tresca
-    return, then the Rankine cut-off where the tensile strength is finite.  Returns (equivalent
-    plastic strain increment, dissipation in J/m^3); ``plastic_strain`` is not used."""
-    d_eq, work = tresca_update(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
-                               params[row, UNDRAINED_SHEAR_STRENGTH])
-    return after_shear_return(d_eq, work, stress, k, False, params[row, TENSILE_STRENGTH], lame_lambda,
-                              shear_modulus)
