@@ -35,6 +35,8 @@ from spfem_core.materials.return_map import (
     YIELD_RTOL,
     elastic_trial,
     plastic_measures,
+    principal_direction,
+    store_principal,
 )
 
 NAME = "mohr_coulomb"
@@ -219,20 +221,7 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
         na, nb, nz = r1, r3, r2
     else:
         na, nb, nz = r1, r2, r3
-    if radius > 0.0:
-        cos_2t = half_diff / radius
-        sin_2t = txy / radius
-    else:
-        cos_2t = 1.0
-        sin_2t = 0.0
-    new_centre = 0.5 * (na + nb)
-    new_half = 0.5 * (na - nb)
-    nxx = new_centre + new_half * cos_2t
-    nyy = new_centre - new_half * cos_2t
-    nxy = new_half * sin_2t
-    stress[k_row, 0] = nxx
-    stress[k_row, 1] = nyy
-    stress[k_row, 2] = nz
-    stress[k_row, 3] = nxy
+    cos_2t, sin_2t = principal_direction(half_diff, txy, radius)
+    store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t)
     return plastic_measures(s1 - r1, s2 - r2, s3 - r3, 0.0, r1, r2, r3, 0.0, bulk, g)
 
