@@ -216,6 +216,19 @@ class MaterialTable:
                     properties[key][rows] = values
         return dataclasses.replace(self, properties=properties)
 
+    def with_moduli_scaled(self, factor: float) -> "MaterialTable":
+        """Every Young's modulus times ``factor`` (Poisson's ratios kept): in small-strain theory the
+        elastic-plastic stresses of a body under given loads do not change and its displacements
+        are divided by ``factor``."""
+        if not factor > 0:
+            raise ValueError(f"factor: must be > 0, got {factor}")
+        return dataclasses.replace(self, youngs_modulus_pa=self.youngs_modulus_pa * float(factor))
+
+    def softens(self) -> bool:
+        """Whether any row's strength falls with plastic strain (a softening law other than none)."""
+        law = self.properties.get("softening_law")
+        return law is not None and bool(np.any(np.nan_to_num(law) > 0))
+
     def as_elastic(self) -> "MaterialTable":
         """The same table with every material linear elastic (e.g. for a gravity stage)."""
         return dataclasses.replace(self, model=np.full(self.n_rows, elastic.CODE, dtype=np.int64))

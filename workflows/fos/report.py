@@ -40,6 +40,9 @@ def report_lines(outcome) -> list[str]:
     for r in outcome.runs:
         lines.append(f"{r.srf:8.4f}  {r.max_displacement_m:12.4g}  {r.stop_time_s:9.3g}  {r.status}")
     lines.append(outcome.verdict)
+    if outcome.stiffness_factor != 1.0:
+        lines.append(f"the SRF runs used the moduli times {outcome.stiffness_factor:.3g}: the slope's elastic response "
+                     "is the same small fraction of its height whatever its stiffness (the FOS does not depend on it)")
     if not math.isnan(outcome.status_high):
         lines.append(
             f"second criterion (run verdicts): FOS in [{outcome.status_low:.4g}, {outcome.status_high:.4g}]"

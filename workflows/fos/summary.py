@@ -23,6 +23,7 @@ from workflows.fos.verdict import DIVERGED, displacement_floor_m
 from workflows.output.stage_file import provenance
 from workflows.output.variables import SUMMARY_FILE
 from workflows.output.writing import write_dataset
+from workflows.scene import build_material_table
 
 
 @dataclass
@@ -48,6 +49,7 @@ class FosOutcome:
     n_particles: int = 0
     guesses: tuple[int, int] = (0, 0)  # runs started ahead of the search on idle workers, and used
     figures: list[Path] = field(default_factory=list)
+    stiffness_factor: float = 1.0  # the runs' moduli over the declared ones (StrengthReductionStage.stiffness_factor)
 
 
 def conclude_case(case, progress, wall_start: float, figures: bool) -> FosOutcome:
@@ -85,6 +87,7 @@ def conclude_case(case, progress, wall_start: float, figures: bool) -> FosOutcom
         verdict=verdict_line(knee, status, agree, ordered, stage), runs=ordered,
         skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=case.gravity_reused,
         timings_s=timings, n_particles=case.n_particles, guesses=(case.n_guessed, case.n_guesses_used),
+        stiffness_factor=stage.stiffness_factor(build_material_table(study), study),
     )
     io_start = time.perf_counter()
     summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
@@ -147,6 +150,7 @@ def summary_dataset(study, outcome: FosOutcome, knee, status, stop_reason: str, 
         "study_name": study.name,
         "n_particles": int(outcome.n_particles),
         "fos_tolerance": float(stage.fos_tolerance),
+        "srf_stiffness_factor": float(outcome.stiffness_factor),
         "displacement_floor_m": float(floor_m),
         "search_stop": stop_reason,
         "srf_not_run": ", ".join(f"{f:g}" for f, _ in skipped),

@@ -17,6 +17,23 @@ and the FOS).  Protocols (:meth:`StrengthReductionStage.run_at`):
 The scales of a slope (:meth:`StrengthReductionStage.response_time_s`, ``Study.slope_height_m``)
 set the defaults: a run has failed once it moved ``FAILURE_FRACTION_OF_HEIGHT`` of the slope
 height, and stops once it slid ``SLIDE_STOP_FRACTION`` of it.
+
+**Stiffness of the runs** (:meth:`StrengthReductionStage.stiffness_factor`).  The FOS of a perfectly
+plastic slope is a collapse load: it does not depend on the elastic moduli.  The contained
+elastic-plastic displacement of a run below the FOS does: it is of the order of the slope's
+elastic response u_el = gamma H^2 / (2 G) (the shear displacement of a layer H thick under a
+shear stress growing to gamma H), and on a soft soil it passes the failure displacement long
+before a mechanism forms; on a stiff one an arrested slide of a few centimetres hides below it.
+The runs therefore use every modulus times
+
+    s = max_k (rho_k |g| H / (2 G_k)) / ELASTIC_RESPONSE,
+
+so that the softest material's u_el is ``ELASTIC_RESPONSE`` of H whatever the declared stiffness.
+In small-strain theory this changes no stress of the elastic-plastic solution and divides its
+displacements by s, while a mechanism's displacement is not divided: every run of a slope is
+then the same run whatever its moduli (their ratios kept), and the verdicts separate the
+contained response from a slide.  Softening materials, whose strength follows the plastic
+strain, keep their moduli (s = 1).
 """
 
 from __future__ import annotations
@@ -48,6 +65,14 @@ RAMP_STEPS = 20
 """A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
 RAMP_RESPONSE_TIMES = 4.0
 """Default ``ramp_time_s``: this many response times of the slope (at most half of ``duration_s``)."""
+
+ELASTIC_RESPONSE = 0.0015
+"""The elastic response gamma H / (2 G) of the runs, a fraction of the slope height (module doc): the
+contained displacement then stays under half the failure displacement up to the FOS on the
+published slopes, the undrained one on a deep foundation included (docs/method.md, section 9)."""
+MAX_TOLERANCE = 1e-4
+"""Largest accepted ``tolerance``: a looser unbalanced-force ratio ends a run before the slope has
+responded to its reduced strength (docs/verification.md)."""
 
 MIN_SPACINGS_PER_HEIGHT = 4
 """A strength-reduction study needs at least this many particle spacings over the slope height."""
@@ -83,7 +108,8 @@ class StrengthReductionStage(StageBase):
     )
     tolerance: float | None = number(
         "1", "*protocol = quasi_static:* at rest once the unbalanced-force ratio is below this; default "
-        f"{DEFAULT_QUASI_STATIC_TOLERANCE:g}", default=None, gt=0.0, lt=1.0,
+        f"{DEFAULT_QUASI_STATIC_TOLERANCE:g}; at most {MAX_TOLERANCE:g} (a looser ratio ends a run before the "
+        "slope has responded)", default=None, gt=0.0, le=MAX_TOLERANCE,
     )
     ramp_time_s: float | None = number(
         "s", "*protocol = ramp:* the strength falls from full to c / F, tan(phi) / F over this time; default "
@@ -128,6 +154,11 @@ class StrengthReductionStage(StageBase):
     rest_growth: float | None = number(
         "1", f"*protocol = ramp or sudden:* see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
         lt=1.0,
+    )
+    scale_stiffness: bool = boolean(
+        "run at moduli scaled so that the slope's elastic response gamma H^2 / (2 G) is "
+        f"{ELASTIC_RESPONSE:.2%} of H (the FOS of a perfectly plastic slope does not depend on them; the "
+        "verdicts then do not either); false: the declared moduli", default=True,
     )
     early_stop: bool = boolean(
         f"end a run once it is at rest or once it has slid {SLIDE_STOP_FRACTION:.0%} of the slope height",
@@ -237,6 +268,15 @@ class StrengthReductionStage(StageBase):
         """Gravity with the pseudo-static seismic part, which acts in every run."""
         return study.loads.acceleration_m_s2(study.geometry.polygon_m, strength_reduction=True)
 
+    def stiffness_factor(self, table, study) -> float:
+        """s = max_k (rho_k |g| H / (2 G_k)) / ELASTIC_RESPONSE over the rows of ``table``
+        (a ``MaterialTable``; module doc); 1 without ``scale_stiffness`` or with a softening material."""
+        if not self.scale_stiffness or table.softens():
+            return 1.0
+        gravity = float(np.hypot(*study.loads.gravity_m_s2))
+        response = np.max(table.density_kg_m3 * gravity * study.slope_height_m / (2.0 * table.shear_modulus_pa))
+        return float(response) / ELASTIC_RESPONSE
+
     def reduced(self, table, srf: float):
         """``table`` with the strength divided by ``srf`` under the stage's flow rule."""
         return table.with_strength_reduction(srf, associated=self.flow_rule == "associated")
@@ -247,6 +287,9 @@ class StrengthReductionStage(StageBase):
         doc), asking ``stop`` (a ``Simulation`` stop rule) between compiled calls; its TimeSeries."""
         record = dict(record_interval_s=self.record_interval_s, monitor_nodes=monitor_nodes, stop=stop)
         declared = sim.particle_materials
+        factor = self.stiffness_factor(declared, study)
+        if factor != 1.0:
+            declared = declared.with_moduli_scaled(factor)
         if self.protocol == "quasi_static":
             sim.set_materials(self.reduced(declared, srf))
             return sim.relax(damping=self.damping_or_default, tolerance=self.tolerance_or_default,
