@@ -65,6 +65,12 @@ class CaseTimings:
     gravity_worker: float = 0.0  # summed over the cases that computed it
     srf_runs_worker: float = 0.0  # summed over the runs made now
 
+    def add(self, other: "CaseTimings") -> None:
+        """Add the timings of another round of cases."""
+        self.cases_elapsed += other.cases_elapsed
+        self.gravity_worker += other.gravity_worker
+        self.srf_runs_worker += other.srf_runs_worker
+
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
               wall_start: float) -> tuple[dict, CaseTimings]:
@@ -151,9 +157,20 @@ class StudyType:
     def check(self, options: RunOptions) -> None:
         """StudyError for a study that cannot run (before anything is written); none by default."""
 
+    def warnings(self) -> list[str]:
+        """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``)."""
+        from workflows.layers import thin_layer_warnings
+
+        return thin_layer_warnings(self.study)
+
     def cases(self) -> list[Case]:
         """The cases to compute (their folders made where the type needs them)."""
         raise NotImplementedError
+
+    def next_cases(self, outcomes: dict, progress: Progress) -> list[Case]:
+        """Cases to compute after those computed so far (``outcomes`` by case id), for a type that
+        makes them in rounds (a refinement study: each level after the one before); none by default."""
+        return []
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
         """The type's outcome from its cases' (by case id): its own result file, if any."""

@@ -5,12 +5,15 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 
 - ``single.SingleStudy``: a study without ``[sweep]``, one case in the output folder;
 - ``sweep.study_type.SweepStudy``: a study with ``[sweep]``, a case per combination of the
-  axes' values, and ``study.nc``.
+  axes' values, and ``study.nc``;
+- ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
+  spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``.
 
 A probabilistic study (Monte Carlo: cases drawn from random variables and fields, reduced to a
 probability of failure) is the next type: a module of its own and a line in :data:`STUDY_TYPES`.
 :func:`run_study` asks the study for its type once, checks it, makes its cases, computes them
-with the one case runner (``workflows.cases.run_cases``) and concludes.
+with the one case runner (``workflows.cases.run_cases``), round after round while the type makes
+more, and concludes.
 """
 
 from __future__ import annotations
@@ -20,11 +23,12 @@ from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.progress import Progress
+from workflows.refinement.study_type import RefinementStudy
 from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (SweepStudy, SingleStudy)
+STUDY_TYPES: tuple[type[StudyType], ...] = (RefinementStudy, SweepStudy, SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 
 
@@ -46,10 +50,16 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
     kind = kind or study_type(study, out_dir)
     wall_start = time.perf_counter()
     kind.check(options)
+    for warning in kind.warnings():
+        progress.message(warning)
     if options.scheduler and study.strength_reduction is not None:
         from workflows.fos.cluster import connect  # dask: once the study is known to be valid
 
         connect(options.scheduler).close()
     cases = kind.cases()
     outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start)
+    while cases := kind.next_cases(outcomes, progress):
+        more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start)
+        outcomes.update(more)
+        timings.add(more_timings)
     return kind.conclude(outcomes, timings, wall_start)

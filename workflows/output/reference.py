@@ -21,6 +21,8 @@ from workflows.output.variables import (
     SWEEP_AXIS_ATTRIBUTES,
     SWEEP_FILE,
     SWEEP_FILE_ATTRIBUTES,
+    REFINEMENT_FILE,
+    REFINEMENT_FILE_ATTRIBUTES,
     Attribute,
     Variable,
 )
@@ -95,6 +97,11 @@ def page() -> str:
               "With runout stages, the dimension `runout_stage` (coordinate: the stage names) and every scalar of "
               "the [runout metrics](#runout-metrics) over (`<sweep dims>`, `runout_stage`); with `[metrics]`, every "
               "scalar of the [collapse metrics](#collapse-metrics) of the last stage over `<sweep dims>`.", ""]
+    parts += ["## `refinement.nc` of a refinement study", "",
+              "A study with `[refinement]` (`workflows/refinement/`): each level's FOS over the dimension `level` "
+              "(coarsest first; each level's own files under `OUT/levels/<level>_h=<h>/`, as a single study's) and "
+              "the FOS at h -> 0 with its discretisation band (docs/method.md, section 9).", "",
+              *_variables(REFINEMENT_FILE), "", "Global attributes:", "", *_attributes(REFINEMENT_FILE_ATTRIBUTES), ""]
     return "\n".join(parts)
 
 

@@ -217,6 +217,8 @@ SUMMARY_FILE_ATTRIBUTES = (
     Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file"),
     Attribute("n_particles", "particles of the slope"),
     Attribute("fos_tolerance, displacement_floor_m", "the search's tolerance and the floor of the log-scale curve"),
+    Attribute("srf_stiffness_factor", "the SRF runs used every Young's modulus times this (1: as declared, as "
+              "with scale_stiffness = false or a softening material; docs/method.md, section 9)"),
     Attribute("search_stop", "why the search stopped"),
     Attribute("srf_not_run, srf_not_run_reason", "SRF values the search skipped or cancelled, and why"),
     Attribute("gravity_reused", "1 when the gravity state came from an earlier invocation"),
@@ -268,4 +270,34 @@ SWEEP_FILE_ATTRIBUTES = (
     Attribute("sweep_axes", "the swept paths, comma separated, in the order of the dimensions"),
     Attribute("n_cases, n_cases_distinct", "cases of the sweep, and how many of them differ "
               "(identical cases share one computation)"),
+)
+
+REFINEMENT_FILE = _table(
+    Variable("spacing", ("level",), "m", "nominal particle spacing h of the level"),
+    Variable("n_particles", ("level",), "1", "particles of the level's slope"),
+    Variable("fos", ("level",), "1", "factor of safety at the level's spacing (NaN: none, see level_verdict)"),
+    Variable("fos_low", ("level",), "1", "lower end of the level's FOS bracket"),
+    Variable("fos_high", ("level",), "1", "upper end of the level's FOS bracket"),
+    Variable("n_runs", ("level",), "1", "SRF runs the level's FOS rests on (made now or reused)"),
+    Variable("wall_time", ("level",), "s", "worker time of the level's gravity and runs made by this invocation"),
+    Variable("criteria_agree", ("level",), "1", "1 when the level's run verdicts bracket the same FOS"),
+    Variable("level_verdict", ("level",), "1", "the level's FOS line (its summary.nc)"),
+    Variable("level_folder", ("level",), "1", "the folder under OUT/levels/ with the level's files"),
+    Variable("fos_extrapolated", (), "1",
+             "factor of safety at h -> 0: Richardson's extrapolation of the three finest levels where they "
+             "extrapolate, else the finest level's FOS (see extrapolation_status)"),
+)
+"""``refinement.nc`` of a refinement study (``[refinement]``): the FOS over the ``level``
+dimension (coarsest first) and its extrapolation to h -> 0 (docs/method.md, section 9)."""
+
+REFINEMENT_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the refinement's study text)"),
+    Attribute("extrapolation_status", "extrapolated, converged (the levels agree within their resolution), "
+              "oscillating or order_out_of_range (no extrapolation: a conservative band), or none"),
+    Attribute("band_low, band_high", "the discretisation band of the FOS: the finest level's FOS -+ the GCI "
+              "(or the conservative band)"),
+    Attribute("observed_order", "p of the three finest levels (NaN: none)"),
+    Attribute("gci", "grid convergence index of the finest level, a fraction of its FOS"),
+    Attribute("safety_factor, level_fos_tolerance", "Fs of the GCI, and each level's search tolerance"),
+    Attribute("extrapolation_reason, verdict", "one line each: how the band was found; the report's first line"),
 )

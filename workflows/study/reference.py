@@ -258,6 +258,18 @@ start = 25.0
 stop = 45.0
 count = 5
 ```
+
+**Refinement.**  A `[refinement]` table turns a strength-reduction study into a refinement
+study: the FOS at a sequence of particle spacings (`spacings_m`, or `levels` spacings from
+`geometry.spacing_m` in steps of `ratio`), each level with the search tolerance `fos_tolerance`
+and, after the first, a search window around the FOS of the level before; from the three finest
+levels the observed order, the FOS at h -> 0 (Richardson) and the grid convergence index as its
+band, in `OUT/refinement.nc` and `convergence.png` (docs/method.md, section 9).  Not with `[sweep]`.
+
+```toml
+[refinement]
+spacings_m = [1.0, 0.7071, 0.5]
+```
 """
 
 

@@ -32,6 +32,7 @@ from workflows.fields import (
 )
 from workflows.loads import Loads
 from workflows.materials import MATERIAL_MODELS
+from workflows.refinement.table import Refinement
 from workflows.stages import STAGE_KINDS
 from workflows.stages.strength_reduction import StrengthReductionStage
 from workflows.water import Water
@@ -338,6 +339,7 @@ class Study(Record):
     metrics: Metrics | None = optional_table(Metrics)
     output: Output = table(Output, required=False)
     sweep: Sweep | None = optional_table(Sweep)
+    refinement: Refinement | None = optional_table(Refinement)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -371,6 +373,13 @@ class Study(Record):
                     raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
         self._check_water_and_loads()
         self._check_frames()
+        if self.refinement is not None:
+            if self.strength_reduction is None:
+                raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "
+                                 "strength_reduction stage")
+            if self.sweep is not None:
+                raise StudyError("refinement", "[refinement] and [sweep] in one study are not supported: sweep the "
+                                 "case at its finest spacing, or refine one case of the sweep")
         for i, monitor in enumerate(self.monitors):
             if not points_in_polygon([(monitor.x_m, monitor.y_m)], self.geometry.polygon_m)[0]:
                 raise StudyError(

@@ -1,0 +1,97 @@
+"""The refinement study: Richardson extrapolation and the GCI against exact sequences, the
+``[refinement]`` table's checks, and a three-level study of the quickstart end to end."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import xarray as xr
+
+from workflows.cases import RunOptions
+from workflows.refinement.convergence import (
+    CONVERGED,
+    EXTRAPOLATED,
+    OSCILLATING,
+    ORDER_OUT_OF_RANGE,
+    extrapolate,
+    observed_order,
+)
+from workflows.study import StudyError, parse_study
+from workflows.study_types import run_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+
+
+@pytest.mark.parametrize("order", [1.0, 1.5, 2.0])
+@pytest.mark.parametrize("spacings", [(1.0, 0.7071, 0.5), (1.0, 0.6, 0.45)])
+def test_an_exact_power_law_gives_its_limit_and_its_order(order, spacings):
+    """f(h) = 1.35 + 0.04 h^p: the order and the limit come back exactly, also for a varying ratio,
+    and the GCI band (Fs = 1.25) holds the limit."""
+    fos = [1.35 + 0.04 * h**order for h in spacings]
+    x = extrapolate(spacings, fos, resolution=1e-6)
+    assert x.status == EXTRAPOLATED
+    assert x.observed_order == pytest.approx(order, abs=1e-8)
+    assert x.fos == pytest.approx(1.35, abs=1e-10)
+    assert x.band_low < 1.35 < x.band_high
+    finest = fos[-1]
+    r = spacings[1] / spacings[2]
+    assert x.band_high - finest == pytest.approx(1.25 * abs(fos[1] - finest) / (r**order - 1.0))
+
+
+def test_constant_ratio_order_is_the_log_of_the_ratio_of_differences():
+    assert observed_order(2.0, 2.0, 0.01, 0.04) == pytest.approx(2.0)
+
+
+def test_levels_that_do_not_extrapolate_are_said_plainly_with_a_conservative_band():
+    oscillating = extrapolate([1.0, 0.7, 0.5], [1.38, 1.36, 1.37], resolution=0.001)
+    assert oscillating.status == OSCILLATING and math.isnan(oscillating.observed_order)
+    assert oscillating.band_low < 1.36 and oscillating.band_high > 1.38  # wider than the levels' spread
+    steep = extrapolate([1.0, 0.7071, 0.5], [1.3701, 1.37, 1.30], resolution=0.0001)  # p << 0.5
+    assert steep.status == ORDER_OUT_OF_RANGE
+    flat = extrapolate([1.0, 0.7071, 0.5], [1.371, 1.3705, 1.3708], resolution=0.001)
+    assert flat.status == CONVERGED and flat.band_low <= 1.3705 and flat.band_high >= 1.371
+
+
+@pytest.mark.parametrize("block, field, message", [
+    ("spacings_m = [1.0, 1.0, 0.5]", "refinement.spacings_m[1]", "at least 5% below"),
+    ("spacings_m = [1.0, 0.5]", "refinement.spacings_m", "3 to 6"),
+    ("spacings_m = [1.0, 0.7, 0.5]\nlevels = 3", "refinement.spacings_m", "not both"),
+    ("ratio = 3.0", "refinement.ratio", "<= 2"),
+    ("fos_tolerance = 0.05", "refinement.fos_tolerance", "<= 0.02"),
+])
+def test_bad_refinement_tables_name_the_field(block, field, message):
+    with pytest.raises(StudyError) as error:
+        parse_study(QUICKSTART + f"\n[refinement]\n{block}\n")
+    assert error.value.field == field and message in str(error.value)
+
+
+def test_refinement_with_a_sweep_is_refused():
+    text = QUICKSTART + ('\n[refinement]\nlevels = 3\n\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
+                         'values = [10e3, 12e3]\n')
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == "refinement" and "not supported" in str(error.value)
+
+
+def test_three_levels_of_the_quickstart_extrapolate_and_later_levels_search_near_the_fos(tmp_path):
+    """h = 2, 1.414, 1 m: every level has an FOS within the levels' tolerance of its own bracket,
+    later levels make fewer runs than the first, refinement.nc holds the levels and the band, and a
+    second invocation reuses every run."""
+    text = QUICKSTART + "\n[refinement]\nspacings_m = [2.0, 1.4142, 1.0]\n"
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert len(outcome.levels) == 3 and all(math.isfinite(level.fos) for level in outcome.levels)
+    assert all(level.fos_high - level.fos_low <= 0.002 + 1e-9 for level in outcome.levels)
+    assert all(level.n_runs < outcome.levels[0].n_runs for level in outcome.levels[1:])
+    x = outcome.extrapolation
+    assert x is not None and x.band_low <= outcome.levels[-1].fos <= x.band_high
+    assert outcome.verdict.startswith("FOS = ")
+    ds = xr.open_dataset(tmp_path / "refinement.nc")
+    assert ds.sizes["level"] == 3 and list(ds["spacing"].values) == [2.0, 1.4142, 1.0]
+    assert ds.attrs["verdict"] == outcome.verdict
+    assert (tmp_path / "convergence.png").is_file()
+    again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert [level.fos for level in again.levels] == [level.fos for level in outcome.levels]
+    assert sum(level.n_runs_made for level in again.levels) == 0  # nothing computed again
