@@ -3,7 +3,7 @@
 No kernels here (the study reader and the result-file declarations read these names without
 numba).  Energies are per metre of out-of-plane thickness (J/m):
 
-    kinetic             sum_k m_k |v_k|^2 / 2
+    kinetic             sum_k m_i,k |v_k|^2 / 2   (m_i the inertia: the mass, unless density-scaled)
     strain              sum_k A_k w(sigma_k),  w the complementary energy density of the
                         material's elasticity (``materials.elastic.elastic_energy_density``)
     gravity_potential   -sum_k m_k g . u_k   (relative to the initial positions, see NodeState)

@@ -3,12 +3,14 @@
 For every particle and direction, with f = m g + f_int + f_stab (the unbalanced force):
 
     f_damp = -xi |f| sign(v^{n-1/2})        (sign(0) = 0)
-    v^{n+1/2} = v^{n-1/2} + dt (f + f_damp) / m
+    v^{n+1/2} = v^{n-1/2} + dt (f + f_damp) / m_i
     v^{n+1/2} = v_prescribed                 where the direction is fixed
     v^{n+1/2} corrected by the rigid walls (``contact``), only when there are walls
     x^{n+1} = x^n + dt v^{n+1/2},  u^{n+1} = u^n + dt v^{n+1/2}
 
-Particle masses m are fixed at the start and never recomputed.
+Particle masses m are fixed at the start and never recomputed.  The inertia m_i is m, except in a
+density-scaled relaxation of a graded cloud (``simulation.Simulation.relax``), where it is larger
+for the finer particles; the weight is always m g.
 """
 
 from __future__ import annotations
@@ -43,7 +45,7 @@ def sign0(value):
 
 @kernel
 def leapfrog(
-    node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
+    node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity, damping, dt,
     wall_xy, wall_friction, reach, node_contact, out, n_threads,
 ):
     """Advance velocities and positions one step (module doc).
@@ -64,13 +66,14 @@ def leapfrog(
     n_chunk = n_chunks(n_node)
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
-        leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-                          wall_xy, wall_friction, reach, node_contact, chunk_out)
+        leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                          gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out)
     else:  # the same chunks
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
-            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping,
-                           dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
+            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                           gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
+                           chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
         fastest = chunk_out[chunk, LEAPFROG_MAX_SPEED_SQ]
@@ -80,20 +83,20 @@ def leapfrog(
 
 
 @parallel_inner_kernel
-def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-                      wall_xy, wall_friction, reach, node_contact, chunk_out):
+def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+                      damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out):
     """:func:`leapfrog_range` of every chunk of particles on threads, the sums in ``chunk_out``
     (kept apart: a function with a parallel loop costs about 3 us a call even when it runs no thread)."""
     n_node = node_xy.shape[0]
     for chunk in prange(chunk_out.shape[0]):
         start, end = chunk_bounds(chunk, n_node)
-        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-                       wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
+        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+                       damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
 
 
 @inner_kernel
-def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
-                   wall_xy, wall_friction, reach, node_contact, start, end, out):
+def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+                   damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out):
     """:func:`leapfrog` of particles start..end-1, their sums in ``out`` (its layout)."""
     use_walls = wall_xy.shape[0] > 0
     max_speed_sq = 0.0
@@ -103,11 +106,11 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_fixed, n
     contact_loss = 0.0
     n_contact = 0
     for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
-        m = node_mass[k]
+        m = node_inertia[k]
         v_start_x = node_v[k, 0]
         v_start_y = node_v[k, 1]
         for d in range(2):
-            weight = m * gravity[d]
+            weight = node_mass[k] * gravity[d]
             f = node_force[k, d] + weight
             v_old = node_v[k, d]
             if node_fixed[k, d]:

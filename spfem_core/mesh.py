@@ -74,8 +74,9 @@ class Mesh:
         return np.flatnonzero(np.diff(self.node_elem_ptr) == 0).astype(np.int64)
 
 
-def triangulate(node_xy_m, spacing_m: float, alpha: float = 1.5) -> Mesh:
-    """Alpha-shape triangulation of the particles ``node_xy_m`` (n, 2) with spacing h.
+def triangulate(node_xy_m, spacing_m, alpha: float = 1.5) -> Mesh:
+    """Alpha-shape triangulation of the particles ``node_xy_m`` (n, 2) with spacing h: a number,
+    or one per particle (a graded cloud), where a triangle's h is the largest of its vertices'.
 
     Keeps a Delaunay triangle when its area A > 1e-12 h^2 and its circumradius
     R = abc / (4A) <= alpha h (a, b, c the side lengths); reorders the vertices of every
@@ -88,14 +89,19 @@ def triangulate(node_xy_m, spacing_m: float, alpha: float = 1.5) -> Mesh:
         raise ValueError(f"node_xy_m: need at least 3 particles, got {node_xy_m.shape[0]}")
     if not np.all(np.isfinite(node_xy_m)):
         raise ValueError("node_xy_m: positions must be finite")
-    h = float(spacing_m)
-    if not (np.isfinite(h) and h > 0.0):
+    per_node = np.ndim(spacing_m) == 1
+    h = np.asarray(spacing_m, dtype=np.float64)
+    if per_node and h.shape != (node_xy_m.shape[0],):
+        raise ValueError(f"spacing_m: expected a number or {node_xy_m.shape[0]} values, got {h.shape}")
+    if not (np.all(np.isfinite(h)) and np.all(h > 0.0)):
         raise ValueError(f"spacing_m: must be finite and > 0, got {spacing_m}")
     if not (np.isfinite(alpha) and alpha > 0.0):
         raise ValueError(f"alpha: must be finite and > 0, got {alpha}")
 
     elem_nodes = delaunay_triangles(node_xy_m)
     area_m2, circumradius_m = _signed_area_and_circumradius(node_xy_m, elem_nodes)
+    if per_node:
+        h = h[elem_nodes].max(axis=1)
     keep = (np.abs(area_m2) > DEGENERATE_AREA_FACTOR * h * h) & (circumradius_m <= alpha * h)
     elem_nodes = elem_nodes[keep]
     clockwise = area_m2[keep] < 0.0

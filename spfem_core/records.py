@@ -98,7 +98,7 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
         vy = node_v[k, 1]
         ux = node_u[k, 0]
         uy = node_u[k, 1]
-        kinetic += 0.5 * mass * (vx * vx + vy * vy)
+        kinetic += 0.5 * nodes.inertia_kg[k] * (vx * vx + vy * vy)  # the mass the forces accelerate
         potential -= mass * (gravity[0] * ux + gravity[1] * uy)
         row = nodes.material_row[k]
         strain += node_area[k] * elastic_energy_density(

@@ -95,8 +95,11 @@ def smooth_crowded_particles(nodes: NodeState, mesh: Mesh, min_distance_m: float
 class Remesher:
     """The mesh-quality threshold, rebuilds and the rejoin test of one simulation (module doc)."""
 
-    def __init__(self, spacing_m: float, alpha: float, min_angle_deg: float, crowded_fraction: float):
-        self.spacing_m = float(spacing_m)
+    def __init__(self, spacing_m, alpha: float, min_angle_deg: float, crowded_fraction: float):
+        """``spacing_m``: h, or one per particle (a graded cloud: the alpha shape follows it, the
+        crowding and rejoin distances take the finest)."""
+        self.node_spacing_m = spacing_m
+        self.spacing_m = float(np.min(spacing_m))
         self.alpha = float(alpha)
         self.ceiling_rad = math.radians(min_angle_deg)
         self.crowded_fraction = float(crowded_fraction)
@@ -105,7 +108,7 @@ class Remesher:
 
     def triangulate(self, node_xy_m: np.ndarray) -> Mesh:
         """The alpha-shape mesh of the particles as they are."""
-        return triangulate(node_xy_m, self.spacing_m, self.alpha)
+        return triangulate(node_xy_m, self.node_spacing_m, self.alpha)
 
     def rebuild(self, nodes: NodeState, outgoing: Mesh) -> tuple[Mesh, int]:
         """Spread crowded particles, then triangulate once; (new mesh, particles moved).

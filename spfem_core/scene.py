@@ -31,7 +31,7 @@ class Scene:
     node_xy_m: np.ndarray  # (n, 2) initial positions
     node_material: np.ndarray  # (n,) int64 row of ``materials``
     materials: MaterialTable
-    spacing_m: float  # nominal particle spacing h
+    spacing_m: float  # nominal particle spacing h; of a graded cloud, its finest spacing
     gravity_m_s2: np.ndarray = field(default_factory=lambda: np.array([0.0, -9.81]))
     node_fixed: np.ndarray | None = None  # (n, 2) bool
     node_fixed_velocity_m_s: np.ndarray | None = None  # (n, 2)
@@ -45,6 +45,7 @@ class Scene:
     node_phreatic_line: np.ndarray | None = None  # (n,) int64 line of each particle in phreatic_lines_m; -1: none
     pond_level_m: float | None = None  # level of water standing on the ground surface (m)
     water_unit_weight_n_m3: float = 9810.0  # gamma_w
+    node_spacing_m: np.ndarray | None = None  # (n,) spacing of each particle of a graded cloud (None: spacing_m)
 
     def __post_init__(self):
         self.node_xy_m = np.ascontiguousarray(self.node_xy_m, dtype=np.float64)
@@ -71,6 +72,10 @@ class Scene:
             raise ValueError("Scene.wall_friction: one coefficient per wall expected")
         if not self.spacing_m > 0:
             raise ValueError(f"Scene.spacing_m: must be > 0, got {self.spacing_m}")
+        if self.node_spacing_m is not None:
+            self.node_spacing_m = np.ascontiguousarray(self.node_spacing_m, dtype=np.float64).reshape(-1)
+            if self.node_spacing_m.shape != (n,) or not np.all(self.node_spacing_m >= self.spacing_m * (1 - 1e-9)):
+                raise ValueError("Scene.node_spacing_m: one spacing per particle, each >= spacing_m")
         for attr, shape in (("node_load_n", (n, 2)), ("node_pore_pressure_pa", (n,))):
             value = getattr(self, attr)
             if value is not None:

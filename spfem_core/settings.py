@@ -47,3 +47,4 @@ class SolverSettings:
     min_angle_deg: float = DEFAULT_MIN_ANGLE_DEG  # rebuild the mesh when the smallest angle falls below this
     crowded_fraction: float = DEFAULT_CROWDED_FRACTION  # after a rebuild, smooth particles closer than this * h
     threads: int = 0  # threads of the compiled step (0: all numba has, the cores); results do not depend on it
+    density_scaling: bool = False  # relaxations of a graded cloud at the coarse particles' step (Simulation.relax)

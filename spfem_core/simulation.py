@@ -124,7 +124,7 @@ class Simulation:
         self.particle_materials, material_row = scene.particle_materials()
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
-            stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n),
+            stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n), inertia_kg=np.zeros(n),
             material_row=material_row, fixed=scene.node_fixed.copy(),
             fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(),
         )
@@ -144,8 +144,9 @@ class Simulation:
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
-        self.remesher = Remesher(scene.spacing_m, scene.alpha, self.settings.min_angle_deg,
-                                 self.settings.crowded_fraction)
+        self.node_spacing_m = np.full(n, scene.spacing_m) if scene.node_spacing_m is None else scene.node_spacing_m
+        self.remesher = Remesher(scene.spacing_m if scene.node_spacing_m is None else scene.node_spacing_m,
+                                 scene.alpha, self.settings.min_angle_deg, self.settings.crowded_fraction)
         self.time_step = TimeStepPolicy(self.settings)
         self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
         self._set_material_arrays(self.particle_materials)
@@ -159,8 +160,9 @@ class Simulation:
                 "check the spacing against the geometry or raise alpha"
             )
         cell_area = self.scratch.area_m2.copy()
-        cell_area[orphans] = scene.spacing_m**2
+        cell_area[orphans] = self.node_spacing_m[orphans] ** 2
         self.nodes.mass_kg[:] = scene.particle_density_kg_m3 * cell_area
+        self.nodes.inertia_kg[:] = self.nodes.mass_kg
         self._choose_time_step()
         self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
 
@@ -187,7 +189,7 @@ class Simulation:
     def _critical_dt(self) -> float:
         mesh = self.mesh
         return float(critical_time_step(
-            self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.mass_kg,
+            self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.inertia_kg,
             self.nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
         ))
 
@@ -363,6 +365,9 @@ class Simulation:
         if not tolerance > 0.0:
             raise ValueError(f"tolerance must be > 0, got {tolerance}")
         self._relaxing = True
+        scaled = self.settings.density_scaling and self.scene.node_spacing_m is not None
+        if scaled:
+            self._set_inertia(scaled=True)
         self.dt_s = self.time_step.relaxation(self.critical_dt_s)
         self.loads = self.loads._replace(at_initial_positions=bool(water_at_initial_positions))
         try:
@@ -370,7 +375,28 @@ class Simulation:
                                snapshot)
         finally:
             self._relaxing = False
+            if scaled:
+                self._set_inertia(scaled=False)
             self._choose_time_step()
+
+    def _set_inertia(self, scaled: bool) -> None:
+        """The inertia of the particles from now on, and the critical step on it: the masses, or
+        (``scaled``, a relaxation of a graded cloud) density scaling to the coarsest spacing,
+
+            m_i,k = m_k (h_max / h_k)^2,
+
+        which gives every particle about the critical step of the coarsest ones (in 2D a cell's
+        stiffness does not depend on its size, its mass goes as h^2).  Only the end state of a
+        relaxation counts, so its inertia is free; the weight stays m_k g.  The fine particles then
+        respond that much more slowly in pseudo-time: a relaxation whose slow part lies in the fine
+        zone (a mechanism, where the cloud is refined) needs as many steps as without scaling
+        and a longer ``max_duration_s`` (docs/method.md, section 2)."""
+        nodes = self.nodes
+        if scaled:
+            nodes.inertia_kg[:] = nodes.mass_kg * (self.node_spacing_m.max() / self.node_spacing_m) ** 2
+        else:
+            nodes.inertia_kg[:] = nodes.mass_kg
+        self.critical_dt_s = self._critical_dt()
 
     def _parameters(self, damping: float, tolerance: float) -> StepParameters:
         return StepParameters(
@@ -553,6 +579,7 @@ class Simulation:
             pore_pressure_pa=self.pore_pressure_pa, material=self.scene.node_material.copy(),
             material_names=tuple(self.scene.materials.name), elem_nodes=self.mesh.elem_nodes.copy(),
             spacing_m=float(self.scene.spacing_m), dt_s=float(self.dt_s), critical_dt_s=float(self.critical_dt_s),
+            particle_spacing_m=None if self.scene.node_spacing_m is None else self.scene.node_spacing_m.copy(),
         )
 
 

@@ -57,6 +57,7 @@ class Snapshot:
     spacing_m: float  # nominal particle spacing h
     dt_s: float = math.nan  # time step in use
     critical_dt_s: float = math.nan  # critical time step of the current mesh
+    particle_spacing_m: np.ndarray | None = None  # (n,) spacing of each particle of a graded cloud (None: uniform)
 
     @property
     def n_particles(self) -> int:

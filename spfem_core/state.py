@@ -35,6 +35,7 @@ class NodeState(NamedTuple):
     stress_pa: np.ndarray  # (n, 4) Cauchy stress xx, yy, zz, xy
     plastic_strain: np.ndarray  # (n,) equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)
     mass_kg: np.ndarray  # (n,) per metre of thickness, fixed at the start: m_k = rho_k A_k
+    inertia_kg: np.ndarray  # (n,) the mass that the force accelerates: m_k, or density-scaled (simulation.relax)
     material_row: np.ndarray  # (n,) int64 row of the simulation's material table (its material's, or its own)
     fixed: np.ndarray  # (n, 2) bool: velocity prescribed in that direction
     fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity where ``fixed``

@@ -119,7 +119,8 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
             add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads,
                                 time_start_s + s * dt, scratch.pore_pressure_pa, scratch.external_force_n, node_force)
         leapfrog(
-            node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.fixed, nodes.fixed_velocity_m_s,
+            node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.inertia_kg, nodes.fixed,
+            nodes.fixed_velocity_m_s,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
             step_out, params.n_threads,
         )

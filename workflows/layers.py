@@ -5,10 +5,12 @@ before it runs.
 The thickness of a material's region inside the domain is twice the radius of the largest circle
 inside it, measured on the particle cloud: for each particle k of the material,
 
-    r_k = min(d_boundary_k, d_other_k - h / 2)
+    r_k = min(d_boundary_k, d_other_k - h_k / 2)
 
-with d_boundary_k its distance to the domain's boundary and d_other_k to the nearest particle of
-another material (the interface lies about h / 2 before it); thickness = 2 max_k r_k.
+with d_boundary_k its distance to the domain's boundary, d_other_k to the nearest particle of
+another material (the interface lies about h_k / 2 before it) and h_k the particle's spacing
+(a graded cloud's own); thickness = 2 max_k r_k, against the largest spacing of the material's
+particles.
 """
 
 from __future__ import annotations
@@ -16,21 +18,18 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from spfem_core.cloud import particles_in_polygon
 from spfem_core.geometry import distance_to_edges_m
-from workflows.scene import material_rows
+from workflows.scene import cloud, material_rows
 
 MIN_ROWS = 4
 """A material layer thinner than this many particle spacings is named in a warning."""
 
 
-def layer_thickness_m(study) -> dict[str, float]:
-    """Thickness of each material's region (module doc), by material name; materials that hold no
-    particle or fill the whole domain are left out."""
-    geometry = study.geometry
-    polygon = np.array(geometry.polygon_m)
-    h = geometry.spacing_m
-    points = particles_in_polygon(polygon, h, jitter=geometry.jitter, seed=geometry.seed)
+def layer_thickness_m(study) -> dict[str, tuple[float, float]]:
+    """(thickness, largest particle spacing) of each material's region (module doc), by material
+    name; materials that hold no particle or fill the whole domain are left out."""
+    polygon = np.array(study.geometry.polygon_m)
+    points, spacing = cloud(study)
     rows = material_rows(study, points)
     boundary = distance_to_edges_m(points, polygon)
     thickness = {}
@@ -39,18 +38,18 @@ def layer_thickness_m(study) -> dict[str, float]:
         if not mine.any() or mine.all():
             continue
         others = points[~mine & (rows >= 0)]
-        to_other = cKDTree(others).query(points[mine])[0] - 0.5 * h if others.size else np.inf
-        thickness[material.name] = 2.0 * float(np.max(np.minimum(boundary[mine], to_other)))
+        to_other = cKDTree(others).query(points[mine])[0] - 0.5 * spacing[mine] if others.size else np.inf
+        thickness[material.name] = (2.0 * float(np.max(np.minimum(boundary[mine], to_other))),
+                                    float(spacing[mine].max()))
     return thickness
 
 
 def thin_layer_warnings(study) -> list[str]:
     """A warning per plastic material thinner than ``MIN_ROWS`` spacings."""
-    h = study.geometry.spacing_m
     plastic = {material.name for material in study.materials if material.plastic}
     return [
         f"warning: material {name!r} is a layer about {t:.3g} m thick, {t / h:.2g} particle spacings of {h:g} m: "
-        f"a mechanism through it is resolved by fewer than {MIN_ROWS} rows and the FOS comes out high; make "
-        f"geometry.spacing_m at most {t / MIN_ROWS:.3g} m"
-        for name, t in layer_thickness_m(study).items() if name in plastic and t < MIN_ROWS * h
+        f"a mechanism through it is resolved by fewer than {MIN_ROWS} rows and the FOS comes out high; make the "
+        f"spacing there at most {t / MIN_ROWS:.3g} m (geometry.spacing_m, or a [[geometry.refined]] zone)"
+        for name, (t, h) in layer_thickness_m(study).items() if name in plastic and t < MIN_ROWS * h
     ]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import psutil
 
 from workflows.study import Study, StudyError
@@ -26,13 +27,35 @@ GIB = 1024.0**3
 
 
 def estimated_particles(study: Study) -> float:
-    """n ~ A / h^2 + P / h for the polygon of ``study.geometry`` (inf when h underflows)."""
+    """n ~ A / h^2 + P / h for the polygon of ``study.geometry`` (inf when h underflows); with refined
+    zones, the integral of 1 / h(x)^2 over the domain on a grid of the coarse spacing, plus P / h_min."""
+    if study.geometry.refined:
+        return _graded_estimate(study)
     vertices = study.geometry.polygon_m
     h = study.geometry.spacing_m
     area = 0.5 * abs(sum(x1 * y2 - x2 * y1 for (x1, y1), (x2, y2) in zip(vertices, vertices[1:] + vertices[:1])))
     perimeter = sum(math.hypot(x2 - x1, y2 - y1) for (x1, y1), (x2, y2) in zip(vertices, vertices[1:] + vertices[:1]))
     with_lattice = area / (h * h) if h * h > 0.0 else math.inf
     return with_lattice + perimeter / h
+
+
+def _graded_estimate(study: Study) -> float:
+    from spfem_core.cloud import spacing_field  # numpy only
+    from spfem_core.geometry import ray_casting_inside
+
+    geometry = study.geometry
+    polygon = np.array(geometry.polygon_m)
+    h0, finest = geometry.spacing_m, geometry.finest_spacing_m
+    if not finest > 0.0 or not np.isfinite((np.ptp(polygon, axis=0) / finest).prod()):
+        return math.inf
+    step = min(h0, np.ptp(polygon, axis=0).min() / 20.0)
+    x = np.arange(polygon[:, 0].min() + 0.5 * step, polygon[:, 0].max(), step)
+    y = np.arange(polygon[:, 1].min() + 0.5 * step, polygon[:, 1].max(), step)
+    grid = np.column_stack([a.ravel() for a in np.meshgrid(x, y)])
+    inside = grid[ray_casting_inside(grid, polygon)]
+    field = spacing_field(inside, h0, geometry.zones, geometry.grading)
+    perimeter = float(np.hypot(*np.diff(np.vstack([polygon, polygon[:1]]), axis=0).T).sum())
+    return float(np.sum(step * step / field**2)) + perimeter / finest
 
 
 def available_memory_bytes() -> float:

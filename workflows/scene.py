@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spfem_core.cloud import particles_in_polygon
+from spfem_core.cloud import graded_particles_in_polygon, particles_in_polygon
 from spfem_core.geometry import points_in_polygon
 from spfem_core.materials.table import MaterialTable
 from spfem_core.scene import Scene
@@ -54,13 +54,25 @@ def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
     return node_material
 
 
-def surface_load_forces(study: Study, node_xy_m: np.ndarray) -> np.ndarray | None:
+def cloud(study: Study) -> tuple[np.ndarray, np.ndarray]:
+    """(positions (n, 2), spacing of each particle (n,)) of the study's particle cloud: uniform at
+    geometry.spacing_m, or graded around ``[[geometry.refined]]`` zones (``spfem_core.cloud``)."""
+    geometry = study.geometry
+    if not geometry.refined:
+        node_xy_m = particles_in_polygon(np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter,
+                                         seed=geometry.seed)
+        return node_xy_m, np.full(node_xy_m.shape[0], geometry.spacing_m)
+    return graded_particles_in_polygon(np.array(geometry.polygon_m), geometry.spacing_m, geometry.zones,
+                                       geometry.grading, jitter=geometry.jitter, seed=geometry.seed)
+
+
+def surface_load_forces(study: Study, node_xy_m: np.ndarray, node_spacing_m: np.ndarray) -> np.ndarray | None:
     """(n, 2) forces (N/m) of the study's surface loads on the particles of the cloud's upper surface,
     kind after kind (``workflows.loads``); None without surface loads."""
     loads = study.loads.surface_loads()
     if not loads:
         return None
-    surface = UpperSurface.of_cloud(node_xy_m, study.geometry.spacing_m, study.solver.alpha)
+    surface = UpperSurface.of_cloud(node_xy_m, node_spacing_m, study.solver.alpha)
     force = np.zeros_like(node_xy_m)
     for where, load in loads:
         load.add_forces(surface, force, where)
@@ -71,9 +83,7 @@ def build_scene(study: Study) -> Scene:
     """The particle cloud of ``study`` with its materials, supports, gravity (with the seismic part when
     it acts from the first stage), water and surface loads."""
     geometry = study.geometry
-    node_xy_m = particles_in_polygon(
-        np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter, seed=geometry.seed
-    )
+    node_xy_m, node_spacing_m = cloud(study)
     if node_xy_m.shape[0] < 3:
         raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
     node_material = assign_materials(study, node_xy_m)
@@ -81,10 +91,11 @@ def build_scene(study: Study) -> Scene:
         node_xy_m=node_xy_m,
         node_material=node_material,
         materials=build_material_table(study),
-        spacing_m=geometry.spacing_m,
+        spacing_m=geometry.finest_spacing_m,
+        node_spacing_m=node_spacing_m if geometry.refined else None,
         gravity_m_s2=study.loads.acceleration_m_s2(geometry.polygon_m, strength_reduction=False),
         alpha=study.solver.alpha,
-        node_load_n=surface_load_forces(study, node_xy_m),
+        node_load_n=surface_load_forces(study, node_xy_m, node_spacing_m),
         **water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points)),
     )
     for wall in study.walls:
@@ -129,7 +140,7 @@ def solver_settings(study: Study, threads: int = 0) -> SolverSettings:
     cfl = DEFAULT_CFL if solver.cfl is None else solver.cfl
     return SolverSettings(
         cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta,
-        min_angle_deg=solver.remesh_min_angle_deg, threads=threads,
+        min_angle_deg=solver.remesh_min_angle_deg, threads=threads, density_scaling=solver.density_scaling,
     )
 
 

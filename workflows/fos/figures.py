@@ -5,7 +5,9 @@
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
   equivalent plastic strain and displacement magnitude on the final particle positions, with the
   water (piezometric line dashed, ponded water solid, ``workflows.water.draw_water``), the surface
-  loads (their ``arrows_m``) and the seismic coefficient.
+  loads (their ``arrows_m``) and the seismic coefficient;
+- ``particle_spacing.png`` of a graded cloud (``[[geometry.refined]]``): each particle at its initial
+  position coloured by its spacing.
 """
 
 from __future__ import annotations
@@ -103,4 +105,25 @@ def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
         run_path = out_dir / run_file_name(float(value))
         if run_path.is_file():
             paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png"))
+    if picks and (run_path := out_dir / run_file_name(float(picks[0]))).is_file():
+        with xr.open_dataset(run_path) as ds:
+            if "particle_spacing" in ds:
+                paths.append(spacing_map(ds, out_dir / "particle_spacing.png"))
     return paths
+
+
+def spacing_map(ds: xr.Dataset, path: Path) -> Path:
+    """Every particle at its initial position, coloured by its spacing (a graded cloud)."""
+    plt = pyplot()
+    x0, y0, h = ds["particle_x0"].values, ds["particle_y0"].values, ds["particle_spacing"].values
+    width = max(float(np.ptp(x0)), 1e-9)
+    fig, ax = plt.subplots(figsize=(8.0, max(2.5, 8.0 * float(np.ptp(y0)) / width + 0.8)))
+    points = ax.scatter(x0, y0, c=h, s=2.0, cmap="viridis_r")
+    fig.colorbar(points, ax=ax, label="particle spacing h (m)")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"particle spacing: {h.size} particles, h = {h.min():.3g} to {h.max():.3g} m", fontsize=10)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path

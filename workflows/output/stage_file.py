@@ -92,6 +92,8 @@ def stage_dataset(*, study: Study, stage_index: int, series, final, monitor_part
     ds["particle_y0"] = var["particle_y0"](np.asarray(initial_xy[:, 1]))
     ds["particle_plastic_strain"] = var["particle_plastic_strain"](final.plastic_strain)
     ds["particle_area"] = var["particle_area"](final.area_m2)
+    if final.particle_spacing_m is not None:  # a graded cloud ([[geometry.refined]])
+        ds["particle_spacing"] = var["particle_spacing"](final.particle_spacing_m)
     ds["particle_mass"] = var["particle_mass"](final.mass_kg)
     ds["particle_pore_pressure"] = var["particle_pore_pressure"](final.pore_pressure_pa)
     material_names = final.material_names

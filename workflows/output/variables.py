@@ -111,6 +111,8 @@ STAGE_FILE = _table(
     Variable("particle_plastic_strain", ("particle",), "1",
              "equivalent plastic strain, sum of sqrt(2/3 de_p:de_p) since the start"),
     Variable("particle_area", ("particle",), "m2", "smoothing-cell area of the particle on the final mesh"),
+    Variable("particle_spacing", ("particle",), "m",
+             "particle spacing h(x) the particle was made with (only with [[geometry.refined]] zones)"),
     Variable("particle_mass", ("particle",), "kg m-1", "particle mass per metre of thickness (fixed at the start)"),
     Variable("particle_pore_pressure", ("particle",), "Pa",
              "pore pressure u at the particle's final position (compression positive; 0 without [water])"),
@@ -271,6 +273,9 @@ SWEEP_FILE_ATTRIBUTES = (
     Attribute("n_cases, n_cases_distinct", "cases of the sweep, and how many of them differ "
               "(identical cases share one computation)"),
 )
+
+GRADED_CLOUD_VARIABLES = ("particle_spacing",)
+"""Variables of STAGE_FILE that a stage file holds only for a graded cloud (``[[geometry.refined]]``)."""
 
 REFINEMENT_FILE = _table(
     Variable("spacing", ("level",), "m", "nominal particle spacing h of the level"),

@@ -105,6 +105,19 @@ class SlopeForm(Record):
         return 0.5 * self.height_m if self.foundation_depth_m is None else self.foundation_depth_m
 
 
+MAX_GRADING = 1.5
+"""Largest ``geometry.grading``: steeper transitions leave holes in the first mesh of jittered clouds."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class RefinedZone(Record):
+    """A zone of the domain with a finer particle spacing (``spfem_core.cloud.graded_particles_in_polygon``)."""
+
+    name: str = name_field("name of the zone")
+    region_m: tuple = polygon("m", "outline of the zone, [[x, y], ...]; the part inside the domain is refined")
+    spacing_m: float = number("m", "particle spacing inside the zone, at most geometry.spacing_m", gt=0.0)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Geometry(Record):
     """The domain and its particle cloud: a polygon (given, or made by [geometry.slope]) filled with
@@ -120,6 +133,22 @@ class Geometry(Record):
     )
     seed: int = integer("seed of the random jitter", default=0, ge=0)
     slope: SlopeForm | None = optional_table(SlopeForm)
+    refined: tuple = tables(RefinedZone, "zones with a finer spacing; around them the spacing grows by the "
+                            "factor grading per spacing of distance, up to spacing_m", unique="name")
+    grading: float = number(
+        "1", "largest ratio between the spacings of neighbouring particles around refined zones (the spacing "
+        "grows by grading - 1 per metre of distance from a zone)", default=1.25, ge=1.05, le=MAX_GRADING,
+    )
+
+    @property
+    def zones(self) -> list[tuple]:
+        """(polygon, spacing) of each refined zone, for ``spfem_core.cloud``."""
+        return [(zone.region_m, zone.spacing_m) for zone in self.refined]
+
+    @property
+    def finest_spacing_m(self) -> float:
+        """The smallest spacing of the cloud: of a refined zone, else spacing_m."""
+        return min([self.spacing_m, *(zone.spacing_m for zone in self.refined)])
 
     def check(self):
         if self.polygon_m is None:
@@ -129,6 +158,10 @@ class Geometry(Record):
         if self.spacing_m > 0.5 * extent:
             raise StudyError("spacing_m", f"{self.spacing_m:g} m is more than half the domain's smaller extent "
                              f"({extent:g} m): too few particles across it")
+        for i, zone in enumerate(self.refined):
+            if zone.spacing_m > self.spacing_m:
+                raise StudyError(f"refined[{i}].spacing_m", f"{zone.spacing_m:g} m is coarser than geometry.spacing_m "
+                                 f"= {self.spacing_m:g} m: a zone refines")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -193,6 +226,12 @@ class Solver(Record):
         "degree", "rebuild the mesh when its smallest angle falls below this; after each rebuild the "
         "threshold is the fresh mesh's smallest angle less 5 degrees (or half of it, if that is larger), "
         "never above this", default=DEFAULT_MIN_ANGLE_DEG, gt=0.0, lt=60.0,
+    )
+    density_scaling: bool = boolean(
+        "with [[geometry.refined]] zones: relaxations (gravity, quasi-static SRF runs) scale the fine particles' "
+        "inertia to step at the coarse particles' critical step; the fine zone then responds slower in "
+        "pseudo-time (give longer durations); measured no faster where the mechanism is refined "
+        "(docs/method.md, section 2)", default=False,
     )
 
     def check(self):
@@ -373,6 +412,9 @@ class Study(Record):
                     raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
         self._check_water_and_loads()
         self._check_frames()
+        if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
+            raise StudyError("geometry.refined", "refined zones apply to gravity and strength-reduction studies; "
+                             "runout and collapse metrics assume one spacing (not yet)")
         if self.refinement is not None:
             if self.strength_reduction is None:
                 raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "
