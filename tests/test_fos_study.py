@@ -115,8 +115,9 @@ def test_a_cancelled_run_stops_at_its_next_check(quickstart_run):
                              cancel_event="spfem-fos-test-other").result()
     assert "cancelled" in cancelled.dataset.attrs["note_early_stop"]
     assert cancelled.record.stop_time_s <= 0.05 * duration_s
-    # the same run not cancelled goes on until the slope is at rest (quasi-static: converged)
-    assert free.record.stop_time_s > 10 * cancelled.record.stop_time_s
+    # the same run not cancelled goes on until the slope is at rest (quasi-static: converged), many
+    # checks later (at the runs' scaled stiffness it converges in under a second)
+    assert free.record.stop_time_s > 5 * cancelled.record.stop_time_s
     assert "converged" in free.dataset.attrs["note_early_stop"]
 
 
