@@ -61,6 +61,8 @@ def test_levels_that_do_not_extrapolate_are_said_plainly_with_a_conservative_ban
     ("spacings_m = [1.0, 0.7, 0.5]\nlevels = 3", "refinement.spacings_m", "not both"),
     ("ratio = 3.0", "refinement.ratio", "<= 2"),
     ("fos_tolerance = 0.05", "refinement.fos_tolerance", "<= 0.02"),
+    ("adaptive_spacing_m = 0.5\nlevels = 3", "refinement.levels", "not both"),
+    ("band_margin_m = 1.0", "refinement.band_margin_m", "adaptive_spacing_m only"),
 ])
 def test_bad_refinement_tables_name_the_field(block, field, message):
     with pytest.raises(StudyError) as error:

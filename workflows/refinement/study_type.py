@@ -72,8 +72,14 @@ class RefinementOutcome:
 
     @property
     def verdict(self) -> str:
-        """The report's first line: the FOS as h -> 0 with its band, or why there is none."""
+        """The report's first line: the FOS as h -> 0 with its band, or why there is none (an adaptive
+        study: the FOS of its refined level)."""
         x = self.extrapolation
+        if x is None and self.message.startswith("adaptive refinement:"):
+            level = self.levels[-1]
+            return (f"FOS = {level.fos:.4f}, bracket [{level.fos_low:.4f}, {level.fos_high:.4f}] with a band of "
+                    f"{level.spacing_m:g} m particles along the shear band ({level.n_particles} particles; coarse "
+                    f"level {self.levels[0].fos:.4f})")
         if x is None:
             return f"no FOS at h -> 0: {self.message}"
         what = {"extrapolated": f"FOS = {x.fos:.4f} at h -> 0 (Richardson, observed order {x.observed_order:.2g})",
@@ -102,15 +108,27 @@ class RefinementStudy(StudyType):
         super().__init__(study, out_dir)
         self.spacings = study.refinement.spacings(study.geometry.spacing_m)
         self.level_studies = [self._level_study(k, h) for k, h in enumerate(self.spacings)]
+        if self.adaptive:  # the zone comes from the first level's failed run: until then, the coarse study
+            self.level_studies[1] = self.level_studies[0]
         self.moves = [0] * len(self.spacings)
         self.current = 0  # the level being computed
         self.found: dict[int, float] = {}  # FOS of each level done
 
-    def _level_study(self, k: int, spacing_m: float, search: tuple[float, float, float] | None = None) -> Study:
+    @property
+    def adaptive(self) -> bool:
+        return self.study.refinement.adaptive_spacing_m is not None
+
+    def _level_study(self, k: int, spacing_m: float, search: tuple[float, float, float] | None = None,
+                     zone: list | None = None) -> Study:
         """Level k's own study: the study at ``spacing_m`` with the levels' tolerance and, for a later
-        level, the SRF window ``search`` = (srf_min, srf_max, srf_step)."""
+        level, the SRF window ``search`` = (srf_min, srf_max, srf_step); an adaptive level keeps the
+        coarse spacing and adds the refined ``zone`` polygon at ``spacing_m``."""
         raw = _loads(self.study.source_text)
         raw.pop("refinement", None)
+        if zone is not None:
+            raw.setdefault("geometry", {}).setdefault("refined", []).append(
+                {"name": "adaptive_band", "region_m": zone, "spacing_m": spacing_m})
+            spacing_m = self.study.geometry.spacing_m
         stage = self.study.strength_reduction.name
         values = {"geometry.spacing_m": spacing_m, f"stages.{stage}.fos_tolerance": self.study.refinement.fos_tolerance}
         if search is not None:
@@ -130,7 +148,8 @@ class RefinementStudy(StudyType):
         return self.out_dir / LEVELS_FOLDER / f"{k}_h={self.spacings[k]:g}"
 
     def check(self, options: RunOptions) -> None:
-        """Each level's resolution; the memory of the finest level (StudyError)."""
+        """Each level's resolution; the memory of the finest level (StudyError; an adaptive study's
+        finest level is not known before the first has run: its coarse level is checked)."""
         for k, study in enumerate(self.level_studies):
             try:
                 study.strength_reduction.check_resolution(study)
@@ -167,9 +186,20 @@ class RefinementStudy(StudyType):
             self.found[k] = outcome.fos
             if k + 1 == len(self.spacings):
                 return []
+            zone = None
+            if self.adaptive:
+                from workflows.fos.run_store import run_file_name
+                from workflows.refinement.adaptive import band_zone
+
+                margin = self.study.refinement.band_margin_m or self.study.geometry.spacing_m
+                zone = band_zone(outcome.out_dir / run_file_name(outcome.status_high), self.study.geometry.spacing_m,
+                                 margin)
+                if zone is None:
+                    progress.message(f"warning: level {k}'s first failed run has no shear band to refine")
+                    return []
             self.current = k + 1
             self.level_studies[k + 1] = self._level_study(k + 1, self.spacings[k + 1],
-                                                          window(outcome.fos, self._step()))
+                                                          window(outcome.fos, self._step()), zone)
             return [self._case(k + 1)]
         stable_below = [r for r in outcome.runs if r.status == "stable" and r.srf < outcome.status_high]
         every_failed = math.isfinite(outcome.status_high) and len(stable_below) < 2  # no knee without 2 below
@@ -212,7 +242,10 @@ class RefinementStudy(StudyType):
                 outcome.verdict, outcome.criteria_agree))
         found = [level for level in levels if math.isfinite(level.fos)]
         extrapolation, message = None, ""
-        if len(found) >= 3:
+        if self.adaptive:
+            message = ("adaptive refinement: no extrapolation; the FOS of the refined band is the finest level's"
+                       if len(found) == 2 else f"{len(found)} of 2 levels have an FOS")
+        elif len(found) >= 3:
             resolution = max(0.5 * (level.fos_high - level.fos_low) for level in found)
             extrapolation = extrapolate([level.spacing_m for level in found], [level.fos for level in found],
                                         resolution, self.study.refinement.safety_factor)

@@ -33,8 +33,23 @@ class Refinement(Record):
     )
     safety_factor: float = number("1", "Fs of the grid convergence index with three levels (Roache)",
                                   default=SAFETY_FACTOR, ge=1.0, le=3.0)
+    adaptive_spacing_m: float | None = number(
+        "m", "adaptive refinement instead of levels: the study at geometry.spacing_m, then again with a zone of "
+        "this spacing along the shear band of its first failed run (workflows/refinement/adaptive.py)",
+        default=None, gt=0.0,
+    )
+    band_margin_m: float | None = number(
+        "m", "*adaptive:* the zone reaches this far beyond the band on either side; default geometry.spacing_m",
+        default=None, gt=0.0,
+    )
 
     def check(self):
+        if self.adaptive_spacing_m is not None:
+            for name in ("spacings_m", "levels", "ratio"):
+                if getattr(self, name) is not None:
+                    raise StudyError(name, "give adaptive_spacing_m, or levels of spacings, not both")
+        elif self.band_margin_m is not None:
+            raise StudyError("band_margin_m", "applies with adaptive_spacing_m only")
         if self.spacings_m is not None:
             if self.levels is not None or self.ratio is not None:
                 raise StudyError("spacings_m", "give spacings_m, or levels and ratio, not both")
@@ -47,6 +62,8 @@ class Refinement(Record):
 
     def spacings(self, spacing_m: float) -> list[float]:
         """The levels' spacings, coarsest first (``spacing_m``: the study's geometry.spacing_m)."""
+        if self.adaptive_spacing_m is not None:
+            return [float(spacing_m), float(self.adaptive_spacing_m)]
         if self.spacings_m is not None:
             return [float(h) for h in self.spacings_m]
         ratio = DEFAULT_RATIO if self.ratio is None else self.ratio
