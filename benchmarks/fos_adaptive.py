@@ -14,27 +14,20 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import xarray as xr
+
+from benchmarks.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def run(text: str, folder: Path) -> tuple[xr.Dataset, float]:
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "study.toml").write_text(text)
-    out = folder / f"out{time.monotonic_ns()}"
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "workflows.cli", str(folder / "study.toml"), "--out", str(out),
-                           "--quiet"], cwd=ROOT, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{folder.name} failed:\n{done.stderr}")
-    return xr.open_dataset(out / "refinement.nc").load(), time.perf_counter() - start
+    out, wall = run_study_command(text, folder)
+    return xr.open_dataset(out / "refinement.nc").load(), wall
 
 
 def main(argv=None) -> int:

@@ -20,13 +20,13 @@ from __future__ import annotations
 import argparse
 import re
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import xarray as xr
+
+from benchmarks.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIP_LINE_M = [(16, 16.5), (18, 14), (20, 11.9), (22, 10), (24, 8.5), (26, 7.4), (28, 6.5), (30, 5.75), (32, 5.1),
@@ -66,18 +66,11 @@ def study_text(name: str, spacing_m: float, band_spacing_m: float | None, weak_l
 
 
 def run(text: str, folder: Path) -> dict:
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "study.toml").write_text(text)
-    out = folder / f"out{time.monotonic_ns()}"
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "workflows.cli", str(folder / "study.toml"), "--out", str(out),
-                           "--quiet"], cwd=ROOT, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{folder.name} failed:\n{done.stderr}")
+    out, wall = run_study_command(text, folder)
     with xr.open_dataset(out / "summary.nc") as summary:
         fos = summary["fos"]
         return dict(fos=float(fos), low=fos.attrs["fos_low"], high=fos.attrs["fos_high"],
-                    particles=summary.attrs["n_particles"], runs=summary.sizes["srf"], wall=time.perf_counter() - start)
+                    particles=summary.attrs["n_particles"], runs=summary.sizes["srf"], wall=wall)
 
 
 def main(argv=None) -> int:

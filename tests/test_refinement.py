@@ -13,8 +13,8 @@ from workflows.cases import RunOptions
 from workflows.refinement.convergence import (
     CONVERGED,
     EXTRAPOLATED,
-    OSCILLATING,
     ORDER_OUT_OF_RANGE,
+    OSCILLATING,
     extrapolate,
     observed_order,
 )

@@ -12,6 +12,8 @@ import sys
 from workflows.output.variables import (
     COLLAPSE_METRICS,
     FOS_ATTRIBUTES,
+    REFINEMENT_FILE,
+    REFINEMENT_FILE_ATTRIBUTES,
     RUNOUT_METRICS,
     STAGE_FILE,
     STAGE_FILE_ATTRIBUTES,
@@ -21,8 +23,6 @@ from workflows.output.variables import (
     SWEEP_AXIS_ATTRIBUTES,
     SWEEP_FILE,
     SWEEP_FILE_ATTRIBUTES,
-    REFINEMENT_FILE,
-    REFINEMENT_FILE_ATTRIBUTES,
     Attribute,
     Variable,
 )

@@ -21,7 +21,7 @@ class Refinement(Record):
         "m", "the spacings of the levels, coarsest first (at least 3); default: geometry.spacing_m divided by "
         "ratio^k for k = 0 ... levels - 1", default=None, gt=0.0,
     )
-    levels: int | None = integer(f"number of levels from geometry.spacing_m; default 3", default=None, ge=3,
+    levels: int | None = integer("number of levels from geometry.spacing_m; default 3", default=None, ge=3,
                                  le=MAX_LEVELS)
     ratio: float | None = number(
         "1", f"spacing of one level over the next; default sqrt(2) = {DEFAULT_RATIO:.4g} (each level doubles the "
