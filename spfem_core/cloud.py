@@ -22,7 +22,6 @@ its level's spacing, up to twice it where the levels meet): the alpha shape of i
 from __future__ import annotations
 
 import numpy as np
-
 from scipy.spatial import cKDTree
 
 from spfem_core.geometry import distance_to_edges_m, polygon_problem, ray_casting_inside
