@@ -267,6 +267,7 @@ def test_strip_load_fos_against_prandtl(tmp_path):
     assert abs(outcome.fos / prandtl_fos(study) - 1.0) < 0.03
 
 
+@pytest.mark.slow  # a whole sweep (45-90 s); python -m verification.water_and_loads prints it
 def test_drawdown_sweep_against_griffiths_and_lane(tmp_path):
     """studies/drawdown.toml: FOS within 3% of Griffiths & Lane (1999, Fig. 15) at every L / H, the
     minimum at L / H = 0.7."""
@@ -281,6 +282,7 @@ def test_drawdown_sweep_against_griffiths_and_lane(tmp_path):
     assert ratios[int(np.argmin(fos))] == 0.7
 
 
+@pytest.mark.slow  # a whole sweep (45-90 s); python -m verification.water_and_loads prints it
 def test_seismic_sweep_falls_with_kh_to_one_at_the_critical_coefficient(tmp_path):
     """studies/seismic.toml (Loukidis et al. 2003): FOS falls monotonically with kh and is 1 within 5%
     at kc = 0.432."""
