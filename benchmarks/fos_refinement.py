@@ -12,15 +12,14 @@ Error = FOS / reference - 1; "holds": the band contains the reference.
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import xarray as xr
 
 from benchmarks.fos_protocols import CASES
+from benchmarks.study_command import run_study_command
 from workflows.study import parse_study
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -30,15 +29,8 @@ def run(case: str, per_height: list[float], scratch: Path) -> tuple[xr.Dataset, 
     text = (ROOT / CASES[case][0]).read_text()
     height = parse_study(text).slope_height_m
     spacings = ", ".join(f"{height / n:.6g}" for n in per_height)
-    folder = scratch / case
-    folder.mkdir(parents=True)
-    (folder / "study.toml").write_text(text + f"\n[refinement]\nspacings_m = [{spacings}]\n")
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "workflows.cli", str(folder / "study.toml"), "--out",
-                           str(folder / "out"), "--quiet"], cwd=ROOT, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{case} failed:\n{done.stderr}")
-    return xr.open_dataset(folder / "out" / "refinement.nc").load(), time.perf_counter() - start
+    out, wall = run_study_command(text + f"\n[refinement]\nspacings_m = [{spacings}]\n", scratch / case)
+    return xr.open_dataset(out / "refinement.nc").load(), wall
 
 
 def main(argv=None) -> int:

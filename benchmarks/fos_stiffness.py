@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import argparse
 import re
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import xarray as xr
+
+from benchmarks.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {"reference_slope": "studies/reference_slope.toml", "griffiths_lane_ex4": "studies/published/griffiths_lane_ex4.toml"}
@@ -36,19 +36,13 @@ def study_text(case: str, spacing_m: float, modulus_pa: float, poisson: float, d
 
 
 def run(case, spacing_m, modulus_pa, poisson, declared, scratch: Path) -> dict:
-    folder = scratch / f"{case}_{modulus_pa:g}_{poisson:g}_{int(declared)}"
-    folder.mkdir(parents=True)
-    (folder / "study.toml").write_text(study_text(case, spacing_m, modulus_pa, poisson, declared))
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "workflows.cli", str(folder / "study.toml"), "--out",
-                           str(folder / "out"), "--quiet"], cwd=ROOT, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise SystemExit(f"{case} E {modulus_pa:g} nu {poisson:g} failed:\n{done.stderr}")
-    with xr.open_dataset(folder / "out" / "summary.nc") as summary:
+    text = study_text(case, spacing_m, modulus_pa, poisson, declared)
+    out, wall = run_study_command(text, scratch / f"{case}_{modulus_pa:g}_{poisson:g}_{int(declared)}")
+    with xr.open_dataset(out / "summary.nc") as summary:
         fos = summary["fos"]
         return dict(fos=float(fos), low=fos.attrs["fos_low"], high=fos.attrs["fos_high"],
                     agree=bool(fos.attrs["criteria_agree"]), factor=summary.attrs["srf_stiffness_factor"],
-                    runs=summary.sizes["srf"], wall=time.perf_counter() - start)
+                    runs=summary.sizes["srf"], wall=wall)
 
 
 def main(argv=None) -> int:
