@@ -6,7 +6,17 @@ For every particle and direction, with f = m g + f_int + f_stab (the unbalanced 
     v^{n+1/2} = v^{n-1/2} + dt (f + f_damp) / m_i
     v^{n+1/2} = v_prescribed                 where the direction is fixed
     v^{n+1/2} corrected by the rigid walls (``contact``), only when there are walls
+    along a slip support (below), before the damping: v_t = 0 if |v_t^free| <= dt C / m_i,
+        else f_t -> f_t - C sign(v_t^free)                 (v_t^free = v_t^{n-1/2} + dt f_t / m_i)
     x^{n+1} = x^n + dt v^{n+1/2},  u^{n+1} = u^n + dt v^{n+1/2}
+
+A slip support (``state.NodeState.slip``) prescribes one direction, the normal n, and resists
+the other, the tangent t, with the soil's strength over the particle's share L_k of the support:
+
+    C = c L_k + tan(phi) N,   N = max(s f_n, 0)       (s = +-1: the side the support lies on)
+
+with f_n the particle's unbalanced normal force, the reaction the support gives.  A stuck particle
+counts as fixed in the unbalanced-force sums; the resisting impulse's work is the contact loss.
 
 Particle masses m are fixed at the start and never recomputed.  The inertia m_i is m, except in a
 density-scaled relaxation of a graded cloud (``simulation.Simulation.relax``), where it is larger
@@ -30,6 +40,9 @@ from spfem_core.state import (
     LEAPFROG_MAX_SPEED_SQ,
     LEAPFROG_OUT_WIDTH,
     LEAPFROG_UNBALANCED_FORCE_SQ,
+    SLIP_COHESION,
+    SLIP_FRICTION,
+    SLIP_SIDE,
 )
 
 
@@ -45,7 +58,7 @@ def sign0(value):
 
 @kernel
 def leapfrog(
-    node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity, damping, dt,
+    node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity, damping, dt,
     wall_xy, wall_friction, reach, node_contact, out, n_threads,
 ):
     """Advance velocities and positions one step (module doc).
@@ -67,12 +80,12 @@ def leapfrog(
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                          gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out)
+                          node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out)
     else:  # the same chunks
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
             leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                           gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
+                           node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
                            chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
@@ -83,19 +96,19 @@ def leapfrog(
 
 
 @parallel_inner_kernel
-def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
                       damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out):
     """:func:`leapfrog_range` of every chunk of particles on threads, the sums in ``chunk_out``
     (kept apart: a function with a parallel loop costs about 3 us a call even when it runs no thread)."""
     n_node = node_xy.shape[0]
     for chunk in prange(chunk_out.shape[0]):
         start, end = chunk_bounds(chunk, n_node)
-        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
                        damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
 
 
 @inner_kernel
-def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, gravity,
+def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
                    damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out):
     """:func:`leapfrog` of particles start..end-1, their sums in ``out`` (its layout)."""
     use_walls = wall_xy.shape[0] > 0
@@ -109,13 +122,14 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
         m = node_inertia[k]
         v_start_x = node_v[k, 0]
         v_start_y = node_v[k, 1]
+        slip_side = node_slip[k, SLIP_SIDE]
         for d in range(2):
             weight = node_mass[k] * gravity[d]
             f = node_force[k, d] + weight
             v_old = node_v[k, d]
             if node_fixed[k, d]:
                 v_new = node_fixed_v[k, d]
-            else:
+            elif slip_side == 0.0:
                 f_damp = 0.0
                 if damping > 0.0:
                     f_damp = -damping * abs(f) * sign0(v_old)
@@ -123,6 +137,26 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
                 unbalanced_sq += f * f
                 applied_sq += weight * weight
                 v_new = v_old + dt * (f + f_damp) / m
+            else:  # along a slip support: the soil's strength resists first
+                f_normal = node_force[k, 1 - d] + node_mass[k] * gravity[1 - d]
+                capacity = node_slip[k, SLIP_COHESION] + node_slip[k, SLIP_FRICTION] * max(slip_side * f_normal, 0.0)
+                v_free = v_old + dt * f / m
+                if abs(v_free) <= capacity * dt / m:  # stuck: the support holds it, as a fixed direction
+                    contact_loss += 0.5 * m * v_free * v_old  # the stopping impulse's work at v_old / 2
+                    node_v[k, d] = 0.0
+                    continue
+                resistance = -capacity * sign0(v_free)
+                contact_loss -= resistance * dt * 0.5 * (v_old + v_free + dt * resistance / m)
+                f += resistance  # the net force, which the damping then acts on
+                f_damp = 0.0
+                if damping > 0.0:
+                    f_damp = -damping * abs(f) * sign0(v_old)
+                    damping_power += f_damp * v_old
+                unbalanced_sq += f * f
+                applied_sq += weight * weight
+                v_new = v_old + dt * (f + f_damp) / m
+                if v_new * v_free < 0.0:  # the damping does not turn a slide back
+                    v_new = 0.0
             node_v[k, d] = v_new
         vx = node_v[k, 0]
         vy = node_v[k, 1]

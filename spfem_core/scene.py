@@ -35,6 +35,8 @@ class Scene:
     gravity_m_s2: np.ndarray = field(default_factory=lambda: np.array([0.0, -9.81]))
     node_fixed: np.ndarray | None = None  # (n, 2) bool
     node_fixed_velocity_m_s: np.ndarray | None = None  # (n, 2)
+    node_slip_length_m: np.ndarray | None = None  # (n,) share L_k of a slip support (0: none); see StageSetup
+    node_slip_side: np.ndarray | None = None  # (n,) side s = +-1 its support lies on (0: none)
     alpha: float = DEFAULT_ALPHA  # alpha-shape factor: drop triangles with circumradius > alpha * h
     wall_xy_m: np.ndarray | None = None  # (n_wall, 4) rigid segments (x1, y1, x2, y2); material on the left
     wall_friction: np.ndarray | None = None  # (n_wall,) Coulomb coefficient mu
@@ -63,6 +65,9 @@ class Scene:
         if self.node_fixed_velocity_m_s is None:
             self.node_fixed_velocity_m_s = np.zeros((n, 2))
         self.node_fixed_velocity_m_s = np.ascontiguousarray(self.node_fixed_velocity_m_s, dtype=np.float64)
+        for attr in ("node_slip_length_m", "node_slip_side"):
+            value = np.zeros(n) if getattr(self, attr) is None else getattr(self, attr)
+            setattr(self, attr, np.ascontiguousarray(value, dtype=np.float64).reshape(n))
         self.gravity_m_s2 = np.ascontiguousarray(self.gravity_m_s2, dtype=np.float64).reshape(2)
         walls = np.zeros((0, 4)) if self.wall_xy_m is None else self.wall_xy_m
         self.wall_xy_m = np.ascontiguousarray(walls, dtype=np.float64).reshape(-1, 4)

@@ -26,7 +26,18 @@ from spfem_core.schedule import StageSchedule
 from spfem_core.settings import SolverSettings
 from spfem_core.smoothing import smooth_velocity_gradient
 from spfem_core.snapshot import Snapshot, StressState
-from spfem_core.state import ExternalLoads, MaterialArrays, NodeState, StepParameters, StepScratch, Walls
+from spfem_core.state import (
+    SLIP,
+    SLIP_COHESION,
+    SLIP_FRICTION,
+    SLIP_SIDE,
+    ExternalLoads,
+    MaterialArrays,
+    NodeState,
+    StepParameters,
+    StepScratch,
+    Walls,
+)
 from spfem_core.stepper import (
     LOOP_CONTACTS,
     LOOP_LAST_MAX_SPEED,
@@ -77,6 +88,8 @@ class StageSetup:
     node_fixed: np.ndarray  # (n, 2) bool: velocity prescribed
     node_fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity
     gravity_m_s2: np.ndarray  # (2,) body acceleration, gravity with any pseudo-static seismic part
+    node_slip_length_m: np.ndarray | None = None  # (n,) share L_k of a slip support (0 or None: none)
+    node_slip_side: np.ndarray | None = None  # (n,) side s = +-1 the support lies on along the prescribed direction
     phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x increasing
     node_phreatic_line: np.ndarray | None = None  # (n,) line of each particle, -1: none (default: the first, or none)
     pond_level_m: float | None = None  # ponded water level; None: none
@@ -126,7 +139,7 @@ class Simulation:
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
             stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n), inertia_kg=np.zeros(n),
             material_row=material_row, fixed=scene.node_fixed.copy(),
-            fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(),
+            fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(), slip=np.zeros((n, len(SLIP))),
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
         self.gravity_m_s2 = scene.gravity_m_s2.copy()
@@ -150,6 +163,8 @@ class Simulation:
         self.time_step = TimeStepPolicy(self.settings)
         self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
         self._set_material_arrays(self.particle_materials)
+        self._set_supports(scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
+                           scene.node_slip_side)
 
         self._set_mesh(self.remesher.triangulate(self.nodes.xy_m))
         self._initial_mesh = self.mesh
@@ -210,7 +225,8 @@ class Simulation:
             raise ValueError(f"StageSetup.start: must be 'continue', 'original_positions' or a StressState, "
                              f"got {setup.start!r}")
         self.set_materials(setup.materials)
-        self._set_supports(setup.node_fixed, setup.node_fixed_velocity_m_s)
+        self._set_supports(setup.node_fixed, setup.node_fixed_velocity_m_s, setup.node_slip_length_m,
+                           setup.node_slip_side)
         self._set_gravity(setup.gravity_m_s2)
         self._set_water(setup.phreatic_lines_m, setup.node_phreatic_line, setup.pond_level_m)
         self._set_load_ramp(setup.load_ramp_s)
@@ -223,6 +239,7 @@ class Simulation:
             raise ValueError(f"materials: expected {self.particle_materials.n_rows} rows, got {materials.n_rows}")
         self._set_material_arrays(materials)
         self._choose_time_step()
+        self._set_slip_strength()
 
     def _set_gravity(self, gravity_m_s2):
         """Body acceleration (m/s^2) from now on, e.g. gravity with a pseudo-static seismic part."""
@@ -259,12 +276,42 @@ class Simulation:
             raise ValueError(f"ramp_time_s: must be >= 0, got {ramp_time_s}")
         self.loads = self.loads._replace(ramp_time_s=float(ramp_time_s))
 
-    def _set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray):
-        """Prescribed velocities from now on (e.g. release a retaining side for a collapse)."""
-        self.nodes.fixed[:] = np.asarray(node_fixed, dtype=bool).reshape(self.n_particles, 2)
-        self.nodes.fixed_velocity_m_s[:] = np.asarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(
-            self.n_particles, 2
-        )
+    def _set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray,
+                      node_slip_length_m: np.ndarray | None = None, node_slip_side: np.ndarray | None = None):
+        """Prescribed velocities from now on (e.g. release a retaining side for a collapse), and the
+        slip supports (``StageSetup``)."""
+        n = self.n_particles
+        self.nodes.fixed[:] = np.asarray(node_fixed, dtype=bool).reshape(n, 2)
+        self.nodes.fixed_velocity_m_s[:] = np.asarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(n, 2)
+        length = np.zeros(n) if node_slip_length_m is None else np.asarray(node_slip_length_m, float).reshape(n)
+        side = np.zeros(n) if node_slip_side is None else np.asarray(node_slip_side, float).reshape(n)
+        slipping = side != 0.0
+        if np.any(slipping & ((self.nodes.fixed.sum(axis=1) != 1) | ~(length > 0.0))):
+            raise ValueError("node_slip_side: a slip support needs exactly one prescribed direction and a share "
+                             "L_k > 0 of the support")
+        self._slip_length_m, self._slip_side = length, side
+        self._stage_fixed = (self.nodes.fixed.copy(), self.nodes.fixed_velocity_m_s.copy())
+        self._set_slip_strength()
+
+    def _set_slip_strength(self):
+        """``nodes.slip`` from the slip supports and the strength of the materials in use:
+        C = c L_k + tan(phi) N (``integration``); a particle that cannot slide (an elastic row,
+        c = inf) is held fixed."""
+        slip = self.nodes.slip
+        slip[:] = 0.0
+        side = self._slip_side
+        if not np.any(side):
+            return
+        self.nodes.fixed[:], self.nodes.fixed_velocity_m_s[:] = self._stage_fixed
+        cohesion, tan_friction = self.materials.slip_strength()
+        row = self.nodes.material_row
+        sliding = (side != 0.0) & np.isfinite(cohesion[row])
+        slip[sliding, SLIP_COHESION] = cohesion[row[sliding]] * self._slip_length_m[sliding]
+        slip[sliding, SLIP_FRICTION] = tan_friction[row[sliding]]
+        slip[sliding, SLIP_SIDE] = side[sliding]
+        held = np.flatnonzero((side != 0.0) & ~sliding)  # the free direction too, at rest
+        self.nodes.fixed_velocity_m_s[held] = np.where(self.nodes.fixed[held], self.nodes.fixed_velocity_m_s[held], 0.0)
+        self.nodes.fixed[held] = True
 
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""

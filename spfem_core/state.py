@@ -19,11 +19,16 @@ LEAPFROG_OUT = ("max_speed_sq", "unbalanced_force_sq", "applied_force_sq", "damp
                 "contacts")
 """Slots of ``StepScratch.leapfrog_out``, filled by ``integration.leapfrog`` every step: the largest
 speed squared (m^2/s^2; NaN if any speed is NaN), |f_unbalanced|^2 and |m g|^2 on the free directions
-(N^2/m^2), the damping power (W/m, <= 0), the energy the walls removed (J/m), the particles touching
+(N^2/m^2), the damping power (W/m, <= 0), the energy the walls and slip supports removed (J/m), the particles touching
 a wall."""
 (LEAPFROG_MAX_SPEED_SQ, LEAPFROG_UNBALANCED_FORCE_SQ, LEAPFROG_APPLIED_FORCE_SQ, LEAPFROG_DAMPING_POWER,
  LEAPFROG_CONTACT_LOSS, LEAPFROG_CONTACTS) = range(len(LEAPFROG_OUT))
 LEAPFROG_OUT_WIDTH = len(LEAPFROG_OUT)
+
+SLIP = ("cohesion_n_m", "tan_friction", "side")
+"""Columns of ``NodeState.slip``: c L_k (N per m of thickness), tan(phi), and the side s = +-1 the support
+lies on along the particle's prescribed direction (0: not a slip support, the default)."""
+SLIP_COHESION, SLIP_FRICTION, SLIP_SIDE = range(len(SLIP))
 
 
 class NodeState(NamedTuple):
@@ -39,6 +44,7 @@ class NodeState(NamedTuple):
     material_row: np.ndarray  # (n,) int64 row of the simulation's material table (its material's, or its own)
     fixed: np.ndarray  # (n, 2) bool: velocity prescribed in that direction
     fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity where ``fixed``
+    slip: np.ndarray  # (n, 3) slip supports, columns ``SLIP`` (integration.leapfrog); side 0 everywhere: none
 
 
 class StepScratch(NamedTuple):

@@ -120,7 +120,7 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
                                 time_start_s + s * dt, scratch.pore_pressure_pa, scratch.external_force_n, node_force)
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.inertia_kg, nodes.fixed,
-            nodes.fixed_velocity_m_s,
+            nodes.fixed_velocity_m_s, nodes.slip,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
             step_out, params.n_threads,
         )

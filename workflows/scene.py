@@ -12,6 +12,8 @@ like the file checks, before anything is run or written.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from spfem_core.cloud import graded_particles_in_polygon, particles_in_polygon
@@ -103,7 +105,9 @@ def build_scene(study: Study) -> Scene:
     for i, boundary in enumerate(study.boundary):
         if _boundary_nodes(scene, boundary).size == 0:
             raise StudyError(f"boundary[{i}]", f"the box of {boundary.name!r} holds no particle")
-    scene.node_fixed, scene.node_fixed_velocity_m_s = supports(study, scene)
+    held = supports(study, scene)
+    scene.node_fixed, scene.node_fixed_velocity_m_s = held.fixed, held.velocity_m_s
+    scene.node_slip_length_m, scene.node_slip_side = held.slip_length_m, held.slip_side
     return scene
 
 
@@ -116,11 +120,25 @@ def _boundary_nodes(scene: Scene, boundary) -> np.ndarray:
     )
 
 
-def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None):
-    """(node_fixed (n, 2) bool, node_fixed_velocity_m_s (n, 2)) of the ``[[boundary]]`` entries
-    named in ``active`` (default: all), applied in file order."""
-    fixed = np.zeros((scene.n_particles, 2), dtype=bool)
-    velocity = np.zeros((scene.n_particles, 2))
+class Supports(NamedTuple):
+    """What the ``[[boundary]]`` entries prescribe, per particle."""
+
+    fixed: np.ndarray  # (n, 2) bool: velocity prescribed
+    velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity
+    slip_length_m: np.ndarray  # (n,) share L_k of a slip support (0: none)
+    slip_side: np.ndarray  # (n,) +-1: the side the slip support lies on along its prescribed direction; 0: none
+
+
+def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) -> Supports:
+    """The ``[[boundary]]`` entries named in ``active`` (default: all), applied in file order.  A
+    slip support's particles lie on one line across its prescribed direction: each gets half the
+    distance between its neighbours along the line (an end particle half the gap to its one
+    neighbour) and the side the support lies on, away from the body's centroid.  A particle that
+    ends with both directions prescribed (a corner shared with another support) is not a slip one."""
+    n = scene.n_particles
+    fixed = np.zeros((n, 2), dtype=bool)
+    velocity = np.zeros((n, 2))
+    slip_length, slip_side = np.zeros(n), np.zeros(n)
     for boundary in study.boundary:
         if active is not None and boundary.name not in active:
             continue
@@ -129,7 +147,33 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None):
             if value is not None:
                 fixed[nodes, d] = True
                 velocity[nodes, d] = value
-    return fixed, velocity
+        if boundary.slip == "soil":
+            normal = 0 if boundary.vx_m_s is not None else 1
+            slip_length[nodes], slip_side[nodes] = _slip_shares(scene, nodes, normal, boundary.name)
+        else:
+            slip_length[nodes], slip_side[nodes] = 0.0, 0.0
+    corner = fixed.all(axis=1)
+    slip_length[corner], slip_side[corner] = 0.0, 0.0
+    return Supports(fixed, velocity, slip_length, slip_side)
+
+
+def _slip_shares(scene: Scene, nodes: np.ndarray, normal: int, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(L_k, side) of a slip support's particles ``nodes`` (:func:`supports`)."""
+    xy = scene.node_xy_m
+    across = xy[nodes, normal]
+    if np.ptp(across) > 1e-3 * scene.spacing_m:
+        raise StudyError("boundary", f"the slip support {name!r} must select particles on one straight line "
+                         f"{'x' if normal == 0 else 'y'} = const; its particles span {np.ptp(across):.3g} m across it")
+    along = xy[nodes, 1 - normal]
+    order = np.argsort(along, kind="stable")
+    sorted_along = along[order]
+    if nodes.size < 2:
+        raise StudyError("boundary", f"the slip support {name!r} holds {nodes.size} particle; it needs two at least")
+    padded = np.concatenate([[sorted_along[0]], sorted_along, [sorted_along[-1]]])
+    length = np.empty(nodes.size)
+    length[order] = 0.5 * (padded[2:] - padded[:-2])
+    side = 1.0 if across.mean() > xy[:, normal].mean() else -1.0
+    return length, np.full(nodes.size, side)
 
 
 def solver_settings(study: Study, threads: int = 0) -> SolverSettings:

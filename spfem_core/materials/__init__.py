@@ -8,6 +8,8 @@ A model module (``elastic``, ``drucker_prager``, ``mohr_coulomb``, ``tresca``) h
 - ``CONSTANTS`` and ``constants(properties, n_rows)``: the named columns the kernels read, made
   from the properties of its rows (``MaterialTable.kernel_constants``);
 - ``reduced(properties, srf, associated)``: what strength reduction by F does to its properties;
+- ``slip_strength(properties, n_rows)``: (c, tan phi) of a support the soil slides along, the
+  Mohr-Coulomb envelope tau = c + sigma_n tan(phi) of its (reduced) strength (c = inf: it cannot slide);
 - its return map, a compiled kernel of one particle's stress taking its constants as numbers
   (``<model>_update``), returning (equivalent plastic strain increment, dissipation in J/m^3).
 

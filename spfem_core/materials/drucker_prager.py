@@ -16,7 +16,12 @@ import math
 import numpy as np
 
 from spfem_core.jit import kernel
-from spfem_core.materials.frictional import FRICTIONAL_PROPERTIES, check_dilation, reduce_frictional
+from spfem_core.materials.frictional import (
+    FRICTIONAL_PROPERTIES,
+    check_dilation,
+    frictional_slip_strength,
+    reduce_frictional,
+)
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import YIELD_RTOL, accept_trial, elastic_trial, plastic_measures
 
@@ -147,6 +152,10 @@ def reduced(properties: dict, srf: float, associated: bool) -> dict:
     """c_F = c / F, tan(phi_F) = tan(phi) / F, psi_F = min(psi, phi_F) (= phi_F with ``associated``),
     sigma_t,F = sigma_t / F."""
     return reduce_frictional(properties, srf, associated)
+
+
+slip_strength = frictional_slip_strength
+"""(c, tan phi) of a support the soil slides along (``frictional.frictional_slip_strength``)."""
 
 
 @kernel

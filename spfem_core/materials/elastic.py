@@ -10,6 +10,8 @@ energy (:func:`elastic_energy_density`).
 
 from __future__ import annotations
 
+import numpy as np
+
 from spfem_core.jit import inner_kernel, kernel
 
 NAME = "elastic"
@@ -32,6 +34,12 @@ def constants(properties: dict, n_rows: int) -> tuple:
 def reduced(properties: dict, srf: float, associated: bool) -> dict:
     """Strength reduction: nothing to reduce."""
     return properties
+
+
+def slip_strength(properties: dict, n_rows: int) -> tuple:
+    """(c, tan phi) of a support the soil slides along: an elastic soil has no strength to slide
+    with (c = inf), so such a support holds it fixed."""
+    return np.full(n_rows, np.inf), np.zeros(n_rows)
 
 
 @kernel

@@ -30,6 +30,12 @@ def reduced_friction_deg(friction_deg: np.ndarray, srf: float) -> np.ndarray:
     return np.degrees(np.arctan(np.tan(np.radians(friction_deg)) / srf))
 
 
+def frictional_slip_strength(properties: dict, n_rows: int) -> tuple:
+    """(c, tan phi): the Mohr-Coulomb strength tau = c + sigma_n tan(phi) of a support the soil
+    slides along (its peak strength; a softening soil slides at its peak too)."""
+    return properties["cohesion_pa"].copy(), np.tan(np.radians(properties["friction_deg"]))
+
+
 def check_dilation(properties: dict) -> str | None:
     """Why the rows' dilation does not fit their friction (psi <= phi), or None."""
     psi, phi = properties["dilation_deg"], properties["friction_deg"]

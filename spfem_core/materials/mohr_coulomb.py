@@ -27,6 +27,7 @@ from spfem_core.jit import inner_kernel, kernel
 from spfem_core.materials.frictional import (
     FRICTIONAL_PROPERTIES,
     check_dilation,
+    frictional_slip_strength,
     reduce_frictional,
     reduced_friction_deg,
 )
@@ -111,6 +112,10 @@ def reduced(properties: dict, srf: float, associated: bool) -> dict:
     reduced_peak = reduce_frictional(properties, srf, associated)
     return reduced_peak | {"residual_cohesion_pa": properties["residual_cohesion_pa"] / srf,
                            "residual_friction_deg": reduced_friction_deg(properties["residual_friction_deg"], srf)}
+
+
+slip_strength = frictional_slip_strength
+"""(c, tan phi) of a support the soil slides along (``frictional.frictional_slip_strength``)."""
 
 
 @inner_kernel

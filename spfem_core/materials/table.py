@@ -216,6 +216,17 @@ class MaterialTable:
                     properties[key][rows] = values
         return dataclasses.replace(self, properties=properties)
 
+    def slip_strength(self) -> tuple[np.ndarray, np.ndarray]:
+        """(c, tan phi) per row of a support the soil slides along (``<model>.slip_strength``): the
+        shear strength tau = c + sigma_n tan(phi) of each row (c = inf for a row that cannot slide)."""
+        cohesion, tan_friction = np.full(self.n_rows, np.inf), np.zeros(self.n_rows)
+        for material_model in MODELS:
+            rows = self.model == material_model.CODE
+            if rows.any():
+                cohesion[rows], tan_friction[rows] = material_model.slip_strength(
+                    self._model_properties(material_model, rows, self.properties), int(rows.sum()))
+        return cohesion, tan_friction
+
     def with_moduli_scaled(self, factor: float) -> "MaterialTable":
         """Every Young's modulus times ``factor`` (Poisson's ratios kept): in small-strain theory the
         elastic-plastic stresses of a body under given loads do not change and its displacements

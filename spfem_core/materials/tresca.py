@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from spfem_core.jit import kernel
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import (
@@ -62,6 +64,11 @@ def reduced(properties: dict, srf: float, associated: bool) -> dict:
     """c_u,F = c_u / F and sigma_t,F = sigma_t / F (the flow is associated anyway)."""
     return properties | {"undrained_shear_strength_pa": properties["undrained_shear_strength_pa"] / srf,
                          "tensile_strength_pa": properties["tensile_strength_pa"] / srf}
+
+
+def slip_strength(properties: dict, n_rows: int) -> tuple:
+    """(c, tan phi) of a support the soil slides along: (c_u, 0)."""
+    return properties["undrained_shear_strength_pa"].copy(), np.zeros(n_rows)
 
 
 @kernel

@@ -117,10 +117,11 @@ def stage_setup(study: Study, sim: Simulation, index: int, start_from: StressSta
         start = start_from
     else:
         start = ORIGINAL_POSITIONS if index > 0 and stage.start == ORIGINAL_POSITIONS else CONTINUE
-    node_fixed, node_fixed_velocity_m_s = supports(study, scene, stage.boundary)
+    held = supports(study, scene, stage.boundary)
     return StageSetup(
-        materials=stage.materials(sim.particle_materials), node_fixed=node_fixed,
-        node_fixed_velocity_m_s=node_fixed_velocity_m_s, gravity_m_s2=stage.acceleration_m_s2(study),
+        materials=stage.materials(sim.particle_materials), node_fixed=held.fixed,
+        node_fixed_velocity_m_s=held.velocity_m_s, gravity_m_s2=stage.acceleration_m_s2(study),
+        node_slip_length_m=held.slip_length_m, node_slip_side=held.slip_side,
         phreatic_lines_m=lines, node_phreatic_line=node_line, pond_level_m=pond,
         load_ramp_s=(study.loads.ramp_time_s or 0.0) if index == 0 else 0.0, start=start,
     )

@@ -7,7 +7,8 @@ foundation depth, run = H / tan(angle) (or gradient H), crest and toe lengths Lc
     polygon  (0, 0), (W, 0), (W, D), (x_toe, D), (x_crest, D + H), (0, D + H)
              (D = 0: the slope stands on the base, (0, 0), (x_toe, 0), (x_crest, H), (0, H))
 
-A study that gives no ``[[boundary]]`` gets a fixed base (``base``: y <= 0) and rollers on the
+A study that gives no ``[[boundary]]`` gets a firm rough base (``base``: y <= 0, vy = 0, the soil
+sliding along it at its own strength, ``slip = "soil"``) and rollers on the
 sides (``left``: x <= 0, and with a foundation ``right``: x >= W; D = 0 leaves the face free); one that gives no ``[[monitors]]`` gets ``crest``
 and ``toe``.  With ``layer_depths_m`` = [d1, d2, ...], layer k lies between depths d_(k-1) and
 d_k below the crest (d_0 = 0, the last down to the base): the materials without ``region_m``
@@ -32,11 +33,12 @@ def polygon_m(form: SlopeForm) -> list[list[float]]:
 
 
 def supports(form: SlopeForm) -> list[dict]:
-    """``[[boundary]]`` entries: a fixed base, a roller behind the crest and, with a foundation,
-    one at its far end (without one, x = W is the toe of the face, which must stay free)."""
+    """``[[boundary]]`` entries: a firm rough base (held vertically, the soil sliding along it at its
+    own strength: ``slip = "soil"``), a roller behind the crest and, with a foundation, one at its
+    far end (without one, x = W is the toe of the face, which must stay free)."""
     width = max(x for x, _ in polygon_m(form))
     entries = [
-        {"name": "base", "y_max_m": 0.0, "vx_m_s": 0.0, "vy_m_s": 0.0},
+        {"name": "base", "y_max_m": 0.0, "vy_m_s": 0.0, "slip": "soil"},
         {"name": "left", "x_max_m": 0.0, "vx_m_s": 0.0},
     ]
     if form.foundation_depth > 0.0:

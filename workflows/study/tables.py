@@ -169,7 +169,9 @@ class Boundary(Record):
     """Prescribed velocity on the particles initially inside a box (closed, tolerance h/1000).
 
     A missing bound leaves the box open on that side; a missing velocity leaves that
-    direction free (vx = 0 alone is a roller).
+    direction free (vx = 0 alone is a roller).  ``slip = "soil"`` makes the support a firm rough
+    ground the soil can slide along: one direction held at 0, the other resisted by the soil's own
+    strength (docs/method.md, section 3).
     """
 
     name: str = name_field("name of the boundary condition")
@@ -179,10 +181,21 @@ class Boundary(Record):
     y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
     vx_m_s: float | None = number("m s-1", "prescribed x velocity; default: free", default=None)
     vy_m_s: float | None = number("m s-1", "prescribed y velocity; default: free", default=None)
+    slip: str = text(
+        "`none`: the directions not prescribed are free; `soil`: the one direction not prescribed slides once "
+        "its shear force passes the soil's strength, c + sigma_n tan(phi) (reduced by the SRF) over each "
+        "particle's share of the support (the other must be 0): a firm rough base", default="none",
+        choices=("none", "soil"),
+    )
 
     def check(self):
         if self.vx_m_s is None and self.vy_m_s is None:
             raise StudyError("vx_m_s", "give vx_m_s, vy_m_s or both (a boundary must prescribe something)")
+        if self.slip == "soil" and [self.vx_m_s, self.vy_m_s].count(None) != 1:
+            raise StudyError("slip", "a slip support prescribes one direction (vx_m_s or vy_m_s = 0) and lets the "
+                             "soil slide along the other; give only one of them")
+        if self.slip == "soil" and (self.vx_m_s or self.vy_m_s):
+            raise StudyError("slip", "a slip support holds its prescribed direction at 0 m s-1")
         for axis in "xy":
             low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
             if low is not None and high is not None and low > high:
