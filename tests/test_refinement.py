@@ -97,3 +97,44 @@ def test_three_levels_of_the_quickstart_extrapolate_and_later_levels_search_near
     again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert [level.fos for level in again.levels] == [level.fos for level in outcome.levels]
     assert sum(level.n_runs_made for level in again.levels) == 0  # nothing computed again
+
+
+class _Progress:
+    def __init__(self):
+        self.lines = []
+
+    def message(self, text):
+        self.lines.append(text)
+
+
+def _level_outcome(srf_status: list[tuple[float, str]]):
+    """A level outcome with no FOS: its runs and the lowest failed SRF (NaN if none failed)."""
+    from types import SimpleNamespace
+
+    runs = [SimpleNamespace(srf=srf, status=status) for srf, status in srf_status]
+    failed = [srf for srf, status in srf_status if status == "failed"]
+    return SimpleNamespace(fos=math.nan, runs=runs, status_high=min(failed) if failed else math.nan,
+                           verdict="no FOS")
+
+
+def test_a_level_whose_fos_lies_at_the_edge_of_its_window_grows_the_window_instead_of_shifting_it(tmp_path):
+    """One stable run below the first failure sends the window down, and every run stable sends it
+    up: each time it grows by its width, so that it keeps the SRFs it had."""
+    from workflows.refinement.study_type import RefinementStudy
+
+    study = RefinementStudy(parse_study(QUICKSTART + "\n[refinement]\nspacings_m = [2.0, 1.4142, 1.0]\n"), tmp_path)
+    study.found[0] = 1.40
+    study.current = 1
+    study.level_studies[1] = study._level_study(1, 1.4142, (1.40, 1.45, 0.01))
+    progress = _Progress()
+    edge = _level_outcome([(1.40, "stable"), (1.41, "failed")])
+    [case] = study.next_cases({study._case_id(1): edge}, progress)
+    stage = study.level_studies[1].strength_reduction
+    assert (stage.srf_min, stage.srf_max) == (1.35, 1.45)
+    # it still holds 1.40-1.41, where the FOS lies (shifted to [1.35, 1.40], every run there is
+    # stable and the window went back up to [1.40, 1.45], and so on until the level gave up)
+    all_stable = _level_outcome([(1.35, "stable"), (1.40, "stable")])
+    study.level_studies[1] = study._level_study(1, 1.4142, (1.35, 1.40, 0.01))
+    [case] = study.next_cases({study._case_id(1): all_stable}, progress)
+    stage = study.level_studies[1].strength_reduction
+    assert (stage.srf_min, stage.srf_max) == (1.35, 1.45)

@@ -8,8 +8,10 @@
    the FOS of the level before, from ``fos - 3 d`` to ``fos + 2 d`` in steps of ``d`` (:func:`window`;
    the FOS falls with h on most slopes, docs/verification.md), so that it makes only the few runs
    near its FOS.  If its FOS lies outside the window (every run stable; every run failed, or too
-   few stable runs below the first failure for a knee), the window moves by its width in that
+   few stable runs below the first failure for a knee), the window grows by its width in that
    direction and the level goes on, its runs so far reused (at most ``MAX_WINDOW_MOVES`` times).
+   It grows rather than moves: a FOS just at the window's edge (one stable run below the first
+   failure) must not send the window back and forth past it.
 3. ``OUT/refinement.nc`` and ``convergence.png`` are written last; a study that stopped early
    leaves none (the one of an earlier invocation is removed at the start).
 """
@@ -35,7 +37,7 @@ LEVELS_FOLDER = "levels"
 CASE_TEXT_NAME = "case.toml"
 RESULT_NAME = "refinement.nc"
 MAX_WINDOW_MOVES = 3
-"""A level's window moves at most this many times before the level is given up."""
+"""A level's window grows at most this many times before the level is given up."""
 WINDOW_BELOW, WINDOW_ABOVE = 3, 2
 """A later level's window reaches this many steps d below and above the FOS of the level before."""
 FIRST_STEP = 0.01
@@ -176,7 +178,7 @@ class RefinementStudy(StudyType):
         return [self._case(0)]
 
     def next_cases(self, outcomes: dict, progress) -> list[Case]:
-        """The next level, or the current one in a moved window, or none when done (module doc, step 2)."""
+        """The next level, or the current one in a grown window, or none when done (module doc, step 2)."""
         k = self.current
         outcome = outcomes[self._case_id(k)]
         stage = self.level_studies[k].strength_reduction
@@ -209,8 +211,8 @@ class RefinementStudy(StudyType):
             return []
         self.moves[k] += 1
         width = stage.srf_max - stage.srf_min
-        shift = -width if every_failed else width
-        search = (max(round(stage.srf_min + shift, 4), 0.01), round(stage.srf_max + shift, 4), stage.srf_step)
+        low, high = (stage.srf_min - width, stage.srf_max) if every_failed else (stage.srf_min, stage.srf_max + width)
+        search = (max(round(low, 4), 0.01), round(high, 4), stage.srf_step)
         progress.message(f"level {k}: the FOS lies {'below' if every_failed else 'above'} SRF "
                          f"{stage.srf_min if every_failed else stage.srf_max:g}: searching [{search[0]:g}, {search[1]:g}]")
         self.level_studies[k] = self._level_study(k, self.spacings[k], search)
