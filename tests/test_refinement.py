@@ -70,12 +70,30 @@ def test_bad_refinement_tables_name_the_field(block, field, message):
     assert error.value.field == field and message in str(error.value)
 
 
-def test_refinement_with_a_sweep_is_refused():
-    text = QUICKSTART + ('\n[refinement]\nlevels = 3\n\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
-                         'values = [10e3, 12e3]\n')
-    with pytest.raises(StudyError) as error:
-        parse_study(text)
-    assert error.value.field == "refinement" and "not supported" in str(error.value)
+def test_a_sweep_refines_every_case_and_each_case_is_the_refinement_study_it_would_be_alone(tmp_path):
+    """Two cohesions at h = 2, 1.414, 1 m: study.nc holds each case's finest level and its
+    extrapolation; each case's own text, run alone in its folder, reuses every run and finds the
+    same levels; a second invocation of the sweep computes nothing."""
+    text = QUICKSTART + ("\n[refinement]\nspacings_m = [2.0, 1.4142, 1.0]\n\n[sweep]\n[[sweep.axes]]\n"
+                         'path = "materials.soil.cohesion_pa"\nvalues = [10e3, 14e3]\n')
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    ds = xr.open_dataset(tmp_path / "study.nc")
+    assert ds.sizes["cohesion_pa"] == 2 and list(ds["finest_spacing"].values) == [1.0, 1.0]
+    assert ds["fos"].values[1] > ds["fos"].values[0]  # stronger soil, higher FOS
+    for case in outcome.cases:
+        folder = tmp_path / "cases" / case.case_id
+        alone = run_study(parse_study((folder / "case.toml").read_text()), folder, RunOptions(workers=2))
+        assert sum(level.n_runs_made for level in alone.levels) == 0
+        assert [level.fos for level in alone.levels] == [level.fos for level in outcome.refinements[case.case_id].levels]
+        at = ds.sel(cohesion_pa=case.values["cohesion_pa"])
+        assert float(at["fos"]) == alone.levels[-1].fos
+        x = alone.extrapolation
+        assert (x is None and math.isnan(float(at["fos_extrapolated"]))) or float(at["fos_extrapolated"]) == x.fos
+    again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert again.timings_s["srf_runs_worker"] == 0.0
+    for case in outcome.cases:
+        assert ([level.fos for level in again.refinements[case.case_id].levels]
+                == [level.fos for level in outcome.refinements[case.case_id].levels])
 
 
 def test_three_levels_of_the_quickstart_extrapolate_and_later_levels_search_near_the_fos(tmp_path):

@@ -55,6 +55,7 @@ class Placement:
     figures: bool  # each FOS case draws its own figures
     quiet_cases: bool  # a case's messages only when they are warnings
     keep_going: bool  # a case that diverges is recorded (the DivergenceError as its outcome)
+    rounds: bool = False  # it makes cases in rounds (``StudyType.next_cases``): one cluster serves them all
 
 
 @dataclass
@@ -73,17 +74,21 @@ class CaseTimings:
 
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
-              wall_start: float) -> tuple[dict, CaseTimings]:
+              wall_start: float, session=None) -> tuple[dict, CaseTimings]:
     """Compute ``cases`` (module doc); (outcome by case id, timings).  An outcome is a
     ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the ``DivergenceError`` of a
-    case that diverged when the placement keeps going."""
+    case that diverged when the placement keeps going.  ``session``: a ``fos.cluster.DaskSession``
+    kept open by the caller for later rounds (default: one started and closed here)."""
     if cases[0].study.strength_reduction is not None:
-        return _fos_cases(cases, placement, options, progress, wall_start)
+        return _fos_cases(cases, placement, options, progress, wall_start, session)
     return _stage_cases(cases, placement, options, progress)
 
 
-def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float):
+def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float,
+               session=None):
     """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
+    from contextlib import nullcontext
+
     from spfem_core.warmup import warm_up  # dask and the core: once the study is known to be valid
     from workflows.fos.cluster import dask_session
     from workflows.fos.engine import CaseSearch, Engine
@@ -94,12 +99,14 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
                            gravity_here=placement.gravity_in_process) for index, case in enumerate(cases)]
     case_progress = OnlyWarnings(progress) if placement.quiet_cases else progress
     outcomes, timings = {}, CaseTimings()
-    with dask_session(options.workers, options.scheduler, warm_up_worker=placement.gravity_in_process) as session:
+    own = session is None
+    with (dask_session(options.workers, options.scheduler, warm_up_worker=placement.gravity_in_process) if own
+          else nullcontext(session)) as session:
         if not placement.gravity_in_process:
             warm_up()  # the compiled loop in the disk cache before the first task: compiled once
         engine_start = time.perf_counter()
         for search in Engine(session, searches, progress, start_unix_s, force=options.force).run():
-            if all(each.concluded for each in searches):
+            if own and all(each.concluded for each in searches):
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
             outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
                                                                    figures=placement.figures)

@@ -7,7 +7,9 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 - ``sweep.study_type.SweepStudy``: a study with ``[sweep]``, a case per combination of the
   axes' values, and ``study.nc``;
 - ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
-  spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``.
+  spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``;
+- ``refinement.sweep.RefinedSweepStudy``: a study with both, a refinement study per case of the
+  sweep, their levels advancing together round by round, and ``study.nc``.
 
 A probabilistic study (Monte Carlo: cases drawn from random variables and fields, reduced to a
 probability of failure) is the next type: a module of its own and a line in :data:`STUDY_TYPES`.
@@ -24,11 +26,12 @@ from pathlib import Path
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
+from workflows.refinement.sweep import RefinedSweepStudy
 from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (RefinementStudy, SweepStudy, SingleStudy)
+STUDY_TYPES: tuple[type[StudyType], ...] = (RefinedSweepStudy, RefinementStudy, SweepStudy, SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 
 
@@ -57,9 +60,22 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
 
         connect(options.scheduler).close()
     cases = kind.cases()
-    outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start)
-    while cases := kind.next_cases(outcomes, progress):
-        more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start)
-        outcomes.update(more)
-        timings.add(more_timings)
+    with _round_session(kind, study, options) as session:
+        outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session)
+        while cases := kind.next_cases(outcomes, progress):
+            more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session)
+            outcomes.update(more)
+            timings.add(more_timings)
     return kind.conclude(outcomes, timings, wall_start)
+
+
+def _round_session(kind: StudyType, study: Study, options: RunOptions):
+    """One dask session for every round of a strength-reduction study made in rounds (a cluster
+    start saved per round); else none (each round's cases start and close their own)."""
+    from contextlib import nullcontext
+
+    if not (kind.placement.rounds and study.strength_reduction is not None):
+        return nullcontext(None)
+    from workflows.fos.cluster import dask_session  # dask: once the study is known to be valid
+
+    return dask_session(options.workers, options.scheduler, warm_up_worker=kind.placement.gravity_in_process)

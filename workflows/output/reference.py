@@ -12,6 +12,7 @@ import sys
 from workflows.output.variables import (
     COLLAPSE_METRICS,
     FOS_ATTRIBUTES,
+    REFINED_SWEEP_FILE,
     REFINEMENT_FILE,
     REFINEMENT_FILE_ATTRIBUTES,
     RUNOUT_METRICS,
@@ -102,6 +103,10 @@ def page() -> str:
               "(coarsest first; each level's own files under `OUT/levels/<level>_h=<h>/`, as a single study's) and "
               "the FOS at h -> 0 with its discretisation band (docs/method.md, section 9).", "",
               *_variables(REFINEMENT_FILE), "", "Global attributes:", "", *_attributes(REFINEMENT_FILE_ATTRIBUTES), ""]
+    parts += ["## `study.nc` of a sweep with `[refinement]`", "",
+              "Every case is a refinement study in `OUT/cases/<case>/` (its `refinement.nc` as above; "
+              "`workflows/refinement/sweep.py`). `study.nc` has the variables and attributes of a sweep's, "
+              "those of each case's finest level, and:", "", *_variables(REFINED_SWEEP_FILE), ""]
     return "\n".join(parts)
 
 

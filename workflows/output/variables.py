@@ -251,6 +251,18 @@ SWEEP_FILE = _table(
     Variable("n_particles", SWEEP_DIMS, "1", "particles of the case's slope"),
 )
 
+REFINED_SWEEP_FILE = _table(
+    Variable("fos_extrapolated", SWEEP_DIMS, "1",
+             "the case's FOS at h -> 0 (its refinement.nc; NaN: fewer than three levels have an FOS)"),
+    Variable("fos_band_low", SWEEP_DIMS, "1", "lower end of the case's discretisation band"),
+    Variable("fos_band_high", SWEEP_DIMS, "1", "upper end of the case's discretisation band"),
+    Variable("extrapolation_status", SWEEP_DIMS, "1",
+             "extrapolated, converged, oscillating, order_out_of_range or none (as refinement.nc)"),
+    Variable("finest_spacing", SWEEP_DIMS, "m", "particle spacing of the case's finest level, whose FOS is fos"),
+)
+"""What ``study.nc`` of a sweep with ``[refinement]`` holds besides ``SWEEP_FILE``, whose variables
+there are those of each case's finest level."""
+
 STAGE_SWEEP_FILE = _table(
     Variable("case_folder", SWEEP_DIMS, "1", "the folder under OUT/cases/ with the case's files"),
     Variable("status", SWEEP_DIMS, "1", "done (every stage ran or was up to date) or diverged"),

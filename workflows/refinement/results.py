@@ -1,5 +1,6 @@
 """``refinement.nc``: the levels' FOS and the extrapolation, as declared in
-``workflows.output.variables.REFINEMENT_FILE`` and ``REFINEMENT_FILE_ATTRIBUTES``."""
+``workflows.output.variables.REFINEMENT_FILE`` and ``REFINEMENT_FILE_ATTRIBUTES``; and ``study.nc``
+of a sweep of refinement studies (``REFINED_SWEEP_FILE``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import xarray as xr
 
 from workflows.output.stage_file import provenance
-from workflows.output.variables import REFINEMENT_FILE
+from workflows.output.variables import REFINED_SWEEP_FILE, REFINEMENT_FILE
 
 
 def refinement_dataset(study, outcome) -> xr.Dataset:
@@ -50,4 +51,32 @@ def refinement_dataset(study, outcome) -> xr.Dataset:
         "verdict": outcome.verdict,
         **provenance(study),
     }
+    return ds
+
+
+def refined_sweep_dataset(study, cases, results: dict, refinements: dict) -> xr.Dataset:
+    """``study.nc`` of a sweep with ``[refinement]``: the sweep's variables of each case's finest
+    level (``results``, ``sweep.results.CaseResult`` by case id) and its extrapolation
+    (``refinements``, ``RefinementOutcome`` or None by case id)."""
+    from workflows.sweep.results import study_dataset, sweep_coordinates
+
+    ds = study_dataset(study, cases, results, {case.case_id: case.case_id for case in cases}, len(cases))
+    dims, shape, _ = sweep_coordinates(study, cases)
+    columns = {"fos_extrapolated": np.full(shape, np.nan), "fos_band_low": np.full(shape, np.nan),
+               "fos_band_high": np.full(shape, np.nan), "extrapolation_status": np.full(shape, "none", dtype=object),
+               "finest_spacing": np.full(shape, np.nan)}
+    for case in cases:
+        outcome, at = refinements[case.case_id], case.position
+        if outcome is None:
+            continue
+        if outcome.levels:
+            columns["finest_spacing"][at] = outcome.levels[-1].spacing_m
+        x = outcome.extrapolation
+        if x is not None:
+            columns["fos_extrapolated"][at] = x.fos
+            columns["fos_band_low"][at], columns["fos_band_high"][at] = x.band_low, x.band_high
+            columns["extrapolation_status"][at] = x.status
+    for name, values in columns.items():
+        ds[name] = REFINED_SWEEP_FILE[name].over(dims, values)
+    ds.attrs["title"] = f"spfem-fos parameter study {study.name}: the FOS of every case, refined"
     return ds

@@ -100,7 +100,7 @@ def window(fos: float, step: float) -> tuple[float, float, float]:
 class RefinementStudy(StudyType):
     """A study with ``[refinement]`` (module doc)."""
 
-    placement = Placement(gravity_in_process=True, figures=False, quiet_cases=True, keep_going=False)
+    placement = Placement(gravity_in_process=True, figures=False, quiet_cases=True, keep_going=False, rounds=True)
 
     @staticmethod
     def applies_to(study: Study) -> bool:

@@ -264,7 +264,9 @@ study: the FOS at a sequence of particle spacings (`spacings_m`, or `levels` spa
 `geometry.spacing_m` in steps of `ratio`), each level with the search tolerance `fos_tolerance`
 and, after the first, a search window around the FOS of the level before; from the three finest
 levels the observed order, the FOS at h -> 0 (Richardson) and the grid convergence index as its
-band, in `OUT/refinement.nc` and `convergence.png` (docs/method.md, section 9).  Not with `[sweep]`.
+band, in `OUT/refinement.nc` and `convergence.png` (docs/method.md, section 9).  With `[sweep]`,
+every case is refined (each in `OUT/cases/<case>/`, the levels of all cases advancing together) and
+`OUT/study.nc` adds each case's FOS at h -> 0 and band.
 
 ```toml
 [refinement]

@@ -432,9 +432,6 @@ class Study(Record):
             if self.strength_reduction is None:
                 raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "
                                  "strength_reduction stage")
-            if self.sweep is not None:
-                raise StudyError("refinement", "[refinement] and [sweep] in one study are not supported: sweep the "
-                                 "case at its finest spacing, or refine one case of the sweep")
         for i, monitor in enumerate(self.monitors):
             if not points_in_polygon([(monitor.x_m, monitor.y_m)], self.geometry.polygon_m)[0]:
                 raise StudyError(

@@ -8,11 +8,11 @@ from workflows.study.reading import SweepCase
 from workflows.sweep.results import ABOVE, BELOW, FOUND, CaseResult
 
 
-def _value(value) -> str:
+def value_text(value) -> str:
     if isinstance(value, float):
         return f"{value:.6g}"
     if isinstance(value, tuple):
-        return "[" + ", ".join(_value(v) for v in value) + "]"
+        return "[" + ", ".join(value_text(v) for v in value) + "]"
     return str(value)
 
 
@@ -33,7 +33,7 @@ def _bracket(result: CaseResult) -> str:
 def table_lines(cases: list[SweepCase], results: dict[str, CaseResult]) -> list[str]:
     """A fixed-width table: the axis values, FOS, bracket, runs and status of each case."""
     labels = list(cases[0].values)
-    rows = [[_value(case.values[label]) for label in labels]
+    rows = [[value_text(case.values[label]) for label in labels]
             + [_fos(r := results[case.case_id]), _bracket(r), str(r.n_runs),
                r.status + ("" if r.criteria_agree or r.status != FOUND else " (verdicts disagree)")]
             for case in cases]
@@ -46,7 +46,7 @@ def table_lines(cases: list[SweepCase], results: dict[str, CaseResult]) -> list[
     return lines
 
 
-def _table(header: list[str], rows: list[list[str]], n_right: int) -> list[str]:
+def fixed_width_table(header: list[str], rows: list[list[str]], n_right: int) -> list[str]:
     """Fixed-width lines: the first ``n_right`` columns right-aligned, the rest left."""
     widths = [max(len(header[i]), *(len(row[i]) for row in rows)) for i in range(len(header))]
 
@@ -72,10 +72,10 @@ def stage_table_lines(outcome) -> list[str]:
     rows = []
     for case in outcome.cases:
         result = outcome.results[case.case_id]
-        cells = [_value(case.values[label]) for label in labels]
+        cells = [value_text(case.values[label]) for label in labels]
         for stage in stages:
             metrics = result.runout.get(stage, {})
             cells += [f"{metrics[key]:.4g}" if math.isfinite(metrics.get(key, math.nan)) else "-"
                       for key, _ in STAGE_SWEEP_COLUMNS]
         rows.append(cells + [result.status])
-    return _table(header, rows, len(header) - 1)
+    return fixed_width_table(header, rows, len(header) - 1)
