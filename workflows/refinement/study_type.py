@@ -124,7 +124,9 @@ class RefinementStudy(StudyType):
                      zone: list | None = None) -> Study:
         """Level k's own study: the study at ``spacing_m`` with the levels' tolerance and, for a later
         level, the SRF window ``search`` = (srf_min, srf_max, srf_step); an adaptive level keeps the
-        coarse spacing and adds the refined ``zone`` polygon at ``spacing_m``."""
+        coarse spacing and adds the refined ``zone`` polygon at ``spacing_m``.  The coarse level of
+        an adaptive study keeps the stage's tolerance: it gives the refined level its shear band and
+        the middle of its window, not an answer."""
         raw = _loads(self.study.source_text)
         raw.pop("refinement", None)
         if zone is not None:
@@ -132,7 +134,9 @@ class RefinementStudy(StudyType):
                 {"name": "adaptive_band", "region_m": zone, "spacing_m": spacing_m})
             spacing_m = self.study.geometry.spacing_m
         stage = self.study.strength_reduction.name
-        values = {"geometry.spacing_m": spacing_m, f"stages.{stage}.fos_tolerance": self.study.refinement.fos_tolerance}
+        values = {"geometry.spacing_m": spacing_m}
+        if not (self.adaptive and k == 0):  # an adaptive study's coarse level: the stage's own tolerance
+            values[f"stages.{stage}.fos_tolerance"] = self.study.refinement.fos_tolerance
         if search is not None:
             values.update({f"stages.{stage}.{name}": value for name, value in zip(("srf_min", "srf_max", "srf_step"),
                                                                                   search)})

@@ -29,7 +29,7 @@ class Refinement(Record):
     )
     fos_tolerance: float = number(
         "1", "width of each level's FOS bracket: small against the differences between levels (replaces the "
-        "stage's fos_tolerance)", default=DEFAULT_LEVEL_TOLERANCE, gt=0.0, le=0.02,
+        "stage's fos_tolerance; an adaptive study's coarse level keeps the stage's)", default=DEFAULT_LEVEL_TOLERANCE, gt=0.0, le=0.02,
     )
     safety_factor: float = number("1", "Fs of the grid convergence index with three levels (Roache)",
                                   default=SAFETY_FACTOR, ge=1.0, le=3.0)
