@@ -11,8 +11,8 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 - ``refinement.sweep.RefinedSweepStudy``: a study with both, a refinement study per case of the
   sweep, their levels advancing together round by round, and ``study.nc``.
 
-A probabilistic study (Monte Carlo: cases drawn from random variables and fields, reduced to a
-probability of failure) is the next type: a module of its own and a line in :data:`STUDY_TYPES`.
+- ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
+  realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf.
 :func:`run_study` asks the study for its type once, checks it, makes its cases, computes them
 with the one case runner (``workflows.cases.run_cases``), round after round while the type makes
 more, and concludes.
@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
+from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
 from workflows.refinement.sweep import RefinedSweepStudy
@@ -31,7 +32,8 @@ from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (RefinedSweepStudy, RefinementStudy, SweepStudy, SingleStudy)
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
+                                              SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 
 

@@ -12,6 +12,8 @@ import sys
 from workflows.output.variables import (
     COLLAPSE_METRICS,
     FOS_ATTRIBUTES,
+    PROBABILISTIC_FILE,
+    PROBABILISTIC_FILE_ATTRIBUTES,
     REFINED_SWEEP_FILE,
     REFINEMENT_FILE,
     REFINEMENT_FILE_ATTRIBUTES,
@@ -107,6 +109,11 @@ def page() -> str:
               "Every case is a refinement study in `OUT/cases/<case>/` (its `refinement.nc` as above; "
               "`workflows/refinement/sweep.py`). `study.nc` has the variables and attributes of a sweep's, "
               "those of each case's finest level, and:", "", *_variables(REFINED_SWEEP_FILE), ""]
+    parts += ["## `probabilistic.nc` of a probabilistic study", "",
+              "A study with `[probabilistic]` (`workflows/probabilistic/`): every realisation over the dimension "
+              "`realisation` (each one's files under `OUT/cases/realisation_<i>/`, as a sweep's case), and the "
+              "study's statistics as attributes.", "", *_variables(PROBABILISTIC_FILE), "",
+              "Global attributes:", "", *_attributes(PROBABILISTIC_FILE_ATTRIBUTES), ""]
     return "\n".join(parts)
 
 

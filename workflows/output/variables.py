@@ -263,6 +263,35 @@ REFINED_SWEEP_FILE = _table(
 """What ``study.nc`` of a sweep with ``[refinement]`` holds besides ``SWEEP_FILE``, whose variables
 there are those of each case's finest level."""
 
+PROBABILISTIC_FILE = _table(
+    Variable("<variable>", ("realisation",), "<the field's unit>",
+             "the value of each random variable drawn for the realisation (one variable per [[probabilistic."
+             "variables]], named by its field; its path in the attribute sweep_path)"),
+    Variable("verdict", ("realisation",), "1", "stable, failed, or undecided (gravity diverged, no verdict)"),
+    Variable("status", ("realisation",), "1", "the realisation's status as in a sweep's study.nc"),
+    Variable("fos", ("realisation",), "1", "its FOS (fos mode; NaN in verdict mode or where none)"),
+    Variable("fos_low", ("realisation",), "1", "lower end of its FOS bracket, or the highest stable SRF"),
+    Variable("fos_high", ("realisation",), "1", "upper end of its FOS bracket, or the lowest failed SRF"),
+    Variable("case_folder", ("realisation",), "1", "the folder under OUT/cases/ with its files"),
+    Variable("pf_running", ("realisation",), "1",
+             "pf of the realisations up to and including this one (pf against the count)"),
+    Variable("fos_rank_correlation", ("random_variable",), "1",
+             "Spearman rank correlation of each random variable with the FOS (fos mode): the sensitivity"),
+)
+"""``probabilistic.nc`` of a probabilistic study (``[probabilistic]``): every realisation over
+the dimension ``realisation``, and the study's statistics as attributes."""
+
+PROBABILISTIC_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the study's text)"),
+    Attribute("pf, pf_low, pf_high", "probability of failure (failed / decided) and its exact (Clopper-Pearson) "
+              "95% interval"),
+    Attribute("n_realisations, n_failed, n_undecided", "realisations, how many failed, how many have no verdict"),
+    Attribute("method, seed, compute, factor", "as in [probabilistic]"),
+    Attribute("fos_mean, fos_std, reliability_index_normal, reliability_index_lognormal",
+              "fos mode: the FOS statistics and the reliability index (beta = (mu - 1) / sigma; lognormal: "
+              "ln(mu / sqrt(1 + V^2)) / sqrt(ln(1 + V^2)))"),
+)
+
 STAGE_SWEEP_FILE = _table(
     Variable("case_folder", SWEEP_DIMS, "1", "the folder under OUT/cases/ with the case's files"),
     Variable("status", SWEEP_DIMS, "1", "done (every stage ran or was up to date) or diverged"),

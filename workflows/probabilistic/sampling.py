@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, stats
 
-DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
+from workflows.probabilistic.table import DISTRIBUTIONS
+
 HERMITE_POINTS = 40
 """Gauss-Hermite points per axis of the quadrature of E[x_1 x_2] (:func:`normal_correlation`)."""
 

@@ -135,8 +135,8 @@ def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
     while i < len(parts):
         part = parts[i]
         declared = specs(cls)
-        if part not in declared or (cls is Study and part == "sweep"):
-            raise _unknown(".".join(parts[:i]), part, [k for k in declared if k != "sweep"])
+        if part not in declared or (cls is Study and part in ("sweep", "probabilistic")):
+            raise _unknown(".".join(parts[:i]), part, [k for k in declared if k not in ("sweep", "probabilistic")])
         spec = declared[part]
         if spec.type == "table":
             if i == len(parts) - 1:

@@ -272,6 +272,23 @@ every case is refined (each in `OUT/cases/<case>/`, the levels of all cases adva
 [refinement]
 spacings_m = [1.0, 0.7071, 0.5]
 ```
+
+**Probabilistic.**  A `[probabilistic]` table runs a strength-reduction study once per realisation
+of its random variables (any number field, by its path as in `[sweep]`; normal, lognormal, uniform
+or truncated normal, correlated through a Gaussian copula with the correlation asked of the
+variables themselves), drawn by Monte Carlo (realisation i the same whatever the count: extending
+a study computes only the new ones) or a Latin hypercube.  Each realisation is judged stable or
+failed by its run at `factor` (`compute = "verdict"`) or by its own FOS (`"fos"`); `OUT/probabilistic.nc`
+holds every realisation and pf with its exact 95% interval.  Random fields are not available yet.
+
+```toml
+[probabilistic]
+realisations = 200
+[[probabilistic.variables]]
+path = "materials.soil.cohesion_pa"
+distribution = "lognormal"
+cov = 0.3
+```
 """
 
 

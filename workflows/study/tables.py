@@ -32,6 +32,7 @@ from workflows.fields import (
 )
 from workflows.loads import Loads
 from workflows.materials import MATERIAL_MODELS
+from workflows.probabilistic.table import Probabilistic
 from workflows.refinement.table import Refinement
 from workflows.stages import STAGE_KINDS
 from workflows.stages.strength_reduction import StrengthReductionStage
@@ -392,6 +393,7 @@ class Study(Record):
     output: Output = table(Output, required=False)
     sweep: Sweep | None = optional_table(Sweep)
     refinement: Refinement | None = optional_table(Refinement)
+    probabilistic: Probabilistic | None = optional_table(Probabilistic)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -428,6 +430,14 @@ class Study(Record):
         if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
             raise StudyError("geometry.refined", "refined zones apply to gravity and strength-reduction studies; "
                              "runout and collapse metrics assume one spacing (not yet)")
+        if self.probabilistic is not None:
+            if self.strength_reduction is None:
+                raise StudyError("probabilistic", "a probabilistic study judges each realisation by strength "
+                                 "reduction: it needs a strength_reduction stage")
+            for other in ("sweep", "refinement"):
+                if getattr(self, other) is not None:
+                    raise StudyError("probabilistic", f"[probabilistic] and [{other}] in one study are not "
+                                     "supported yet")
         if self.refinement is not None:
             if self.strength_reduction is None:
                 raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "

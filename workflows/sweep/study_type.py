@@ -91,9 +91,13 @@ class SweepStudy(StudyType):
     def fos(self) -> bool:
         return self.study.strength_reduction is not None
 
+    def make_cases(self) -> list[SweepCase]:
+        """The cases, each its own checked study (StudyError naming what fails)."""
+        return sweep_cases(self.study)
+
     def check(self, options: RunOptions) -> None:
         """Each strength-reduction case's resolution; the memory of the largest case (StudyError)."""
-        self.sweep_cases = sweep_cases(self.study)
+        self.sweep_cases = self.make_cases()
         if self.fos:
             for case in self.sweep_cases:
                 try:

@@ -1,0 +1,81 @@
+"""Probabilistic studies of random variables: the table's checks, realisations judged at a
+factor, reproducible from the seed, and a study extended by computing only its new realisations."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from workflows.cases import RunOptions
+from workflows.probabilistic.sampling import Marginal, Sampler
+from workflows.study import StudyError, parse_study
+from workflows.study_types import run_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+COHESION = '[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "lognormal"\ncov = 0.3\n'
+
+
+def probabilistic(count: int, extra: str = "") -> str:
+    return QUICKSTART + f"\n[probabilistic]\nrealisations = {count}\nseed = 3\nfactor = 1.3\n{extra}\n" + COHESION
+
+
+@pytest.mark.parametrize("block, field, message", [
+    ('[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "normal"\nstd = 1e3\ncov = 0.1',
+     "probabilistic.variables[0].std", "one of them"),
+    ('[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "uniform"\nlow = 1e3',
+     "probabilistic.variables[0].high", "low and high"),
+    ('[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "normal"\ncov = 0.1\nlow = 0',
+     "probabilistic.variables[0].low", "applies to uniform"),
+    ('correlation = [[1.0, 0.5], [0.5, 1.0]]\n[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\n'
+     'distribution = "normal"\ncov = 0.1', "probabilistic.correlation", "1 rows of 1"),
+])
+def test_bad_probabilistic_tables_name_the_field(block, field, message):
+    with pytest.raises(StudyError) as error:
+        parse_study(QUICKSTART + f"\n[probabilistic]\nrealisations = 10\n{block}\n")
+    assert error.value.field == field and message in str(error.value)
+
+
+def test_a_draw_the_field_refuses_is_named_with_its_realisation(tmp_path):
+    """A normal cohesion of COV 1 draws negative values: the study stops before it runs, naming the
+    realisation, the value and the remedy."""
+    text = QUICKSTART + ('\n[probabilistic]\nrealisations = 50\n[[probabilistic.variables]]\n'
+                         'path = "materials.soil.cohesion_pa"\ndistribution = "normal"\ncov = 1.0\n')
+    with pytest.raises(StudyError) as error:
+        run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert error.value.field == "probabilistic.variables[0]" and "truncated_normal" in str(error.value)
+    assert not (tmp_path / "probabilistic.nc").exists()
+
+
+def test_with_a_sweep_is_refused():
+    text = probabilistic(4) + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [20, 25]\n'
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == "probabilistic" and "not supported" in str(error.value)
+
+
+def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_only_the_new_ones(tmp_path):
+    """Lognormal cohesion (COV 0.3) on the quickstart, each realisation one run at F = 1.3: the
+    values are the sampler's, every failed cohesion lies below every stable one (the FOS rises with
+    c), pf is the fraction failed; extended from 8 to 12 realisations, the first 8 are reused and
+    keep their verdicts."""
+    first = run_study(parse_study(probabilistic(8)), tmp_path, RunOptions(workers=2))
+    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    expected = Sampler([Marginal("lognormal", 10e3, 3e3)]).monte_carlo(3, range(8))[:, 0]
+    np.testing.assert_allclose(ds["cohesion_pa"].values, expected, rtol=1e-12)
+    verdicts = ds["verdict"].values
+    assert set(verdicts) <= {"stable", "failed"}
+    cohesion = ds["cohesion_pa"].values
+    assert "failed" in verdicts and "stable" in verdicts  # seed 3: 2 of 8 fail
+    assert cohesion[verdicts == "failed"].max() < cohesion[verdicts == "stable"].min()
+    assert ds.attrs["pf"] == pytest.approx(np.mean(verdicts == "failed"))
+    assert ds.attrs["pf_low"] <= ds.attrs["pf"] <= ds.attrs["pf_high"]
+    assert first.runs_made == 8
+    extended = run_study(parse_study(probabilistic(12)), tmp_path, RunOptions(workers=2))
+    assert extended.runs_made == 4
+    more = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    assert list(more["verdict"].values[:8]) == list(verdicts)
+    np.testing.assert_array_equal(more["cohesion_pa"].values[:8], cohesion)

@@ -1,0 +1,216 @@
+"""A probabilistic study: the study once per realisation of its random variables, and
+``OUT/probabilistic.nc`` with the probability of failure.
+
+1. The realisations (:func:`realisation_cases`): the values of ``[probabilistic]``'s variables
+   (``workflows.probabilistic.sampling``: Monte Carlo, realisation i from its own stream, or a
+   Latin hypercube), each set into the study at its path and checked like the field itself; in
+   ``verdict`` mode the strength-reduction stage makes the one run at ``factor``
+   (``srf_min = srf_max = factor``).
+2. They run as a sweep's cases do (``workflows.sweep.study_type``): on one cluster, in
+   ``OUT/cases/realisation_<i>/``, realisations that share a gravity state (only strengths random)
+   relaxing it once, every finished run reused by the next invocation, so that a Monte Carlo study
+   extended from 200 to 1,000 realisations computes only the 800 new ones.
+3. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
+   with its exact 95% interval, and in ``fos`` mode the FOS statistics, the reliability index and
+   each variable's rank correlation with the FOS.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from spfem_core.divergence import DivergenceError
+from workflows.cases import CaseTimings, Report
+from workflows.study import Study, StudyError
+from workflows.study.reading import SweepCase, _build_study, _loads, resolve_sweep_path
+from workflows.study.toml_text import to_toml
+from workflows.sweep.results import ABOVE, BELOW, FOUND, CaseResult, case_result, diverged_result
+from workflows.sweep.study_type import SweepStudy
+
+RESULT_NAME = "probabilistic.nc"
+CASE_PREFIX = "realisation_"
+STABLE, FAILED, UNDECIDED = "stable", "failed", "undecided"
+
+
+def variable_labels(study: Study) -> list[str]:
+    """A name per random variable: its field's name, with the entry before it where two share one."""
+    paths = [variable.path for variable in study.probabilistic.variables]
+    last = [path.split(".")[-1] for path in paths]
+    return [name if last.count(name) == 1 else "_".join(path.split(".")[-2:]) for name, path in zip(last, paths)]
+
+
+def sampled_values(study: Study) -> np.ndarray:
+    """(realisations, variables): the values of every realisation (module doc, step 1)."""
+    from workflows.probabilistic.sampling import Marginal, Sampler  # scipy.stats: only when sampling
+
+    table = study.probabilistic
+    raw = _loads(study.source_text)
+    marginals = []
+    for k, variable in enumerate(table.variables):
+        node, key, spec = resolve_sweep_path(copy.deepcopy(raw), variable.path)
+        if spec.type != "number":
+            raise StudyError(f"probabilistic.variables[{k}].path", f"{variable.path} is not a number field")
+        mean = variable.mean if variable.mean is not None else node.get(key)
+        if not isinstance(mean, (int, float)) or isinstance(mean, bool) or not math.isfinite(mean):
+            raise StudyError(f"probabilistic.variables[{k}].mean", f"{variable.path} is not given in the study "
+                             "file: give the mean")
+        std = variable.std if variable.std is not None else (variable.cov or 0.0) * abs(mean)
+        if variable.distribution == "lognormal" and mean <= 0.0:
+            raise StudyError(f"probabilistic.variables[{k}].mean", f"a lognormal variable needs a mean > 0, got {mean:g}")
+        marginals.append(Marginal(variable.distribution, float(mean), float(std),
+                                  -math.inf if variable.low is None else variable.low,
+                                  math.inf if variable.high is None else variable.high))
+    try:
+        sampler = Sampler(marginals, None if table.correlation is None else np.array(table.correlation, float))
+    except ValueError as error:
+        raise StudyError("probabilistic.correlation", str(error)) from None
+    if table.method == "latin_hypercube":
+        return sampler.latin_hypercube(table.seed, table.realisations)
+    return sampler.monte_carlo(table.seed, range(table.realisations))
+
+
+def realisation_cases(study: Study) -> list[SweepCase]:
+    """Each realisation as its own checked study (module doc, step 1)."""
+    from workflows.fields import check_value
+
+    table = study.probabilistic
+    raw = _loads(study.source_text)
+    raw.pop("probabilistic", None)
+    if table.compute == "verdict":
+        stage = study.strength_reduction.name
+        for name in ("srf_min", "srf_max"):
+            node, key, _ = resolve_sweep_path(raw, f"stages.{stage}.{name}")
+            node[key] = table.factor
+    labels = variable_labels(study)
+    values = sampled_values(study)
+    width = max(5, len(str(table.realisations - 1)))
+    cases = []
+    for i, row in enumerate(values):
+        case_raw = copy.deepcopy(raw)
+        case_id = f"{CASE_PREFIX}{i:0{width}d}"
+        for k, (variable, value) in enumerate(zip(table.variables, row)):
+            node, key, spec = resolve_sweep_path(case_raw, variable.path)
+            try:
+                node[key] = check_value(spec, float(value))
+            except ValueError as error:
+                raise StudyError(f"probabilistic.variables[{k}]", f"realisation {i} draws {value:.6g} for "
+                                 f"{variable.path}, which {error} (bound the distribution: lognormal, uniform or "
+                                 "truncated_normal)") from None
+        text = to_toml(case_raw, header=f"realisation {i} of the probabilistic study {study.name}")
+        try:
+            case_study = dataclasses.replace(_build_study(case_raw), source_text=text)
+        except StudyError as error:
+            raise StudyError("probabilistic", f"realisation {i}: {error}") from None
+        cases.append(SweepCase(case_id, (i,), dict(zip(labels, (float(v) for v in row))), case_study))
+    return cases
+
+
+@dataclass
+class ProbabilisticOutcome:
+    """What a probabilistic study did and found."""
+
+    out_dir: Path
+    result_path: Path
+    n_realisations: int
+    n_failed: int
+    n_undecided: int  # gravity diverged, or no verdict
+    pf: float
+    pf_low: float
+    pf_high: float
+    fos_mean: float = math.nan
+    fos_std: float = math.nan
+    runs_made: int = 0
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> str:
+        """The report's first line."""
+        decided = self.n_realisations - self.n_undecided
+        line = (f"pf = {self.pf:.4g}, 95% interval [{self.pf_low:.4g}, {self.pf_high:.4g}]: {self.n_failed} of "
+                f"{decided} realisations failed")
+        if self.n_undecided:
+            line += f" ({self.n_undecided} undecided, left out)"
+        if math.isfinite(self.fos_mean):
+            line += f"; FOS mean {self.fos_mean:.4g}, std {self.fos_std:.4g}"
+        return line
+
+
+def realisation_verdict(result: CaseResult, compute: str, factor: float) -> str:
+    """STABLE, FAILED or UNDECIDED: the run at ``factor`` (verdict) or the FOS against it (fos)."""
+    if compute == "verdict":
+        return {ABOVE: STABLE, BELOW: FAILED}.get(result.status, UNDECIDED)
+    if result.status == FOUND:
+        return FAILED if result.fos < factor else STABLE
+    if result.status == ABOVE and result.fos_low >= factor:
+        return STABLE
+    if result.status == BELOW and result.fos_high <= factor:
+        return FAILED
+    return UNDECIDED
+
+
+class ProbabilisticStudy(SweepStudy):
+    """A study with ``[probabilistic]`` (module doc)."""
+
+    @staticmethod
+    def applies_to(study: Study) -> bool:
+        return study.probabilistic is not None
+
+    @property
+    def fos(self) -> bool:
+        return True
+
+    def make_cases(self) -> list[SweepCase]:
+        return realisation_cases(self.study)
+
+    def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticOutcome:
+        from workflows.output.writing import write_dataset
+        from workflows.probabilistic.reliability import failure_probability
+        from workflows.probabilistic.results import probabilistic_dataset
+
+        table = self.study.probabilistic
+        results = {}
+        for case in self.sweep_cases:
+            outcome = outcomes[self.same_as[case.case_id]]
+            results[case.case_id] = (diverged_result(f"the gravity stage diverged: {outcome}", 0)
+                                     if isinstance(outcome, DivergenceError) else case_result(outcome))
+        verdicts = [realisation_verdict(results[case.case_id], table.compute, table.factor) for case in self.sweep_cases]
+        n_failed, n_undecided = verdicts.count(FAILED), verdicts.count(UNDECIDED)
+        decided = len(verdicts) - n_undecided
+        pf, low, high = failure_probability(n_failed, decided) if decided else (math.nan, math.nan, math.nan)
+        fos = np.array([results[case.case_id].fos for case in self.sweep_cases])
+        found = fos[np.isfinite(fos)]
+        result = ProbabilisticOutcome(self.out_dir, self.out_dir / RESULT_NAME, len(verdicts), n_failed, n_undecided,
+                                      pf, low, high)
+        if table.compute == "fos" and len(found) >= 2:
+            result.fos_mean, result.fos_std = float(found.mean()), float(found.std(ddof=1))
+        runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
+                for record in outcome.runs]
+        result.runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
+        result.timings_s = {"cases_elapsed": timings.cases_elapsed, "srf_runs_worker": timings.srf_runs_worker,
+                            "total": time.perf_counter() - wall_start}
+        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result)
+        write_dataset(dataset, result.result_path)
+        return result
+
+    def cases(self):
+        (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
+        return super().cases()
+
+    def report(self, outcome: ProbabilisticOutcome, quiet: bool, study_file) -> Report:
+        if quiet:
+            return Report([outcome.verdict])
+        table = self.study.probabilistic
+        how = (f"the run at F = {table.factor:g}" if table.compute == "verdict"
+               else f"its FOS against F = {table.factor:g}")
+        return Report([outcome.verdict,
+                       f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
+                       f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
+                       f"{outcome.timings_s['total']:.1f} s",
+                       f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"])

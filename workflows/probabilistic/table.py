@@ -1,0 +1,85 @@
+"""``[probabilistic]``: random variables of a study and how its realisations are drawn and judged."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
+
+MAX_REALISATIONS = 100_000
+DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
+
+
+@dataclass(frozen=True, kw_only=True)
+class RandomVariable(Record):
+    """One study field drawn anew for each realisation."""
+
+    path: str = text("the field, by its path as in [sweep]: `materials.soil.cohesion_pa`")
+    distribution: str = text(
+        "`normal`, `lognormal`, `uniform` (between low and high) or `truncated_normal` (a normal of mean and "
+        "std cut to [low, high])", choices=DISTRIBUTIONS,
+    )
+    mean: float | None = number("1", "mean, in the field's unit; default the field's value in the study",
+                                default=None)
+    std: float | None = number("1", "standard deviation, in the field's unit (or give cov)", default=None, gt=0.0)
+    cov: float | None = number("1", "coefficient of variation std / mean (or give std)", default=None, gt=0.0,
+                               le=10.0)
+    low: float | None = number("1", "*uniform, truncated_normal:* lower bound", default=None)
+    high: float | None = number("1", "*uniform, truncated_normal:* upper bound", default=None)
+
+    def check(self):
+        bounded = self.distribution in ("uniform", "truncated_normal")
+        if self.distribution == "uniform":
+            if self.low is None or self.high is None:
+                raise StudyError("low" if self.low is None else "high", "a uniform variable needs low and high")
+            for name in ("mean", "std", "cov"):
+                if getattr(self, name) is not None:
+                    raise StudyError(name, "a uniform variable is given by low and high only")
+        else:
+            if (self.std is None) == (self.cov is None):
+                raise StudyError("std", "give std or cov (one of them)")
+            if not bounded and (self.low is not None or self.high is not None):
+                raise StudyError("low" if self.low is not None else "high",
+                                 f"applies to uniform and truncated_normal, not {self.distribution}")
+        if bounded and self.low is not None and self.high is not None and not self.low < self.high:
+            raise StudyError("high", f"must be above low ({self.low:g}), got {self.high:g}")
+        if self.distribution == "lognormal" and self.mean is not None and self.mean <= 0.0:
+            raise StudyError("mean", "a lognormal variable needs a mean > 0")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Probabilistic(Record):
+    """A probabilistic study: the study once per realisation of its random variables."""
+
+    variables: tuple = tables(RandomVariable, "the random variables", min_items=1, unique="path")
+    correlation: tuple | None = any_values(
+        "correlation matrix of the variables themselves, in their order (rows of numbers, symmetric, ones on "
+        "the diagonal); default uncorrelated", default=None,
+    )
+    method: str = text("`monte_carlo`, or `latin_hypercube` (stratified; drawn for its count: extending it is a "
+                       "new design)", default="monte_carlo", choices=("monte_carlo", "latin_hypercube"))
+    realisations: int = integer("number of realisations", ge=1, le=MAX_REALISATIONS)
+    seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
+    compute: str = text(
+        "`verdict`: one strength-reduction run per realisation at `factor`, stable or failed; `fos`: each "
+        "realisation's own FOS by the stage's search", default="verdict", choices=("verdict", "fos"),
+    )
+    factor: float = number("1", "the SRF a realisation is judged at: it fails if its run at factor fails (verdict) "
+                           "or its FOS is below factor (fos)", default=1.0, gt=0.0)
+
+    def check(self):
+        n = len(self.variables)
+        if self.correlation is not None:
+            rows = self.correlation
+            if len(rows) != n or any(not isinstance(row, (list, tuple)) or len(row) != n for row in rows):
+                raise StudyError("correlation", f"must be {n} rows of {n} numbers, one per variable")
+            for i, row in enumerate(rows):
+                for j, value in enumerate(row):
+                    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                        raise StudyError(f"correlation[{i}][{j}]", f"must be a number, got {value!r}")
+                    if i == j and value != 1:
+                        raise StudyError(f"correlation[{i}][{j}]", f"the diagonal must be 1, got {value!r}")
+                    if not -1 < value <= 1 or value != rows[j][i]:
+                        raise StudyError(f"correlation[{i}][{j}]", "must lie in (-1, 1) and equal "
+                                         f"correlation[{j}][{i}]")
