@@ -30,6 +30,7 @@ def _tip_history(scene, beta, duration_s, cfl=0.5):
     return sim, series, series.monitor_displacement_m[:, 0, 1]
 
 
+@pytest.mark.slow
 def test_coarse_beam_period_and_deflection_converge_from_above(make_beam):
     """h = 0.05, 0.04, 0.025 m: period and mean deflection lie above beam theory (NS-FEM is
     softer) and fall monotonically with h.  Bands: the period within 8% at the coarsest cloud

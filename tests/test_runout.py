@@ -66,6 +66,7 @@ def _coarse(text: str) -> str:
     return text.replace("spacing_m = 0.5", "spacing_m = 1.0").replace("spacing_m = 0.3", "spacing_m = 1.0")
 
 
+@pytest.mark.slow
 def test_softening_brings_down_a_slope_its_peak_strength_holds(tmp_path):
     """studies/runout_softening.toml at h = 1 m: with softening the slope slides and comes to rest;
     without it the same stage moves a few centimetres (no sliding mass); energy budget within 1% of

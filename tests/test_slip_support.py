@@ -72,7 +72,8 @@ def test_a_slide_without_push_comes_to_rest_and_does_not_turn_back():
             assert 0.0 < losses.sum() < 0.5 * MASS * 1.0**2
 
 
-@pytest.mark.parametrize("angle_deg, taylor_n", [pytest.param(60.0, 0.191, marks=pytest.mark.slow), (90.0, 0.261)])
+@pytest.mark.slow
+@pytest.mark.parametrize("angle_deg, taylor_n", [(60.0, 0.191), (90.0, 0.261)])
 def test_least_circle_reproduces_taylors_toe_circles(angle_deg, taylor_n):
     """The bound the slopes below are held against: Taylor's (1937) chart, read to 3 digits."""
     circle = slope_least_circle(5.0, angle_deg, 20e3, 20e3)

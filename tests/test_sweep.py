@@ -232,6 +232,7 @@ def test_fos_is_proportional_to_cu_for_phi_0(tmp_path):
     assert max(ratios.values()) / min(ratios.values()) - 1.0 < stability_chart.CU_BAND, ratios
 
 
+@pytest.mark.slow
 def test_taylor_chart_for_phi_0_within_3_percent(tmp_path):
     """studies/published/taylor_phi0.toml: the toe-circle branch of Taylor's chart, 4 values."""
     points = stability_chart.taylor_points(tmp_path, workers=2)
