@@ -11,12 +11,21 @@ import xarray as xr
 
 from workflows.cases import RunOptions
 from workflows.probabilistic.sampling import Marginal, Sampler
+from workflows.progress import Progress
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
 COHESION = '[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "lognormal"\ncov = 0.3\n'
+
+
+class _Tally(Progress):
+    def __init__(self):
+        self.lines = []
+
+    def tally(self, text):
+        self.lines.append(text)
 
 
 def probabilistic(count: int, extra: str = "") -> str:
@@ -60,9 +69,10 @@ def test_with_a_sweep_is_refused():
 def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_only_the_new_ones(tmp_path):
     """Lognormal cohesion (COV 0.3) on the quickstart, each realisation one run at F = 1.3: the
     values are the sampler's, every failed cohesion lies below every stable one (the FOS rises with
-    c), pf is the fraction failed; extended from 8 to 12 realisations, the first 8 are reused and
+    c), pf is the fraction failed, the progress tallies each realisation as it concludes; extended from 8 to 12 realisations, the first 8 are reused and
     keep their verdicts."""
-    first = run_study(parse_study(probabilistic(8)), tmp_path, RunOptions(workers=2))
+    progress = _Tally()
+    first = run_study(parse_study(probabilistic(8)), tmp_path, RunOptions(workers=2), progress=progress)
     ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
     expected = Sampler([Marginal("lognormal", 10e3, 3e3)]).monte_carlo(3, range(8))[:, 0]
     np.testing.assert_allclose(ds["cohesion_pa"].values, expected, rtol=1e-12)
@@ -74,6 +84,8 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     assert ds.attrs["pf"] == pytest.approx(np.mean(verdicts == "failed"))
     assert ds.attrs["pf_low"] <= ds.attrs["pf"] <= ds.attrs["pf_high"]
     assert first.runs_made == 8
+    n_failed = int(np.sum(verdicts == "failed"))
+    assert len(progress.lines) == 8 and progress.lines[-1] == f"{n_failed} failed, pf {n_failed / 8:.3g}"
     extended = run_study(parse_study(probabilistic(12)), tmp_path, RunOptions(workers=2))
     assert extended.runs_made == 4
     more = xr.open_dataset(tmp_path / "probabilistic.nc").load()

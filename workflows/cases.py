@@ -74,18 +74,19 @@ class CaseTimings:
 
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
-              wall_start: float, session=None) -> tuple[dict, CaseTimings]:
+              wall_start: float, session=None, on_case=None) -> tuple[dict, CaseTimings]:
     """Compute ``cases`` (module doc); (outcome by case id, timings).  An outcome is a
     ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the ``DivergenceError`` of a
     case that diverged when the placement keeps going.  ``session``: a ``fos.cluster.DaskSession``
-    kept open by the caller for later rounds (default: one started and closed here)."""
+    kept open by the caller for later rounds (default: one started and closed here); ``on_case``:
+    called with (case id, outcome) as each FOS case concludes."""
     if cases[0].study.strength_reduction is not None:
-        return _fos_cases(cases, placement, options, progress, wall_start, session)
+        return _fos_cases(cases, placement, options, progress, wall_start, session, on_case)
     return _stage_cases(cases, placement, options, progress)
 
 
 def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float,
-               session=None):
+               session=None, on_case=None):
     """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
     from contextlib import nullcontext
 
@@ -110,6 +111,8 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
             outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
                                                                    figures=placement.figures)
+            if on_case is not None:
+                on_case(search.label, outcomes[search.label])
         timings.cases_elapsed = time.perf_counter() - engine_start
     timings.gravity_worker = sum(search.gravity_wall_s for search in searches)
     timings.srf_runs_worker = sum(record.wall_time_s for search in searches for record in search.runs.values()
@@ -173,6 +176,9 @@ class StudyType:
     def cases(self) -> list[Case]:
         """The cases to compute (their folders made where the type needs them)."""
         raise NotImplementedError
+
+    def case_concluded(self, case_id: str, outcome, progress: Progress) -> None:
+        """A case's outcome as soon as it is known (before its round ends); nothing by default."""
 
     def next_cases(self, outcomes: dict, progress: Progress) -> list[Case]:
         """Cases to compute after those computed so far (``outcomes`` by case id), for a type that

@@ -59,6 +59,7 @@ class BarsProgress:
         self.bars: dict[str, int] = {}
         self.prefix = ""  # a sweep's case, before the stage
         self.counts = ""
+        self.summary = ""  # a running tally of the cases concluded (tally)
 
     def _bar(self, key: str, description: str, total: float) -> int:
         if key not in self.bars:
@@ -72,7 +73,7 @@ class BarsProgress:
         self.display.update(self._bar(key, f"{key} ({kind})", 1.0), completed=min(max(fraction, 0.0), 1.0))
 
     def runs(self, done, planned):
-        description = f"cases {self.counts}, SRF runs" if self.sweep else "SRF runs"
+        description = f"cases {self.counts}{self.summary}, SRF runs" if self.sweep else "SRF runs"
         self.display.update(self._bar("runs", description, max(planned, 1)), completed=done, total=max(planned, 1),
                             description=description)
 
@@ -81,6 +82,11 @@ class BarsProgress:
 
     def case_started(self, index, total, case_id):
         self.prefix = f"case {index + 1}/{total} {case_id}: "
+
+    def tally(self, text):
+        self.summary = f" ({text})"
+        if "runs" in self.bars:
+            self.display.update(self.bars["runs"], description=f"cases {self.counts}{self.summary}, SRF runs")
 
     def message(self, text):
         if text.startswith("warning") or ": warning" in text or not self.quiet:
@@ -162,7 +168,8 @@ def main(
     options = RunOptions(workers=workers, scheduler=scheduler, force=force,
                          max_memory_bytes=None if max_memory is None else max_memory * GIB)
     kind = study_type(study, out_dir)
-    progress = BarsProgress(Console(stderr=True, quiet=quiet), quiet, sweep=study.sweep is not None)
+    progress = BarsProgress(Console(stderr=True, quiet=quiet), quiet,
+                           sweep=study.sweep is not None or study.probabilistic is not None)
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         try:

@@ -23,6 +23,9 @@ class Progress:
     def case_started(self, index: int, total: int, case_id: str) -> None:
         """A case whose stages run in this process starts (a sweep of a stage study)."""
 
+    def tally(self, text: str) -> None:
+        """A running summary of the cases concluded so far (a probabilistic study: failed, pf)."""
+
     def message(self, text: str) -> None:
         """One line of news: reuse, skips, warnings (a warning starts with or contains ``warning``)."""
 
@@ -54,6 +57,9 @@ class OnlyWarnings(Progress):
 
     def case_started(self, index, total, case_id):
         self.inner.case_started(index, total, case_id)
+
+    def tally(self, text):
+        self.inner.tally(text)
 
     def message(self, text):
         if "warning" in text:

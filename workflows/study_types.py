@@ -62,10 +62,15 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
 
         connect(options.scheduler).close()
     cases = kind.cases()
+
+    def on_case(case_id, outcome):
+        kind.case_concluded(case_id, outcome, progress)
+
     with _round_session(kind, study, options) as session:
-        outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session)
+        outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)
         while cases := kind.next_cases(outcomes, progress):
-            more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session)
+            more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session,
+                                           on_case)
             outcomes.update(more)
             timings.add(more_timings)
     return kind.conclude(outcomes, timings, wall_start)

@@ -158,6 +158,10 @@ def realisation_verdict(result: CaseResult, compute: str, factor: float) -> str:
 class ProbabilisticStudy(SweepStudy):
     """A study with ``[probabilistic]`` (module doc)."""
 
+    def __init__(self, study: Study, out_dir: Path):
+        super().__init__(study, out_dir)
+        self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far
+
     @staticmethod
     def applies_to(study: Study) -> bool:
         return study.probabilistic is not None
@@ -168,6 +172,15 @@ class ProbabilisticStudy(SweepStudy):
 
     def make_cases(self) -> list[SweepCase]:
         return realisation_cases(self.study)
+
+    def case_concluded(self, case_id: str, outcome, progress) -> None:
+        """The running tally: realisations failed so far and pf (identical realisations count once)."""
+        table = self.study.probabilistic
+        tally = self.tally
+        result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
+        tally[realisation_verdict(result, table.compute, table.factor)] += 1
+        decided = tally[FAILED] + tally[STABLE]
+        progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticOutcome:
         from workflows.output.writing import write_dataset
