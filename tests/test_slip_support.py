@@ -4,8 +4,6 @@ an undrained slope whose mechanism reaches a firm base (docs/verification.md, "F
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -80,32 +78,17 @@ def test_least_circle_reproduces_taylors_toe_circles(angle_deg, taylor_n):
     assert 20e3 / (circle.fos * 20e3 * 5.0) == pytest.approx(taylor_n, rel=0.005)
 
 
-FIXED_BASE = """
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-
-[[boundary]]
-name = "left"
-x_max_m = 0.0
-vx_m_s = 0.0
-"""
-
-
-def _phi0_fos(tmp_path, extra: str) -> float:
-    """FOS of the 5 m undrained slope of taylor_phi0.toml at 45 deg, h = H / 10, on its base at the toe."""
+def _phi0_fos(tmp_path, fixed_base: bool) -> float:
+    """FOS of the 5 m undrained slope of taylor_phi0.toml at 45 deg, h = H / 10, on its base at the
+    toe (``verification.fixed_supports.study_text``)."""
     import xarray as xr
 
+    from verification.fixed_supports import study_text
     from workflows.cases import RunOptions
     from workflows.study import parse_study
     from workflows.study_types import run_study
 
-    text = (Path(__file__).resolve().parents[1] / "studies" / "published" / "taylor_phi0.toml").read_text()
-    text = text[:text.index("[sweep]")].replace("angle_deg = 60.0", "angle_deg = 45.0")
-    text = text.replace("spacing_m = 0.25", "spacing_m = 0.5").replace("fos_tolerance = 0.005", "fos_tolerance = 0.002")
-    run_study(parse_study(text + extra), tmp_path, RunOptions(workers=2))
+    run_study(parse_study(study_text(45.0, 0.5, fixed_base)), tmp_path, RunOptions(workers=2))
     with xr.open_dataset(tmp_path / "summary.nc") as ds:
         return float(ds["fos"])
 
@@ -114,7 +97,7 @@ def test_an_undrained_slope_on_a_firm_base_meets_its_least_circle_where_fixed_pa
     """The least circle touches the base: on fixed particles the slip can only pass a row above it
     (+4.1% at H / 10, falling at first order); sliding along the base at cu it lies at the bound."""
     bound = slope_least_circle(5.0, 45.0, 20e3, 20e3).fos  # 1.2153
-    on_slip_base = _phi0_fos(tmp_path / "slip", "")  # the slope form's base: slip = "soil"
-    on_fixed_base = _phi0_fos(tmp_path / "fixed", FIXED_BASE)
+    on_slip_base = _phi0_fos(tmp_path / "slip", fixed_base=False)  # the slope form's base: slip = "soil"
+    on_fixed_base = _phi0_fos(tmp_path / "fixed", fixed_base=True)
     assert abs(on_slip_base / bound - 1.0) < 0.01
     assert on_fixed_base / bound - 1.0 > 0.03
