@@ -22,7 +22,6 @@ from pathlib import Path
 
 from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
-from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementOutcome, RefinementStudy
@@ -83,18 +82,13 @@ class RefinedSweepStudy(StudyType):
         self.diverged: dict[str, DivergenceError] = {}
 
     def check(self, options: RunOptions) -> None:
-        """Each case's levels (StudyError naming the case); the memory of the largest finest level."""
+        """Each case's own checks (its levels' resolution and the memory of its finest level:
+        ``RefinementStudy.check``), StudyError naming the case."""
         for case_id, refinement in self.refinements.items():
             try:
-                for k, study in enumerate(refinement.level_studies):
-                    study.strength_reduction.check_resolution(study)
+                refinement.check(options)
             except StudyError as error:
-                raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: level {k} (h = "
-                                 f"{refinement.spacings[k]:g} m): {error}") from None
-        largest = max((refinement.level_studies[-1] for refinement in self.refinements.values()),
-                      key=estimated_particles)
-        check_memory(largest, processes=options.workers if not options.scheduler else 1,
-                     limit_bytes=options.max_memory_bytes)
+                raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
 
     def warnings(self) -> list[str]:
         """Thin layers at the finest level of the first case (``workflows.layers``)."""
