@@ -89,6 +89,11 @@ def build_scene(study: Study) -> Scene:
     if node_xy_m.shape[0] < 3:
         raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
     node_material = assign_materials(study, node_xy_m)
+    water_fields = water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points))
+    if study.random_field is not None:  # spatially variable soil (workflows.probabilistic.spatial)
+        water_fields["node_properties"] = {**water_fields.get("node_properties", {}),
+                                           **study.random_field.node_properties(study, node_xy_m, node_spacing_m,
+                                                                                node_material)}
     scene = Scene(
         node_xy_m=node_xy_m,
         node_material=node_material,
@@ -98,7 +103,7 @@ def build_scene(study: Study) -> Scene:
         gravity_m_s2=study.loads.acceleration_m_s2(geometry.polygon_m, strength_reduction=False),
         alpha=study.solver.alpha,
         node_load_n=surface_load_forces(study, node_xy_m, node_spacing_m),
-        **water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points)),
+        **water_fields,
     )
     for wall in study.walls:
         scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)

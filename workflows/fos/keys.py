@@ -3,9 +3,10 @@
 A gravity file carries ``gravity_key``, a hash over everything that shapes the gravity state
 (geometry, materials, loads, water, supports, solver, the stages before the strength reduction, and
 the core's sources; not the materials' strength when every stage before the strength
-reduction is elastic, so that a sweep over strength relaxes gravity once; not the seismic load
-when it acts in the runs only); a run file carries ``run_key``, a hash over the gravity key, what
-the run does (the seismic load too) and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
+reduction is elastic, so that a sweep over strength, or the realisations of random strengths,
+relax gravity once; not the seismic load when it acts in the runs only); a run file carries
+``run_key``, a hash over the gravity key, what the run does (the seismic load and the random field
+too) and its SRF.  A later invocation reuses a file whose key matches and recomputes the rest.
 The search's own settings are left out of the run key: refining the search reuses every run.
 """
 
@@ -41,6 +42,10 @@ def gravity_key(study: Study) -> str:
     if all(stage.elastic for stage in study.stages[:-1]):  # a model's own fields: what an elastic stage ignores
         raw["materials"] = [{k: v for k, v in fields.items() if k not in material.strength_fields()}
                             for material, fields in zip(study.materials, raw["materials"])]
+        if study.random_field is not None:  # random strengths alone: one gravity state for every realisation
+            strengths = {m.name: m.strength_fields() for m in study.materials}
+            if all(p.property in strengths[p.material] for p in study.random_field.properties):
+                raw.pop("random_field")
     raw["core"] = source_hash()
     return _digest(raw)
 
@@ -53,8 +58,11 @@ def run_key(study: Study, srf: float) -> str:
         stage.pop(key)
     materials = [{"model": material.model, **dataclasses.asdict(material)} for material in study.materials]
     seismic = study.loads.seismic
-    return _digest({"gravity": gravity_key(study), "materials": materials, "stage": stage, "srf": f"{srf:.4f}",
-                    "seismic": None if seismic is None else dataclasses.asdict(seismic)})
+    payload = {"gravity": gravity_key(study), "materials": materials, "stage": stage, "srf": f"{srf:.4f}",
+               "seismic": None if seismic is None else dataclasses.asdict(seismic)}
+    if study.random_field is not None:
+        payload["random_field"] = dataclasses.asdict(study.random_field)
+    return _digest(payload)
 
 
 def case_key(study: Study) -> str:

@@ -106,6 +106,23 @@ def variance_function(model: str, length_x_m: float, length_y_m: float, theta_x_
     return float(4.0 * inner.sum() / (length_x_m * length_y_m) ** 2)
 
 
+def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, theta_x_m: float,
+                     theta_y_m: float, points: int = 48) -> float:
+    """The correlation of the averages of two ``cell_m`` x ``cell_m`` squares whose centres lie
+    (tau_x, tau_y) apart: Cov / Var with Cov = int int w(a) w(b) rho(tau_x + a, tau_y + b) da db,
+    w(a) = (T - |a|) / T^2 on [-T, T] the density of the difference of two points of one side
+    (so that Var = gamma(T, T), :func:`variance_function`)."""
+    nodes, weights = np.polynomial.legendre.leggauss(points)
+    half = 0.5 * cell_m * (nodes + 1.0)  # [0, T], used for both signs of a
+    a = np.concatenate([-half, half])
+    w = np.concatenate([weights, weights]) * 0.5 * cell_m * (cell_m - np.abs(a)) / cell_m**2
+
+    def covariance(tx, ty):
+        return float(w @ correlation(model, tx + a[:, None], ty + a[None, :], theta_x_m, theta_y_m) @ w)
+
+    return covariance(tau_x_m, tau_y_m) / covariance(0.0, 0.0)
+
+
 def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
     """The average of ``grid_values`` over the ``cell_points`` x ``cell_points`` box about each
     grid point (a box filter; the box shrinks to the grid at its edges)."""

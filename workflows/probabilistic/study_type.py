@@ -51,6 +51,8 @@ def sampled_values(study: Study) -> np.ndarray:
     from workflows.probabilistic.sampling import Marginal, Sampler  # scipy.stats: only when sampling
 
     table = study.probabilistic
+    if not table.variables:  # only a [random_field] varies
+        return np.empty((table.realisations, 0))
     raw = _loads(study.source_text)
     marginals = []
     for k, variable in enumerate(table.variables):
@@ -95,6 +97,8 @@ def realisation_cases(study: Study) -> list[SweepCase]:
     for i, row in enumerate(values):
         case_raw = copy.deepcopy(raw)
         case_id = f"{CASE_PREFIX}{i:0{width}d}"
+        if study.random_field is not None:
+            case_raw["random_field"]["realisation"] = i
         for k, (variable, value) in enumerate(zip(table.variables, row)):
             node, key, spec = resolve_sweep_path(case_raw, variable.path)
             try:

@@ -52,7 +52,8 @@ class RandomVariable(Record):
 class Probabilistic(Record):
     """A probabilistic study: the study once per realisation of its random variables."""
 
-    variables: tuple = tables(RandomVariable, "the random variables", min_items=1, unique="path")
+    variables: tuple = tables(RandomVariable, "the random variables (none: only a [random_field] varies)",
+                              unique="path")
     correlation: tuple | None = any_values(
         "correlation matrix of the variables themselves, in their order (rows of numbers, symmetric, ones on "
         "the diagonal); default uncorrelated", default=None,

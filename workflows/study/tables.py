@@ -32,6 +32,7 @@ from workflows.fields import (
 )
 from workflows.loads import Loads
 from workflows.materials import MATERIAL_MODELS
+from workflows.probabilistic.spatial import RandomField
 from workflows.probabilistic.table import Probabilistic
 from workflows.refinement.table import Refinement
 from workflows.stages import STAGE_KINDS
@@ -394,6 +395,7 @@ class Study(Record):
     sweep: Sweep | None = optional_table(Sweep)
     refinement: Refinement | None = optional_table(Refinement)
     probabilistic: Probabilistic | None = optional_table(Probabilistic)
+    random_field: RandomField | None = optional_table(RandomField)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -430,7 +432,11 @@ class Study(Record):
         if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
             raise StudyError("geometry.refined", "refined zones apply to gravity and strength-reduction studies; "
                              "runout and collapse metrics assume one spacing (not yet)")
+        if self.random_field is not None:
+            self.random_field.check_in_study(self)
         if self.probabilistic is not None:
+            if not self.probabilistic.variables and self.random_field is None:
+                raise StudyError("probabilistic.variables", "give a random variable, or a [random_field]")
             if self.strength_reduction is None:
                 raise StudyError("probabilistic", "a probabilistic study judges each realisation by strength "
                                  "reduction: it needs a strength_reduction stage")

@@ -1,0 +1,149 @@
+"""Random fields of soil properties in a study file (``[random_field]``): the particles' values have
+the target statistics after local averaging, cross-correlation and anisotropy are honoured, a
+realisation depends only on its seed and number, random strengths share one gravity state, and bad
+tables name their field."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from workflows.cases import RunOptions
+from workflows.fos.keys import gravity_key, run_key
+from workflows.probabilistic.random_field import cell_correlation, lognormal_parameters, variance_function
+from workflows.probabilistic.study_type import realisation_cases
+from workflows.scene import build_scene
+from workflows.study import StudyError, parse_study
+from workflows.study_types import run_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = (REPO / "studies" / "quickstart.toml").read_text()
+COHESION_FIELD = ('name = "c"\nmaterial = "soil"\nproperty = "cohesion_pa"\ndistribution = "lognormal"\n'
+                  'cov = 0.5\ntheta_x_m = 4.0\n')
+
+
+def with_fields(*entries: str, seed: int = 1, realisation: int = 0) -> str:
+    text = QUICKSTART + f"\n[random_field]\nseed = {seed}\nrealisation = {realisation}\n"
+    return text + "".join(f"\n[[random_field.properties]]\n{entry}" for entry in entries)
+
+
+def values(text: str, name: str = "cohesion_pa") -> tuple[np.ndarray, object]:
+    scene = build_scene(parse_study(text))
+    return scene.node_properties[name], scene
+
+
+def test_a_lognormal_field_has_the_log_mean_and_the_cell_averaged_log_variance_of_its_target():
+    """ln c at the particles over 100 realisations: mean mu_ln, variance sigma_ln^2 gamma(h, h) (the
+    variance reduction of a cell average), within 3 standard errors of a correlated sample."""
+    draws = np.array([np.log(values(with_fields(COHESION_FIELD, realisation=r))[0]) for r in range(100)])
+    study = parse_study(with_fields(COHESION_FIELD))
+    h = study.geometry.spacing_m
+    mu, sigma = lognormal_parameters(10e3, 0.5)
+    target_variance = sigma**2 * variance_function("markov", h, h, 4.0, 4.0)
+    assert draws.mean() == pytest.approx(mu, abs=3 * math.sqrt(target_variance / 100))  # realisation means
+    assert draws.var(axis=0).mean() == pytest.approx(target_variance, rel=0.05)
+    assert target_variance < 0.9 * sigma**2  # the averaging matters at this h / theta
+
+
+def test_anisotropic_scales_of_fluctuation_give_the_markov_correlation_along_each_axis():
+    """theta_x = 20 m, theta_y = 2 m: particle pairs 2 m apart correlate along each axis as the
+    averages of their cells do (``cell_correlation``: 0.90 horizontally, 0.19 vertically at h = 1 m;
+    the points' exp(-2 tau / theta) would be 0.82 and 0.14)."""
+    entry = COHESION_FIELD.replace("theta_x_m = 4.0", "theta_x_m = 20.0\ntheta_y_m = 2.0").replace(
+        "lognormal", "normal").replace("cov = 0.5", "cov = 0.1")
+    scene = build_scene(parse_study(with_fields(entry)))
+    xy = scene.node_xy_m
+    lookup = {(round(x, 6), round(y, 6)): k for k, (x, y) in enumerate(xy)}
+    pairs = {axis: [(k, lookup[key]) for k, (x, y) in enumerate(xy)
+                    if (key := (round(x + 2.0 * (axis == 0), 6), round(y + 2.0 * (axis == 1), 6))) in lookup]
+             for axis in (0, 1)}
+    draws = np.array([values(with_fields(entry, realisation=r))[0] for r in range(60)])
+    standard = (draws - draws.mean(axis=0)) / draws.std(axis=0)
+    h = parse_study(QUICKSTART).geometry.spacing_m
+    for axis in (0, 1):
+        a, b = np.array(pairs[axis]).T
+        rho = float(np.mean(standard[:, a] * standard[:, b]))
+        lag = (2.0 * (axis == 0), 2.0 * (axis == 1))
+        assert rho == pytest.approx(cell_correlation("markov", h, *lag, 20.0, 2.0), abs=0.05)
+
+
+def test_two_fields_of_one_material_correlate_by_their_coefficient():
+    """c and phi, normal, correlated -0.6: the particle values correlate by -0.6."""
+    phi = ('name = "phi"\nmaterial = "soil"\nproperty = "friction_deg"\ndistribution = "normal"\nstd = 2.0\n'
+           'theta_x_m = 4.0\ncorrelated_with = "c"\ncorrelation = -0.6\n')
+    c = COHESION_FIELD.replace("lognormal", "normal").replace("cov = 0.5", "cov = 0.2")
+    pooled = []
+    for r in range(20):
+        scene = build_scene(parse_study(with_fields(c, phi, realisation=r)))
+        pooled.append(np.column_stack([scene.node_properties["cohesion_pa"], scene.node_properties["friction_deg"]]))
+    pooled = np.concatenate(pooled)
+    assert np.corrcoef(pooled.T)[0, 1] == pytest.approx(-0.6, abs=0.03)
+    assert pooled[:, 1].mean() == pytest.approx(20.0, abs=0.3)
+
+
+def test_a_realisation_depends_on_its_seed_and_number_only():
+    """The same seed and number give the same field, another number another; adding a second field
+    does not change the first."""
+    first, _ = values(with_fields(COHESION_FIELD, realisation=3))
+    again, _ = values(with_fields(COHESION_FIELD, realisation=3))
+    other, _ = values(with_fields(COHESION_FIELD, realisation=4))
+    stiffness = ('name = "E"\nmaterial = "soil"\nproperty = "youngs_modulus_pa"\ndistribution = "lognormal"\n'
+                 'cov = 0.3\ntheta_x_m = 8.0\n')
+    beside, scene = values(with_fields(stiffness, COHESION_FIELD, realisation=3))
+    np.testing.assert_array_equal(first, again)
+    np.testing.assert_array_equal(first, beside)
+    assert not np.allclose(first, other)
+    assert "youngs_modulus_pa" in scene.node_properties
+
+
+def test_realisations_of_random_strengths_share_one_gravity_state_and_a_random_stiffness_does_not():
+    probabilistic = "\n[probabilistic]\nrealisations = 4\n"
+    strengths = parse_study(with_fields(COHESION_FIELD) + probabilistic)
+    cases = realisation_cases(strengths)
+    assert len({gravity_key(case.study) for case in cases}) == 1
+    assert len({run_key(case.study, 1.0) for case in cases}) == 4
+    stiffness = COHESION_FIELD.replace("cohesion_pa", "youngs_modulus_pa")
+    assert len({gravity_key(case.study) for case in realisation_cases(parse_study(with_fields(stiffness) + probabilistic))}) == 4
+
+
+@pytest.mark.parametrize("entry, field, message", [
+    (COHESION_FIELD.replace('material = "soil"', 'material = "rock"'), "random_field.properties[0].material",
+     "no material named"),
+    (COHESION_FIELD.replace("cohesion_pa", "undrained_shear_strength_pa"), "random_field.properties[0].property",
+     "no property of"),
+    (COHESION_FIELD.replace("lognormal", "normal"), "random_field.properties[0].distribution", "lognormal"),
+    (COHESION_FIELD + 'correlated_with = "phi"\ncorrelation = 0.5\n', "random_field.properties[0].correlated_with",
+     "another field"),
+    (COHESION_FIELD.replace("cov = 0.5", "cov = 0.5\nstd = 1e3"), "random_field.properties[0].std", "one of them"),
+])
+def test_bad_random_fields_name_the_field(entry, field, message):
+    with pytest.raises(StudyError) as error:
+        parse_study(with_fields(entry))
+    assert error.value.field == field and message in str(error.value)
+
+
+def test_cross_correlated_fields_must_share_their_correlation_structure():
+    phi = ('name = "phi"\nmaterial = "soil"\nproperty = "friction_deg"\ndistribution = "normal"\nstd = 2.0\n'
+           'theta_x_m = 8.0\ncorrelated_with = "c"\ncorrelation = -0.5\n')
+    with pytest.raises(StudyError) as error:
+        parse_study(with_fields(COHESION_FIELD, phi))
+    assert error.value.field == "random_field.properties[1].correlated_with" and "structure" in str(error.value)
+
+
+def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_realisations(tmp_path):
+    """A cohesion field alone ([probabilistic] without variables), 3 realisations at F = 1.3: each a
+    run of its own field on one shared gravity state, the result in probabilistic.nc; rerun, nothing
+    is computed again."""
+    text = with_fields(COHESION_FIELD) + "\n[probabilistic]\nrealisations = 3\nfactor = 1.3\n"
+    first = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert first.runs_made == 3 and first.n_undecided == 0
+    gravity_files = list((tmp_path / "cases").glob("*/gravity*.nc"))
+    assert len(gravity_files) == 3  # copied to each case, relaxed once (one gravity key)
+    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    assert ds.sizes["realisation"] == 3
+    again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert again.runs_made == 0 and again.pf == first.pf

@@ -1,0 +1,195 @@
+"""``[random_field]``: soil properties that vary from point to point, and their values at the particles.
+
+Each entry of ``[[random_field.properties]]`` makes one property of one material a random field
+(Griffiths & Fenton 2004): a standard Gaussian field ``G`` of the entry's correlation model and
+scales of fluctuation (``workflows.probabilistic.random_field``), averaged over each particle's
+cell, mapped to the property by
+
+    normal:     X = mean + std G
+    lognormal:  X = exp(mu_ln + sigma_ln G),   sigma_ln^2 = ln(1 + cov^2),  mu_ln = ln(mean) - sigma_ln^2 / 2
+
+so that a point of the field has the entry's mean and standard deviation and a particle's value
+has the reduced variance of its cell average (for lognormal, the average is taken of ln X, as
+RFEM does).  Two properties of one material are cross-correlated through their Gaussian fields,
+``G_b = rho G_a + sqrt(1 - rho^2) Z`` with ``Z`` independent of ``G_a`` (one correlation structure for
+both, as Fenton & Griffiths' co-located model); for lognormal properties ``rho`` is the
+correlation of ln X.
+
+The field of realisation ``r`` with seed ``s`` is drawn from the stream
+``SeedSequence([s, r], spawn_key=(FIELD_STREAM, crc32 of the field's name))``, so it depends on nothing
+else (not on the other fields, the number of realisations or the worker),
+and never coincides with the stream of ``[probabilistic]``'s random variables.  The values live
+on the particles (``spfem_core.scene.Scene.node_properties``), and particles are the mesh's
+nodes: remeshing never moves a value from one particle to another.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.probabilistic.random_field import MODELS, ParticleField, lognormal_parameters
+
+FIELD_STREAM = 7
+"""The first spawn key of a field's random stream (module doc): apart from every other stream."""
+FIELD_DISTRIBUTIONS = ("normal", "lognormal")
+OUTSIDE_RANGE_LIMIT = 1e-6
+"""A normal field whose point value leaves its field's allowed range with a probability above this is
+refused (lognormal instead); below it, values beyond the bound are set to the bound."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class FieldProperty(Record):
+    """One property of one material as a random field."""
+
+    name: str = name_field("name of the field (for `correlated_with` and sweep paths: "
+                           "`random_field.properties.<name>.cov`)")
+    material: str = name_field("the material, by its name in [[materials]]")
+    property: str = text("the material's field that varies: e.g. `cohesion_pa`, `undrained_shear_strength_pa`, "
+                         "`friction_deg`, `youngs_modulus_pa`, `density_kg_m3`")
+    distribution: str = text("`normal` or `lognormal` (a strength that must stay positive)", choices=FIELD_DISTRIBUTIONS)
+    mean: float | None = number("1", "point mean, in the property's unit; default the material's value",
+                                default=None)
+    std: float | None = number("1", "point standard deviation, in the property's unit (or give cov)", default=None,
+                               gt=0.0)
+    cov: float | None = number("1", "point coefficient of variation std / mean (or give std)", default=None, gt=0.0,
+                               le=10.0)
+    theta_x_m: float = number("m", "horizontal scale of fluctuation theta_h (Markov: rho = exp(-2 tau / theta))",
+                              gt=0.0)
+    theta_y_m: float | None = number("m", "vertical scale of fluctuation theta_v; default theta_x_m (isotropic)",
+                                     default=None, gt=0.0)
+    correlation_model: str = text("`markov` (exp(-2 r)) or `gaussian` (exp(-pi r^2)), with r the lag over theta",
+                                  default="markov", choices=MODELS)
+    correlated_with: str | None = text("the name of another field of this material: the two Gaussian fields "
+                                       "correlate by `correlation`", default=None)
+    correlation: float | None = number("1", "correlation coefficient with `correlated_with` (of ln X for lognormal)",
+                                       default=None, gt=-1.0, lt=1.0)
+
+    def thetas_m(self) -> tuple[float, float]:  # a method: the field `property` hides the builtin here
+        """(theta_x, theta_y) in m."""
+        return self.theta_x_m, self.theta_x_m if self.theta_y_m is None else self.theta_y_m
+
+    def check(self):
+        if (self.std is None) == (self.cov is None):
+            raise StudyError("std", "give std or cov (one of them)")
+        if (self.correlated_with is None) != (self.correlation is None):
+            raise StudyError("correlation" if self.correlation is None else "correlated_with",
+                             "give correlated_with and correlation together")
+        if self.correlated_with == self.name:
+            raise StudyError("correlated_with", "a field cannot be correlated with itself")
+
+
+@dataclass(frozen=True, kw_only=True)
+class RandomField(Record):
+    """Spatially variable soil: properties of materials as random fields, one realisation of them."""
+
+    properties: tuple = tables(FieldProperty, "the properties that vary", min_items=1)
+    seed: int = integer("the seed of the fields", default=1, ge=0)
+    realisation: int = integer("which realisation of the fields (a probabilistic study sets it for each of its "
+                               "realisations)", default=0, ge=0)
+
+    def check_in_study(self, study) -> None:
+        """Every entry names a material and one of its numeric properties, with a valid mean (module doc)."""
+        materials = {material.name: material for material in study.materials}
+        seen = {}
+        for i, entry in enumerate(self.properties):
+            where = f"random_field.properties[{i}]"
+            if (entry.material, entry.property) in seen:
+                raise StudyError(f"{where}.property", f"{entry.material}'s {entry.property} is already the field "
+                                 f"{seen[entry.material, entry.property]!r}")
+            seen[entry.material, entry.property] = entry.name
+            material = materials.get(entry.material)
+            if material is None:
+                raise StudyError(f"{where}.material", f"no material named {entry.material!r} "
+                                 f"(known: {', '.join(materials)})")
+            numeric = [name for name, spec in specs(type(material)).items() if spec.type == "number"]
+            if entry.property not in numeric or entry.property not in material.core_row():
+                raise StudyError(f"{where}.property", f"{entry.property!r} is no property of {entry.material!r} "
+                                 f"(a {material.model}; its properties: {', '.join(p for p in numeric if p in material.core_row())})")
+            if entry.property == "density_kg_m3" and study.water is not None:
+                raise StudyError(f"{where}.property", "a random density with [water] is not supported (the water "
+                                 "sets saturated densities per particle)")
+            mean, std = self.moments(entry, material)
+            spec = specs(type(material))[entry.property]
+            if entry.distribution == "lognormal" and not mean > 0.0:
+                raise StudyError(f"{where}.mean", f"a lognormal field needs a mean > 0, got {mean:g}")
+            self._check_range(where, entry, spec, mean, std)
+            if entry.correlated_with is not None:
+                partner = next((p for p in self.properties if p.name == entry.correlated_with), None)
+                if partner is None or partner.material != entry.material or partner.correlated_with is not None:
+                    raise StudyError(f"{where}.correlated_with", f"must name another field of {entry.material!r} "
+                                     "that is not itself correlated_with a third")
+                if (partner.correlation_model, partner.thetas_m()) != (entry.correlation_model, entry.thetas_m()):
+                    raise StudyError(f"{where}.correlated_with", "cross-correlated fields share one correlation "
+                                     f"structure: give the correlation_model and thetas of {partner.name!r}")
+        partners = [entry.correlated_with for entry in self.properties if entry.correlated_with is not None]
+        if len(set(partners)) < len(partners):
+            raise StudyError("random_field.properties", "a field can be the partner of one correlated field only "
+                             f"({', '.join(partners)})")
+
+    @staticmethod
+    def moments(entry: FieldProperty, material) -> tuple[float, float]:
+        """(mean, std) of the entry's point value: given, or from the material's value and the cov."""
+        mean = getattr(material, entry.property) if entry.mean is None else entry.mean
+        std = entry.std if entry.std is not None else entry.cov * abs(mean)
+        return float(mean), float(std)
+
+    @staticmethod
+    def _check_range(where: str, entry: FieldProperty, spec, mean: float, std: float) -> None:
+        from scipy.stats import norm
+
+        for op, bound in spec.bounds:
+            if entry.distribution == "lognormal" and op in (">", ">=") and bound <= 0.0:
+                continue
+            if entry.distribution == "lognormal":
+                mu, sigma = lognormal_parameters(mean, std / mean)
+                z = (math.log(bound) - mu) / sigma if bound > 0.0 else -math.inf
+            else:
+                z = (bound - mean) / std
+            outside = norm.cdf(z) if op in (">", ">=") else norm.sf(z)
+            if outside > OUTSIDE_RANGE_LIMIT:
+                raise StudyError(f"{where}.distribution", f"a {entry.distribution} field of mean {mean:g} and std "
+                                 f"{std:g} leaves {entry.property} {op} {bound:g} with probability {outside:.2g}; "
+                                 "use a lognormal field or a smaller std")
+
+    def node_properties(self, study, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
+                        node_material: np.ndarray) -> dict[str, np.ndarray]:
+        """property -> (n,) values at the particles (NaN: a particle of another material), module doc."""
+        by_name = {material.name: row for row, material in enumerate(study.materials)}
+        out: dict[str, np.ndarray] = {}
+        fields: dict[tuple, ParticleField] = {}
+        gaussian: dict[str, np.ndarray] = {}
+        order = sorted(range(len(self.properties)), key=lambda k: self.properties[k].correlated_with is not None)
+        for k in order:
+            entry = self.properties[k]
+            row = by_name[entry.material]
+            mine = np.flatnonzero(node_material == row)
+            if mine.size == 0:
+                continue
+            structure = (row, entry.correlation_model, entry.thetas_m())
+            if structure not in fields:
+                fields[structure] = ParticleField(entry.correlation_model, *entry.thetas_m(), node_xy_m[mine, 0],
+                                                  node_xy_m[mine, 1], node_spacing_m[mine])
+            stream = np.random.SeedSequence([self.seed, self.realisation], spawn_key=(FIELD_STREAM, zlib.crc32(entry.name.encode())))
+            g = fields[structure].draw(np.random.default_rng(stream))[0]
+            if entry.correlated_with is not None:
+                rho = entry.correlation
+                g = rho * gaussian[entry.correlated_with] + math.sqrt(1.0 - rho * rho) * g
+            gaussian[entry.name] = g
+            mean, std = self.moments(entry, study.materials[row])
+            if entry.distribution == "lognormal":
+                mu, sigma = lognormal_parameters(mean, std / mean)
+                values = np.exp(mu + sigma * g)
+            else:
+                values = mean + std * g
+            spec = specs(type(study.materials[row]))[entry.property]
+            for op, bound in spec.bounds:  # a normal field's rare values beyond its range (OUTSIDE_RANGE_LIMIT)
+                limit = {">": np.nextafter(bound, math.inf), "<": np.nextafter(bound, -math.inf)}.get(op, bound)
+                values = np.maximum(values, limit) if op in (">", ">=") else np.minimum(values, limit)
+            column = out.setdefault(entry.property, np.full(node_xy_m.shape[0], np.nan))
+            column[mine] = values
+        return out
