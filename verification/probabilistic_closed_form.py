@@ -10,30 +10,22 @@ problem, so a realisation fails at F = 1 exactly where cu < cu_crit = mean cu / 
 
 F_det is the project's own FOS of the same study without ``[probabilistic]`` at the same spacing,
 searched to ``--fos-tolerance``; each Monte Carlo pf is given with its exact 95% interval, which
-must hold the closed form (``studies/probabilistic_undrained.toml``, 2 local workers).
+must hold the closed form (``studies/probabilistic_undrained.toml`` with one lognormal cu instead of
+its field, ``verification.undrained_variants``; 2 local workers).
 """
 
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import tempfile
 from pathlib import Path
 
+from verification.undrained_variants import deterministic_text, shipped_text, single_variable_text
 from workflows.cases import RunOptions
 from workflows.probabilistic.reliability import lognormal_strength_pf
 from workflows.study import parse_study
 from workflows.study_types import run_study
-
-ROOT = Path(__file__).resolve().parents[1]
-STUDY = ROOT / "studies" / "probabilistic_undrained.toml"
-
-
-def deterministic_text(text: str, tolerance: float) -> str:
-    """The study without ``[probabilistic]``, its search to ``tolerance``."""
-    text = text[: text.index("[probabilistic]")]
-    return re.sub(r"(?m)^(srf_step = .*)$", rf"\1\nfos_tolerance = {tolerance:g}", text, count=1)
 
 
 def main(argv=None) -> int:
@@ -44,9 +36,7 @@ def main(argv=None) -> int:
     parser.add_argument("--fos-tolerance", type=float, default=0.002)
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
-    text = STUDY.read_text()
-    if args.spacing is not None:
-        text = re.sub(r"(?m)^spacing_m = .*$", f"spacing_m = {args.spacing:g}", text, count=1)
+    text = shipped_text(args.spacing)
     mean_cu = parse_study(text).materials[0].cohesion_pa
     options = RunOptions(workers=args.workers)
     with tempfile.TemporaryDirectory() as scratch:
@@ -58,8 +48,7 @@ def main(argv=None) -> int:
         print("| COV | realisations | failed | Monte Carlo pf [95% interval] | closed-form pf | holds | wall (s) |")
         print("|---|---|---|---|---|---|---|")
         for cov in args.covs:
-            case = re.sub(r"(?m)^cov = .*$", f"cov = {cov:g}", text, count=1)
-            case = re.sub(r"(?m)^realisations = .*$", f"realisations = {args.realisations}", case, count=1)
+            case = single_variable_text(text, cov, args.realisations)
             outcome = run_study(parse_study(case), Path(scratch) / f"cov_{cov:g}", options)
             exact = lognormal_strength_pf(mean_cu, cov, f_det)
             holds = outcome.pf_low <= exact <= outcome.pf_high
