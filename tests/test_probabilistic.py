@@ -59,13 +59,6 @@ def test_a_draw_the_field_refuses_is_named_with_its_realisation(tmp_path):
     assert not (tmp_path / "probabilistic.nc").exists()
 
 
-def test_with_a_sweep_is_refused():
-    text = probabilistic(4) + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [20, 25]\n'
-    with pytest.raises(StudyError) as error:
-        parse_study(text)
-    assert error.value.field == "probabilistic" and "not supported" in str(error.value)
-
-
 def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_only_the_new_ones(tmp_path):
     """Lognormal cohesion (COV 0.3) on the quickstart, each realisation one run at F = 1.3: the
     values are the sampler's, every failed cohesion lies below every stable one (the FOS rises with
@@ -91,3 +84,45 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     more = xr.open_dataset(tmp_path / "probabilistic.nc").load()
     assert list(more["verdict"].values[:8]) == list(verdicts)
     np.testing.assert_array_equal(more["cohesion_pa"].values[:8], cohesion)
+
+
+def test_a_sweep_of_probabilistic_studies_gives_each_case_its_own_pf(tmp_path):
+    """[sweep] over the friction angle of a probabilistic study (lognormal cohesion, 4 realisations
+    per case): study.nc holds each case's pf, equal to that case's own probabilistic.nc; the same
+    realisations (same seed) fail no more often on the stronger soil; pf.png is drawn."""
+    text = probabilistic(4) + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [15, 25]\n'
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    ds = xr.open_dataset(tmp_path / "study.nc").load()
+    assert list(ds["friction_deg"].values) == [15, 25]
+    for friction in (15, 25):
+        case = xr.open_dataset(tmp_path / "cases" / ds["case_folder"].sel(friction_deg=friction).item()
+                               / "probabilistic.nc").load()
+        assert ds["pf"].sel(friction_deg=friction).item() == pytest.approx(case.attrs["pf"])
+        assert case.sizes["realisation"] == 4
+    assert ds["pf"].sel(friction_deg=15).item() >= ds["pf"].sel(friction_deg=25).item()
+    assert ds["n_failed"].sel(friction_deg=15).item() > 0  # the weak case fails somewhere: the test can tell
+    assert outcome.runs_made == 8 and (tmp_path / "pf.png").is_file()
+
+
+def test_one_worker_and_two_give_the_same_realisations(tmp_path):
+    """The same seed on 1 and on 2 workers: the same values, verdicts and pf."""
+    text = probabilistic(4)
+    one = run_study(parse_study(text), tmp_path / "one", RunOptions(workers=1))
+    two = run_study(parse_study(text), tmp_path / "two", RunOptions(workers=2))
+    a, b = (xr.open_dataset(tmp_path / name / "probabilistic.nc").load() for name in ("one", "two"))
+    np.testing.assert_array_equal(a["cohesion_pa"].values, b["cohesion_pa"].values)
+    assert list(a["verdict"].values) == list(b["verdict"].values)
+    assert one.pf == two.pf and one.n_failed > 0
+    assert (tmp_path / "one" / "pf_convergence.png").is_file()
+
+
+def test_a_study_stopped_part_way_resumes_to_the_same_pf(tmp_path):
+    """A study stopped after some realisations (here: one realisation's run and probabilistic.nc
+    gone, as a kill leaves them) computes only what is missing and gives the same pf."""
+    text = probabilistic(4)
+    first = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    (tmp_path / "probabilistic.nc").unlink()
+    for run_file in (tmp_path / "cases" / "realisation_00002").glob("srf_*.nc"):
+        run_file.unlink()
+    resumed = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert resumed.runs_made == 1 and resumed.pf == first.pf and resumed.n_failed == first.n_failed

@@ -12,7 +12,11 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
   sweep, their levels advancing together round by round, and ``study.nc``.
 
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
-  realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf.
+  realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
+- ``probabilistic.sweep.ProbabilisticSweepStudy``: a study with both ``[sweep]`` and
+  ``[probabilistic]``, a probabilistic study per case, every realisation on one cluster, and
+  ``study.nc`` with pf per case.
+
 :func:`run_study` asks the study for its type once, checks it, makes its cases, computes them
 with the one case runner (``workflows.cases.run_cases``), round after round while the type makes
 more, and concludes.
@@ -25,6 +29,7 @@ from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.probabilistic.study_type import ProbabilisticStudy
+from workflows.probabilistic.sweep import ProbabilisticSweepStudy
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
 from workflows.refinement.sweep import RefinedSweepStudy
@@ -32,7 +37,7 @@ from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
                                               SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 

@@ -14,6 +14,7 @@ from workflows.output.variables import (
     FOS_ATTRIBUTES,
     PROBABILISTIC_FILE,
     PROBABILISTIC_FILE_ATTRIBUTES,
+    PROBABILISTIC_SWEEP_FILE,
     REFINED_SWEEP_FILE,
     REFINEMENT_FILE,
     REFINEMENT_FILE_ATTRIBUTES,
@@ -114,6 +115,11 @@ def page() -> str:
               "`realisation` (each one's files under `OUT/cases/realisation_<i>/`, as a sweep's case), and the "
               "study's statistics as attributes.", "", *_variables(PROBABILISTIC_FILE), "",
               "Global attributes:", "", *_attributes(PROBABILISTIC_FILE_ATTRIBUTES), ""]
+    parts += ["## `study.nc` of a sweep of a probabilistic study", "",
+              "A study with `[sweep]` and `[probabilistic]` (`workflows/probabilistic/sweep.py`): every case is a "
+              "probabilistic study in `OUT/cases/<case>/` (its `probabilistic.nc` as above, its realisations "
+              "under `OUT/cases/<case>/cases/`). `study.nc` has the dimensions, axis coordinates and attributes "
+              "of a sweep's, and:", "", *_variables(PROBABILISTIC_SWEEP_FILE), ""]
     return "\n".join(parts)
 
 

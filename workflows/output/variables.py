@@ -292,6 +292,18 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "ln(mu / sqrt(1 + V^2)) / sqrt(ln(1 + V^2)))"),
 )
 
+PROBABILISTIC_SWEEP_FILE = _table(
+    Variable("case_folder", SWEEP_DIMS, "1", "the folder under OUT/cases/ with the case's probabilistic.nc"),
+    Variable("pf", SWEEP_DIMS, "1", "probability of failure of the case: failed / decided realisations"),
+    Variable("pf_low", SWEEP_DIMS, "1", "lower end of its exact (Clopper-Pearson) 95% interval"),
+    Variable("pf_high", SWEEP_DIMS, "1", "upper end of its exact (Clopper-Pearson) 95% interval"),
+    Variable("n_failed", SWEEP_DIMS, "1", "realisations that failed"),
+    Variable("n_decided", SWEEP_DIMS, "1", "realisations with a verdict"),
+    Variable("fos_mean", SWEEP_DIMS, "1", "mean FOS of the realisations (fos mode; NaN otherwise)"),
+    Variable("fos_std", SWEEP_DIMS, "1", "standard deviation of the FOS of the realisations (fos mode)"),
+)
+"""``study.nc`` of a sweep of a probabilistic study (``[sweep]`` with ``[probabilistic]``)."""
+
 STAGE_SWEEP_FILE = _table(
     Variable("case_folder", SWEEP_DIMS, "1", "the folder under OUT/cases/ with the case's files"),
     Variable("status", SWEEP_DIMS, "1", "done (every stage ran or was up to date) or diverged"),

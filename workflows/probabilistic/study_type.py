@@ -12,7 +12,7 @@
    extended from 200 to 1,000 realisations computes only the 800 new ones.
 3. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
    with its exact 95% interval, and in ``fos`` mode the FOS statistics, the reliability index and
-   each variable's rank correlation with the FOS.
+   each variable's rank correlation with the FOS; then the figures (``probabilistic.figures``).
 """
 
 from __future__ import annotations
@@ -132,6 +132,7 @@ class ProbabilisticOutcome:
     fos_std: float = math.nan
     runs_made: int = 0
     timings_s: dict[str, float] = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
 
     @property
     def verdict(self) -> str:
@@ -214,6 +215,10 @@ class ProbabilisticStudy(SweepStudy):
                             "total": time.perf_counter() - wall_start}
         dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result)
         write_dataset(dataset, result.result_path)
+        if self.study.output.figures:
+            from workflows.probabilistic.figures import draw_probabilistic_figures  # matplotlib only when drawing
+
+            result.figures = draw_probabilistic_figures(self.out_dir, dataset)
         return result
 
     def cases(self):
@@ -230,4 +235,5 @@ class ProbabilisticStudy(SweepStudy):
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
-                       f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"])
+                       f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
+                       + "".join(f", {path.name}" for path in outcome.figures)])

@@ -440,10 +440,9 @@ class Study(Record):
             if self.strength_reduction is None:
                 raise StudyError("probabilistic", "a probabilistic study judges each realisation by strength "
                                  "reduction: it needs a strength_reduction stage")
-            for other in ("sweep", "refinement"):
-                if getattr(self, other) is not None:
-                    raise StudyError("probabilistic", f"[probabilistic] and [{other}] in one study are not "
-                                     "supported yet")
+            if self.refinement is not None:
+                raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not "
+                                 "supported yet")
         if self.refinement is not None:
             if self.strength_reduction is None:
                 raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "
