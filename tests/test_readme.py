@@ -34,8 +34,8 @@ def test_readme_sweep_makes_cases_of_the_readme_study():
 
 def test_readme_refinement_tables_fit_the_readme_study():
     """[refinement] and [[geometry.refined]] as the README shows them, with the README's study."""
-    assert len(BLOCKS) == 3
-    block, _, tables = BLOCKS
+    assert len(BLOCKS) == 4
+    block, _, tables, _ = BLOCKS
     refinement, refined = tables.split("[[geometry.refined]]")
     study = parse_study(block + "\n" + refinement)
     assert study.refinement.spacings(study.geometry.spacing_m) == [1.0, 0.7071, 0.5]
@@ -53,3 +53,11 @@ def test_readme_set_up_commands_are_what_ci_runs():
 def test_readme_links_exist():
     for link in re.findall(r"\]\(([^)#]+)\)", README):
         assert (REPO / link).exists(), link
+
+
+def test_readme_probabilistic_tables_fit_the_readme_study():
+    """[probabilistic] and [random_field] as the README shows them, with the README's study: a
+    cohesion field of the given COV at its particles."""
+    study = parse_study(BLOCKS[0] + "\n" + BLOCKS[3])
+    assert study.probabilistic.realisations == 200 and study.random_field.properties[0].cov == 0.5
+    assert "cohesion_pa" in build_scene(study).node_properties

@@ -6,8 +6,9 @@
   correlation matrix through a Gaussian copula; Monte Carlo and Latin hypercube designs;
 - ``reliability``: the probability of failure with its confidence interval, and the
   reliability index;
-- ``table`` (``[probabilistic]``), ``study_type`` (a case per realisation, run as a sweep's) and
-  ``results`` (``probabilistic.nc``).
-
-Random fields are not yet declared in a study file.
+- ``spatial`` (``[random_field]``): properties of materials as random fields, their values at the
+  particles;
+- ``table`` (``[probabilistic]``), ``study_type`` (a case per realisation, run as a sweep's),
+  ``sweep`` (a probabilistic study per case of a ``[sweep]``), ``results`` (``probabilistic.nc``)
+  and ``figures``.
 """

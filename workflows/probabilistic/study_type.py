@@ -210,8 +210,11 @@ class ProbabilisticStudy(SweepStudy):
             result.fos_mean, result.fos_std = float(found.mean()), float(found.std(ddof=1))
         runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
                 for record in outcome.runs]
-        result.runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
+        made = [record for record in runs if record.started_s == record.started_s]  # NaN: reused
+        result.runs_made = len(made)
         result.timings_s = {"cases_elapsed": timings.cases_elapsed, "srf_runs_worker": timings.srf_runs_worker,
+                            "run_loops": sum(record.wall_time_s for record in made),
+                            "remesh": sum(record.remesh_wall_s for record in made),
                             "total": time.perf_counter() - wall_start}
         dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result)
         write_dataset(dataset, result.result_path)
