@@ -126,3 +126,17 @@ def test_a_study_stopped_part_way_resumes_to_the_same_pf(tmp_path):
         run_file.unlink()
     resumed = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert resumed.runs_made == 1 and resumed.pf == first.pf and resumed.n_failed == first.n_failed
+
+
+def test_a_target_interval_width_stops_after_the_batch_that_reaches_it(tmp_path, monkeypatch):
+    """Batches of 3 (BATCH_REALISATIONS patched): a width of 0.99 is reached after the first batch,
+    so 3 of 9 realisations run, and pf is theirs; a width of 0.01 is never reached, so all 9 run,
+    reusing the first 3."""
+    from workflows.probabilistic import study_type
+
+    monkeypatch.setattr(study_type, "BATCH_REALISATIONS", 3)
+    early = run_study(parse_study(probabilistic(9, "pf_interval_width = 0.99")), tmp_path, RunOptions(workers=2))
+    assert early.n_realisations == 3 and early.runs_made == 3
+    assert xr.open_dataset(tmp_path / "probabilistic.nc").sizes["realisation"] == 3
+    full = run_study(parse_study(probabilistic(9, "pf_interval_width = 0.01")), tmp_path, RunOptions(workers=2))
+    assert full.n_realisations == 9 and full.runs_made == 6

@@ -9,7 +9,9 @@
 2. They run as a sweep's cases do (``workflows.sweep.study_type``): on one cluster, in
    ``OUT/cases/realisation_<i>/``, realisations that share a gravity state (only strengths random)
    relaxing it once, every finished run reused by the next invocation, so that a Monte Carlo study
-   extended from 200 to 1,000 realisations computes only the 800 new ones.
+   extended from 200 to 1,000 realisations computes only the 800 new ones.  With
+   ``pf_interval_width`` they go in batches of :data:`BATCH_REALISATIONS`, and the study stops
+   after the batch that brings the 95% interval of pf within it.
 3. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
    with its exact 95% interval, and in ``fos`` mode the FOS statistics, the reliability index and
    each variable's rank correlation with the FOS; then the figures (``probabilistic.figures``).
@@ -35,6 +37,9 @@ from workflows.sweep.results import ABOVE, BELOW, FOUND, CaseResult, case_result
 from workflows.sweep.study_type import SweepStudy
 
 RESULT_NAME = "probabilistic.nc"
+BATCH_REALISATIONS = 100
+"""With ``pf_interval_width``, realisations go to the cluster in batches of this many, the interval
+checked after each batch (the same batches whatever the workers: the stop is reproducible)."""
 CASE_PREFIX = "realisation_"
 STABLE, FAILED, UNDECIDED = "stable", "failed", "undecided"
 
@@ -166,6 +171,9 @@ class ProbabilisticStudy(SweepStudy):
     def __init__(self, study: Study, out_dir: Path):
         super().__init__(study, out_dir)
         self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far
+        self.waiting: list = []  # realisations of the later batches (pf_interval_width)
+        if study.probabilistic.pf_interval_width is not None:
+            self.placement = dataclasses.replace(self.placement, rounds=True)
 
     @staticmethod
     def applies_to(study: Study) -> bool:
@@ -193,6 +201,7 @@ class ProbabilisticStudy(SweepStudy):
         from workflows.probabilistic.results import probabilistic_dataset
 
         table = self.study.probabilistic
+        self.sweep_cases = [case for case in self.sweep_cases if self.same_as[case.case_id] in outcomes]  # stopped early
         results = {}
         for case in self.sweep_cases:
             outcome = outcomes[self.same_as[case.case_id]]
@@ -225,8 +234,30 @@ class ProbabilisticStudy(SweepStudy):
         return result
 
     def cases(self):
+        """Every realisation, or with ``pf_interval_width`` the first batch (module doc)."""
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
-        return super().cases()
+        cases = super().cases()
+        if self.study.probabilistic.pf_interval_width is None:
+            return cases
+        self.waiting = cases[BATCH_REALISATIONS:]
+        return cases[:BATCH_REALISATIONS]
+
+    def next_cases(self, outcomes: dict, progress) -> list:
+        """The next batch while the pf interval is wider than ``pf_interval_width``."""
+        from workflows.probabilistic.reliability import failure_probability
+
+        if not self.waiting:
+            return []
+        failed, decided = self.tally[FAILED], self.tally[FAILED] + self.tally[STABLE]
+        if decided:
+            _, low, high = failure_probability(failed, decided)
+            if high - low <= self.study.probabilistic.pf_interval_width:
+                progress.message(f"the 95% interval of pf is {high - low:.3g} wide after {decided} realisations, "
+                                 f"within pf_interval_width = {self.study.probabilistic.pf_interval_width:g}: done")
+                self.waiting = []
+                return []
+        batch, self.waiting = self.waiting[:BATCH_REALISATIONS], self.waiting[BATCH_REALISATIONS:]
+        return batch
 
     def report(self, outcome: ProbabilisticOutcome, quiet: bool, study_file) -> Report:
         if quiet:

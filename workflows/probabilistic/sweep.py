@@ -5,8 +5,9 @@ COV, a scale of fluctuation, a mean).
    own (``workflows.probabilistic.study_type.ProbabilisticStudy``) in ``OUT/cases/<case>/``: its
    study text ``case.toml`` (a probabilistic study that runs alone and reuses the sweep's
    realisations), its realisations under ``cases/``, its ``probabilistic.nc``.
-2. The realisations of every case are tasks on one cluster, all in one round (realisations of
-   random strengths share one gravity state across the cases too).
+2. The realisations of every case are tasks on one cluster, all in one round, or with
+   ``pf_interval_width`` in each case's batches (realisations of random strengths share one
+   gravity state across the cases too).
 3. ``OUT/study.nc`` (``workflows.output.variables.PROBABILISTIC_SWEEP_FILE``: pf with its interval
    per case) and ``pf.png`` (pf against the first axis) are written last.
 """
@@ -59,6 +60,8 @@ class ProbabilisticSweepStudy(StudyType):
         self.sweep_cases = sweep_cases(study)
         self.studies = {case.case_id: ProbabilisticStudy(case.study, out_dir / CASES_FOLDER / case.case_id)
                         for case in self.sweep_cases}
+        if study.probabilistic.pf_interval_width is not None:  # each case in batches (ProbabilisticStudy)
+            self.placement = dataclasses.replace(self.placement, rounds=True)
 
     def check(self, options: RunOptions) -> None:
         """Each case's own checks (``ProbabilisticStudy.check``), StudyError naming the case."""
@@ -80,6 +83,16 @@ class ProbabilisticSweepStudy(StudyType):
             cases += [dataclasses.replace(each, case_id=f"{case.case_id}{SEPARATOR}{each.case_id}")
                       for each in self.studies[case.case_id].cases()]
         return cases
+
+    def next_cases(self, outcomes: dict, progress: Progress) -> list[Case]:
+        """Each case's next batch while its pf interval is too wide (``pf_interval_width``)."""
+        more = []
+        for sweep_id, study in self.studies.items():
+            prefix = f"{sweep_id}{SEPARATOR}"
+            own = {case_id[len(prefix):]: outcome for case_id, outcome in outcomes.items() if case_id.startswith(prefix)}
+            more += [dataclasses.replace(each, case_id=prefix + each.case_id)
+                     for each in study.next_cases(own, _CaseTally(progress, sweep_id))]
+        return more
 
     def case_concluded(self, case_id: str, outcome, progress: Progress) -> None:
         sweep_id, own_id = case_id.split(SEPARATOR, 1)
@@ -157,3 +170,6 @@ class _CaseTally(Progress):
 
     def tally(self, text: str) -> None:
         self.progress.tally(f"{self.case_id.replace('__', ', ')}: {text}")
+
+    def message(self, text: str) -> None:
+        self.progress.message(f"case {self.case_id.replace('__', ', ')}: {text}")

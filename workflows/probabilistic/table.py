@@ -66,6 +66,10 @@ class Probabilistic(Record):
         "`verdict`: one strength-reduction run per realisation at `factor`, stable or failed; `fos`: each "
         "realisation's own FOS by the stage's search", default="verdict", choices=("verdict", "fos"),
     )
+    pf_interval_width: float | None = number(
+        "1", "stop once the 95% interval of pf is at most this wide (checked after each batch of "
+        "100 realisations; `realisations` is then the most); default: compute them all", default=None, gt=0.0, lt=1.0,
+    )
     factor: float = number("1", "the SRF a realisation is judged at: it fails if its run at factor fails (verdict) "
                            "or its FOS is below factor (fos)", default=1.0, gt=0.0)
 
