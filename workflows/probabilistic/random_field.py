@@ -28,6 +28,7 @@ the variance reduction of RFEM (Griffiths & Fenton 2004) that a point sample wou
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -67,10 +68,12 @@ class GridField:
     sqrt_eigen: np.ndarray  # sqrt(lambda / N) on the periodic grid (mx, my)
 
     @classmethod
+    @functools.lru_cache(maxsize=8)  # the realisations of a study on one worker share the embedding
     def build(cls, model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float,
               dy_m: float) -> "GridField":
         """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m``; ValueError when no
-        embedding up to :data:`MAX_EMBEDDING` times the grid is nonnegative."""
+        embedding up to :data:`MAX_EMBEDDING` times the grid is nonnegative (kept for the next
+        call with the same arguments: a field draws from it, never changes it)."""
         for factor in range(2, MAX_EMBEDDING + 1):
             mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
             ix, iy = np.arange(mx), np.arange(my)
@@ -79,8 +82,9 @@ class GridField:
             rho = correlation(model, tau_x[:, None], tau_y[None, :], theta_x_m, theta_y_m)
             eigen = fft.fft2(rho).real
             if eigen.min() >= -NEGATIVE_TOLERANCE * eigen.max():
-                return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m,
-                           np.sqrt(np.maximum(eigen, 0.0) / (mx * my)))
+                sqrt_eigen = np.sqrt(np.maximum(eigen, 0.0) / (mx * my))
+                sqrt_eigen.setflags(write=False)  # shared by the cache
+                return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen)
         raise ValueError(f"the {model} correlation with theta = ({theta_x_m:g}, {theta_y_m:g}) m has no "
                          f"nonnegative circulant embedding up to {MAX_EMBEDDING} times the grid")
 
