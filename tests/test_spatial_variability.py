@@ -145,5 +145,6 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
     assert len(gravity_files) == 3  # copied to each case, relaxed once (one gravity key)
     ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
     assert ds.sizes["realisation"] == 3
+    assert len(list(tmp_path.glob("failed_realisation_*.png"))) == min(3, first.n_failed)
     again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert again.runs_made == 0 and again.pf == first.pf

@@ -6,6 +6,9 @@
 - ``fos_distribution.png`` (fos mode): the histogram of the realisations' FOS and their empirical
   CDF, the factor the study judges at and pf marked;
 - ``sensitivity.png`` (fos mode, random variables): each variable's rank correlation with the FOS;
+- ``failed_<realisation>.png``: for the first :data:`FAILED_FIGURES` failed realisations of a study
+  with a ``[random_field]``, each field at the particles beside the run's final plastic strain
+  (where the weak zones were, and the mechanism through them);
 - ``pf.png`` of a sweep: pf with its interval against the first axis, one line per value of a
   second.
 """
@@ -20,10 +23,18 @@ import xarray as xr
 from workflows.output.figures import pyplot
 from workflows.probabilistic.reliability import failure_probability
 
+FAILED_FIGURES = 3
 
-def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset) -> list[Path]:
+
+def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None) -> list[Path]:
     """Every figure of one probabilistic study that its dataset supports (module doc)."""
     paths = [pf_convergence(out_dir / "pf_convergence.png", ds)]
+    if study is not None and study.random_field is not None:
+        failed = [str(folder) for folder, verdict in zip(ds["case_folder"].values, ds["verdict"].values)
+                  if verdict == "failed"][:FAILED_FIGURES]
+        paths += [failed_realisation(out_dir / "cases" / folder, out_dir / f"failed_{folder}.png")
+                  for folder in failed]
+        paths = [path for path in paths if path is not None]
     fos = ds["fos"].values
     if ds.attrs["compute"] == "fos" and np.isfinite(fos).sum() >= 3:
         paths.append(fos_distribution(out_dir / "fos_distribution.png", ds))
@@ -109,6 +120,46 @@ def draw_pf_sweep(out_dir: Path, ds: xr.Dataset) -> Path:
         ax.legend()
     fig.tight_layout()
     path = out_dir / "pf.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def failed_realisation(folder: Path, path: Path) -> Path | None:
+    """The realisation's fields at its particles (from its ``case.toml``) and the final plastic
+    strain of its failed run with the lowest SRF; None when no failed run file is there."""
+    import matplotlib.tri as mtri
+
+    from workflows.scene import build_scene
+    from workflows.study import parse_study
+
+    runs = []
+    for run_file in sorted(folder.glob("srf_*.nc")):
+        with xr.open_dataset(run_file, engine="netcdf4") as run:
+            if run.attrs.get("status") == "failed":
+                runs.append((float(run.attrs["srf"]), run_file))
+    if not runs:
+        return None
+    srf, run_file = min(runs)
+    study = parse_study((folder / "case.toml").read_text())
+    scene = build_scene(study)
+    names = [entry.property for entry in study.random_field.properties]
+    with xr.open_dataset(run_file, engine="netcdf4") as run:
+        x, y = run["particle_x"].values, run["particle_y"].values
+        triangles = run["mesh2d_face_nodes"].values
+        plastic = run["particle_plastic_strain"].values
+    plt = pyplot()
+    fig, axes = plt.subplots(len(names) + 1, 1, figsize=(7.5, 2.6 * (len(names) + 1)), sharex=True)
+    x0, y0 = scene.node_xy_m[:, 0], scene.node_xy_m[:, 1]
+    for ax, name in zip(axes, names):
+        dots = ax.scatter(x0, y0, c=scene.node_properties[name], s=4, cmap="viridis")
+        fig.colorbar(dots, ax=ax, label=name)
+        ax.set(aspect="equal", ylabel="y (m)")
+    shading = axes[-1].tripcolor(mtri.Triangulation(x, y, triangles), plastic, shading="gouraud", cmap="magma")
+    fig.colorbar(shading, ax=axes[-1], label="equivalent plastic strain")
+    axes[-1].set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    axes[0].set_title(f"{folder.name}: failed at SRF {srf:g}")
+    fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path

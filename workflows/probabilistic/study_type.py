@@ -230,7 +230,7 @@ class ProbabilisticStudy(SweepStudy):
         if self.study.output.figures:
             from workflows.probabilistic.figures import draw_probabilistic_figures  # matplotlib only when drawing
 
-            result.figures = draw_probabilistic_figures(self.out_dir, dataset)
+            result.figures = draw_probabilistic_figures(self.out_dir, dataset, self.study)
         return result
 
     def cases(self):
