@@ -33,7 +33,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft, ndimage
 
 MODELS = ("markov", "gaussian")
 NEGATIVE_TOLERANCE = 1e-8
@@ -74,6 +73,7 @@ class GridField:
         """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m``; ValueError when no
         embedding up to :data:`MAX_EMBEDDING` times the grid is nonnegative (kept for the next
         call with the same arguments: a field draws from it, never changes it)."""
+        from scipy import fft  # scipy only when drawing: the study reader imports this module
         for factor in range(2, MAX_EMBEDDING + 1):
             mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
             ix, iy = np.arange(mx), np.arange(my)
@@ -90,6 +90,8 @@ class GridField:
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
+        from scipy import fft
+
         shape = self.sqrt_eigen.shape
         z = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
         field = fft.fft2(self.sqrt_eigen * z)
@@ -130,6 +132,8 @@ def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, 
 def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
     """The average of ``grid_values`` over the ``cell_points`` x ``cell_points`` box about each
     grid point (a box filter; the box shrinks to the grid at its edges)."""
+    from scipy import ndimage
+
     return ndimage.uniform_filter(grid_values, size=cell_points, mode="nearest")
 
 

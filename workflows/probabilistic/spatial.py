@@ -140,7 +140,8 @@ class RandomField(Record):
 
     @staticmethod
     def _check_range(where: str, entry: FieldProperty, spec, mean: float, std: float) -> None:
-        from scipy.stats import norm
+        def normal_cdf(z: float) -> float:
+            return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
         for op, bound in spec.bounds:
             if entry.distribution == "lognormal" and op in (">", ">=") and bound <= 0.0:
@@ -150,7 +151,7 @@ class RandomField(Record):
                 z = (math.log(bound) - mu) / sigma if bound > 0.0 else -math.inf
             else:
                 z = (bound - mean) / std
-            outside = norm.cdf(z) if op in (">", ">=") else norm.sf(z)
+            outside = normal_cdf(z) if op in (">", ">=") else normal_cdf(-z)
             if outside > OUTSIDE_RANGE_LIMIT:
                 raise StudyError(f"{where}.distribution", f"a {entry.distribution} field of mean {mean:g} and std "
                                  f"{std:g} leaves {entry.property} {op} {bound:g} with probability {outside:.2g}; "
