@@ -21,7 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from verification.undrained_variants import deterministic_text, shipped_text, single_variable_text
+from verification.undrained_variants import add_common_arguments, deterministic_fos, shipped_text, single_variable_text
 from workflows.cases import RunOptions
 from workflows.probabilistic.reliability import lognormal_strength_pf
 from workflows.study import parse_study
@@ -32,19 +32,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--covs", nargs="+", type=float, default=[0.25, 0.5, 1.0])
     parser.add_argument("--realisations", type=int, default=1000)
-    parser.add_argument("--spacing", type=float, default=None, help="particle spacing (m), default the study's")
-    parser.add_argument("--fos-tolerance", type=float, default=0.002)
-    parser.add_argument("--workers", type=int, default=2)
+    add_common_arguments(parser)
     args = parser.parse_args(argv)
     text = shipped_text(args.spacing)
     mean_cu = parse_study(text).materials[0].cohesion_pa
     options = RunOptions(workers=args.workers)
     with tempfile.TemporaryDirectory() as scratch:
-        deterministic = run_study(parse_study(deterministic_text(text, args.fos_tolerance)), Path(scratch) / "det",
-                                  options)
-        f_det = deterministic.fos
-        print(f"F_det = {f_det:.4f} [{deterministic.fos_low:.4f}, {deterministic.fos_high:.4f}] at h = "
-              f"{parse_study(text).geometry.spacing_m:g} m; cu_crit = {mean_cu / f_det / 1e3:.3f} kPa\n")
+        f_det = deterministic_fos(text, args.fos_tolerance, options, Path(scratch) / "det")
         print("| COV | realisations | failed | Monte Carlo pf [95% interval] | closed-form pf | holds | wall (s) |")
         print("|---|---|---|---|---|---|---|")
         for cov in args.covs:

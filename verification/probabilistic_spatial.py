@@ -20,7 +20,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from verification.undrained_variants import deterministic_text, field_text, shipped_text
+from verification.undrained_variants import add_common_arguments, deterministic_fos, field_text, shipped_text
 from workflows.cases import RunOptions
 from workflows.probabilistic.reliability import lognormal_strength_pf
 from workflows.study import parse_study
@@ -34,19 +34,13 @@ def main(argv=None) -> int:
     parser.add_argument("--covs", nargs="+", type=float, default=[0.25, 0.5, 1.0, 2.0])
     parser.add_argument("--thetas", nargs="+", type=float, default=[0.5, 2.0], help="theta / H")
     parser.add_argument("--realisations", type=int, default=500)
-    parser.add_argument("--spacing", type=float, default=None, help="particle spacing (m), default the study's")
-    parser.add_argument("--fos-tolerance", type=float, default=0.002)
-    parser.add_argument("--workers", type=int, default=2)
+    add_common_arguments(parser)
     args = parser.parse_args(argv)
     text = shipped_text(args.spacing)
     mean_cu = parse_study(text).materials[0].cohesion_pa
     options = RunOptions(workers=args.workers)
     with tempfile.TemporaryDirectory() as scratch:
-        deterministic = run_study(parse_study(deterministic_text(text, args.fos_tolerance)), Path(scratch) / "det",
-                                  options)
-        f_det = deterministic.fos
-        print(f"F_det = {f_det:.4f} [{deterministic.fos_low:.4f}, {deterministic.fos_high:.4f}] at h = "
-              f"{parse_study(text).geometry.spacing_m:g} m\n", flush=True)
+        f_det = deterministic_fos(text, args.fos_tolerance, options, Path(scratch) / "det")
         print("| theta / H | COV | realisations | failed | pf [95% interval] | single-variable pf | wall (s) |")
         print("|---|---|---|---|---|---|---|", flush=True)
         for theta in args.thetas:

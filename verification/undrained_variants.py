@@ -44,3 +44,24 @@ def field_text(text: str, cov: float, theta_m: float, realisations: int) -> str:
     text = re.sub(r"(?m)^cov = .*$", f"cov = {cov:g}", text, count=1)
     text = re.sub(r"(?m)^theta_x_m = .*$", f"theta_x_m = {theta_m:g}", text, count=1)
     return _realisations(text, realisations)
+
+
+def add_common_arguments(parser) -> None:
+    """--spacing, --fos-tolerance and --workers of the probabilistic verifications."""
+    parser.add_argument("--spacing", type=float, default=None, help="particle spacing (m), default the study's")
+    parser.add_argument("--fos-tolerance", type=float, default=0.002)
+    parser.add_argument("--workers", type=int, default=2)
+
+
+def deterministic_fos(text: str, tolerance: float, options, out_dir: Path) -> float:
+    """F_det: the FOS of the study without its randomness, searched to ``tolerance``, printed with
+    its bracket and cu_crit = mean cu / F_det."""
+    from workflows.study import parse_study
+    from workflows.study_types import run_study
+
+    study = parse_study(text)
+    outcome = run_study(parse_study(deterministic_text(text, tolerance)), out_dir, options)
+    mean_cu = study.materials[0].cohesion_pa
+    print(f"F_det = {outcome.fos:.4f} [{outcome.fos_low:.4f}, {outcome.fos_high:.4f}] at h = "
+          f"{study.geometry.spacing_m:g} m; cu_crit = {mean_cu / outcome.fos / 1e3:.3f} kPa\n", flush=True)
+    return outcome.fos

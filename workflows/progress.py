@@ -40,6 +40,20 @@ class Messages(Progress):
         self.lines.append(text)
 
 
+class CaseProgress(Progress):
+    """Another Progress with a sub-study's messages and tallies prefixed with its case (the cases
+    of a sweep of refinement or probabilistic studies); the rest dropped."""
+
+    def __init__(self, progress: Progress, case_id: str):
+        self.progress, self.case_id = progress, case_id
+
+    def message(self, text: str) -> None:
+        self.progress.message(f"case {self.case_id.replace('__', ', ')}: {text}")
+
+    def tally(self, text: str) -> None:
+        self.progress.tally(f"{self.case_id.replace('__', ', ')}: {text}")
+
+
 class OnlyWarnings(Progress):
     """Another Progress with the messages that are no warning left out (a sweep's cases)."""
 

@@ -24,7 +24,7 @@ import numpy as np
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.probabilistic.study_type import ProbabilisticOutcome, ProbabilisticStudy
-from workflows.progress import Progress
+from workflows.progress import CaseProgress, Progress
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, sweep_cases
 from workflows.sweep.results import CASE_TEXT_NAME, CASES_FOLDER, STUDY_FILE_NAME
@@ -91,12 +91,12 @@ class ProbabilisticSweepStudy(StudyType):
             prefix = f"{sweep_id}{SEPARATOR}"
             own = {case_id[len(prefix):]: outcome for case_id, outcome in outcomes.items() if case_id.startswith(prefix)}
             more += [dataclasses.replace(each, case_id=prefix + each.case_id)
-                     for each in study.next_cases(own, _CaseTally(progress, sweep_id))]
+                     for each in study.next_cases(own, CaseProgress(progress, sweep_id))]
         return more
 
     def case_concluded(self, case_id: str, outcome, progress: Progress) -> None:
         sweep_id, own_id = case_id.split(SEPARATOR, 1)
-        self.studies[sweep_id].case_concluded(own_id, outcome, _CaseTally(progress, sweep_id))
+        self.studies[sweep_id].case_concluded(own_id, outcome, CaseProgress(progress, sweep_id))
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticSweepOutcome:
         from workflows.output.variables import PROBABILISTIC_SWEEP_FILE
@@ -161,15 +161,3 @@ class ProbabilisticSweepStudy(StudyType):
                  + "".join(f", {path.name}" for path in outcome.figures))
         return Report([header, *table, wrote])
 
-
-class _CaseTally(Progress):
-    """A case's running tally, prefixed with the case."""
-
-    def __init__(self, progress: Progress, case_id: str):
-        self.progress, self.case_id = progress, case_id
-
-    def tally(self, text: str) -> None:
-        self.progress.tally(f"{self.case_id.replace('__', ', ')}: {text}")
-
-    def message(self, text: str) -> None:
-        self.progress.message(f"case {self.case_id.replace('__', ', ')}: {text}")

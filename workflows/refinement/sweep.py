@@ -23,7 +23,7 @@ from pathlib import Path
 from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
-from workflows.progress import Progress
+from workflows.progress import CaseProgress, Progress
 from workflows.refinement.study_type import RefinementOutcome, RefinementStudy
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, sweep_cases
@@ -51,16 +51,6 @@ class RefinedSweepOutcome:
     results: dict[str, CaseResult]  # the finest level of each case, by case id
     timings_s: dict[str, float] = field(default_factory=dict)
     figures: list[Path] = field(default_factory=list)
-
-
-class _CaseProgress(Progress):
-    """A case's refinement messages, each line prefixed with the case."""
-
-    def __init__(self, progress: Progress, case_id: str):
-        self.progress, self.case_id = progress, case_id
-
-    def message(self, text: str) -> None:
-        self.progress.message(f"case {self.case_id.replace('__', ', ')}: {text}")
 
 
 class RefinedSweepStudy(StudyType):
@@ -124,7 +114,7 @@ class RefinedSweepStudy(StudyType):
             own_id = level_id.split(LEVEL_SEPARATOR, 1)[1]
             self.level_outcomes[case_id][own_id] = outcome
             next_levels = self.refinements[case_id].next_cases(self.level_outcomes[case_id],
-                                                               _CaseProgress(progress, case_id))
+                                                               CaseProgress(progress, case_id))
             more += [self._sweep_case(case_id, case) for case in next_levels]
         return more
 
