@@ -10,8 +10,11 @@ import numpy as np
 import pytest
 
 from workflows.probabilistic.random_field import (
+    CELL_QUADRATURE_POINTS,
     GridField,
     ParticleField,
+    cell_correlation,
+    cell_covariance,
     correlation,
     lognormal_parameters,
     variance_function,
@@ -63,9 +66,9 @@ def test_the_markov_scale_of_fluctuation_is_twice_the_exponential_length():
 
 @pytest.mark.parametrize("model, theta_m", [("markov", 1.0), ("markov", 4.0), ("gaussian", 1.0)])
 def test_cell_averages_have_the_variance_of_vanmarckes_variance_function(model, theta_m):
-    """Particles on a 0.5 m lattice, each the average over its 0.5 m cell: the ensemble variance is
-    gamma(0.5, 0.5) within 4% (the cell's 4 x 4 grid points overstate the continuous average's
-    variance by up to 2% at theta / h = 2; a standard error about 1.5%)."""
+    """Particles on a 0.5 m lattice, each the average over its 0.5 m cell (drawn from the covariance of
+    cell averages itself): the ensemble variance is gamma(0.5, 0.5) within 4% (a standard error about
+    1.5%)."""
     x, y = np.meshgrid(np.arange(0.0, 6.0, 0.5), np.arange(0.0, 3.0, 0.5), indexing="ij")
     field = ParticleField(model, theta_m, theta_m, x.ravel(), y.ravel(), 0.5)
     rng = np.random.default_rng(11)
@@ -99,6 +102,49 @@ def test_the_same_seed_gives_the_same_field_and_another_seed_another():
     assert np.array_equal(first[0], again[0]) and not np.allclose(first[0], other[0])
 
 
-def test_a_correlation_too_long_for_any_embedding_is_an_error_not_a_wrong_field():
+def test_a_correlation_no_embedding_holds_is_an_error_not_a_wrong_field():
+    """A Gaussian correlation 10 times longer than a 4 m grid: a tenth of the embedding's eigenvalues
+    are negative even at 8 times the grid (a field of nearly one value would be fine: theta = 400 m
+    leaves 1e-4, within NEGATIVE_SHARE)."""
     with pytest.raises(ValueError, match="no nonnegative circulant embedding"):
-        GridField.build("gaussian", 400.0, 400.0, 16, 16, 0.25, 0.25)
+        GridField.build("gaussian", 40.0, 40.0, 16, 16, 0.25, 0.25)
+    assert GridField.build("gaussian", 400.0, 400.0, 16, 16, 0.25, 0.25).sqrt_eigen.shape == (32, 32)
+
+
+@pytest.mark.parametrize("model, theta_m", [("markov", 0.5), ("markov", 1.0), ("gaussian", 1.0)])
+def test_the_covariance_of_cell_averages_at_lag_zero_is_the_variance_function(model, theta_m):
+    """C_A(0) by the embedding's quadrature (CELL_QUADRATURE_POINTS) against gamma by 400 points: within
+    2e-4 where the Markov model's kink at zero lag is sharpest against the cell (theta = h / 2)."""
+    covariance = cell_covariance(model, 1.0, [0.0], [0.0], theta_m, theta_m, CELL_QUADRATURE_POINTS)[0, 0]
+    assert covariance == pytest.approx(variance_function(model, 1.0, 1.0, theta_m, theta_m, points=400), rel=2e-4)
+
+
+@pytest.mark.parametrize("model", ["markov", "gaussian"])
+def test_particles_of_one_spacing_correlate_as_their_cells_averages_do(model):
+    """A 0.5 m lattice, theta = 1 m: the ensemble correlation of particle pairs 0.5, 1 and 1.5 m apart
+    along x and along y against cell_correlation, within 0.03 (a standard error about 0.01)."""
+    x, y = np.meshgrid(np.arange(0.0, 6.0, 0.5), np.arange(0.0, 4.0, 0.5), indexing="ij")
+    field = ParticleField(model, 1.0, 1.0, x.ravel(), y.ravel(), 0.5)
+    rng = np.random.default_rng(5)
+    values = np.array([value for _ in range(DRAWS) for value in field.draw(rng)]).reshape(-1, *x.shape)
+    values /= math.sqrt(variance_function(model, 0.5, 0.5, 1.0, 1.0))
+    for lag in (1, 2, 3):
+        target = cell_correlation(model, 0.5, 0.5 * lag, 0.0, 1.0, 1.0)
+        assert (values[:, :-lag, :] * values[:, lag:, :]).mean() == pytest.approx(target, abs=0.03)
+        assert (values[:, :, :-lag] * values[:, :, lag:]).mean() == pytest.approx(target, abs=0.03)
+
+
+def test_a_graded_cloud_averages_each_particle_over_its_own_cell():
+    """Two spacings (0.5 m and 1 m lattices side by side): each particle's variance is gamma of its own
+    cell, within 5% (the box average of a grid h / 4 fine)."""
+    fine_x, fine_y = np.meshgrid(np.arange(0.0, 3.0, 0.5), np.arange(0.0, 3.0, 0.5), indexing="ij")
+    coarse_x, coarse_y = np.meshgrid(np.arange(4.0, 8.0, 1.0), np.arange(0.0, 3.0, 1.0), indexing="ij")
+    x = np.concatenate([fine_x.ravel(), coarse_x.ravel()])
+    y = np.concatenate([fine_y.ravel(), coarse_y.ravel()])
+    spacing = np.concatenate([np.full(fine_x.size, 0.5), np.full(coarse_x.size, 1.0)])
+    field = ParticleField("markov", 1.0, 1.0, x, y, spacing)
+    assert field.grid.cell_m is None  # the point field, box-averaged per cell
+    rng = np.random.default_rng(13)
+    variance = np.array([value for _ in range(DRAWS) for value in field.draw(rng)]).var(axis=0)
+    for h in (0.5, 1.0):
+        assert variance[spacing == h].mean() == pytest.approx(variance_function("markov", h, h, 1.0, 1.0), rel=0.05)

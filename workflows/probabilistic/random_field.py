@@ -7,10 +7,13 @@ a periodic grid at least twice as large, is block circulant, so the FFT diagonal
     C = F* diag(lambda) F / N,      lambda = FFT(rho on the periodic grid),
     G = Re and Im of FFT(sqrt(lambda / N) (Z1 + i Z2)),   Z1, Z2 standard normal,
 
-one complex draw giving two independent fields.  Exact where every ``lambda >= 0``; the
-embedding grows until that holds (for the Markov model it does at twice the grid; a Gaussian
-model whose scale is long against the grid needs more, and what is left below
-``-NEGATIVE_TOLERANCE`` of the largest is an error, never silently dropped).
+one complex draw giving two independent fields.  Exact where every ``lambda >= 0``.  Negative
+eigenvalues are set to zero, which changes every covariance of the grid by at most the share of
+the negative ones, ``sum(|lambda_-|) / sum(lambda)``, times the variance (the change is
+``F* diag(|lambda_-|) F / N``, whose entries are bounded by its trace over N); the embedding
+grows from twice the grid until that share is at most :data:`NEGATIVE_SHARE`, and a correlation
+no embedding up to :data:`MAX_EMBEDDING` times the grid reaches it with is an error, never a
+wrong field.
 
 Correlation models, with the scale of fluctuation ``theta`` (Vanmarcke; Fenton & Griffiths):
 
@@ -20,10 +23,21 @@ Correlation models, with the scale of fluctuation ``theta`` (Vanmarcke; Fenton &
 (GSTools' exponential model exp(-r / l) is this Markov model with l = theta / 2.)
 
 A particle's value is the average of the field over its smoothing cell, taken here as the
-square of side ``h`` (its spacing) about it: the grid is finer than the cell by
-``GRID_PER_CELL``, and the cell average is a box filter of the grid.  Its variance is the
-point variance times Vanmarcke's variance function ``gamma(h, h)`` (:func:`variance_function`),
-the variance reduction of RFEM (Griffiths & Fenton 2004) that a point sample would miss.
+square of side ``h`` (its spacing) about it.  Its variance is the point variance times
+Vanmarcke's variance function ``gamma(h, h)`` (:func:`variance_function`), the variance
+reduction of RFEM (Griffiths & Fenton 2004) that a point sample would miss.  Two ways to
+sample it (:class:`ParticleField`):
+
+- a cloud of one spacing h (uniform, jittered or not): the cell averages ``A`` are themselves a
+  stationary Gaussian field, of covariance (:func:`cell_covariance`)
+
+      C_A(tau) = int int w(a) w(b) rho(tau_x + a, tau_y + b) da db,   w(a) = (h - |a|) / h^2 on [-h, h],
+
+  sampled exactly by circulant embedding of ``C_A`` on a grid of step ``h / CELL_GRID``, each
+  particle taking the value at the grid point nearest it (the lattice particles lie on it);
+- a graded cloud (several spacings, whose averages of different cells no single stationary field
+  holds): the point field on a grid ``GRID_PER_CELL`` times finer than the finest cell, each
+  particle the box average of its own cell's grid points (a box filter).
 """
 
 from __future__ import annotations
@@ -35,12 +49,19 @@ from dataclasses import dataclass
 import numpy as np
 
 MODELS = ("markov", "gaussian")
-NEGATIVE_TOLERANCE = 1e-8
-"""Eigenvalues of the embedding below -this x the largest make the embedding grow."""
+NEGATIVE_SHARE = 1e-3
+"""Largest share of negative eigenvalues of an embedding (module doc): every covariance of the grid
+within 1e-3 of the variance, far below what 1,000 realisations resolve (a standard error of 0.03)."""
 MAX_EMBEDDING = 8
 """The periodic grid reaches at most this many times the grid in each direction."""
 GRID_PER_CELL = 4
-"""Grid points per particle spacing in each direction, for the cell averages."""
+"""Grid points per finest particle spacing in each direction, for the box averages of a graded cloud."""
+CELL_GRID = 2
+"""Grid points per particle spacing in each direction where the cell averages are sampled exactly
+(a cloud of one spacing): edge particles, off the lattice, sit within h / 4 of a grid point."""
+CELL_QUADRATURE_POINTS = 12
+"""Gauss-Legendre points on each half of a cell's side for :func:`cell_covariance` on the embedding:
+C_A(0) within 2e-4 of gamma for the Markov model at theta / h = 1 (tests/test_random_field.py)."""
 
 
 def correlation(model: str, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float):
@@ -65,28 +86,37 @@ class GridField:
     dx_m: float
     dy_m: float
     sqrt_eigen: np.ndarray  # sqrt(lambda / N) on the periodic grid (mx, my)
+    cell_m: float | None = None  # the field of the averages over cell_m squares (None: point values)
 
     @classmethod
     @functools.lru_cache(maxsize=8)  # the realisations of a study on one worker share the embedding
     def build(cls, model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float,
-              dy_m: float) -> "GridField":
-        """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m``; ValueError when no
-        embedding up to :data:`MAX_EMBEDDING` times the grid is nonnegative (kept for the next
-        call with the same arguments: a field draws from it, never changes it)."""
+              dy_m: float, cell_m: float | None = None) -> "GridField":
+        """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m`` for the point field,
+        or with ``cell_m`` for the field of its averages over squares of that side (covariance
+        :func:`cell_covariance`); ValueError when no embedding up to :data:`MAX_EMBEDDING` times the
+        grid keeps its negative eigenvalues within :data:`NEGATIVE_SHARE` (kept for the next call with
+        the same arguments: a field draws from it, never changes it)."""
         from scipy import fft  # scipy only when drawing: the study reader imports this module
         for factor in range(2, MAX_EMBEDDING + 1):
             mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
             ix, iy = np.arange(mx), np.arange(my)
             tau_x = np.minimum(ix, mx - ix) * dx_m  # the periodic (minimal-image) lag
             tau_y = np.minimum(iy, my - iy) * dy_m
-            rho = correlation(model, tau_x[:, None], tau_y[None, :], theta_x_m, theta_y_m)
+            if cell_m is None:
+                rho = correlation(model, tau_x[:, None], tau_y[None, :], theta_x_m, theta_y_m)
+            else:  # C_A depends on |tau_x| and |tau_y|: computed once per distinct lag
+                quarter = cell_covariance(model, cell_m, np.arange(mx // 2 + 1) * dx_m, np.arange(my // 2 + 1) * dy_m,
+                                          theta_x_m, theta_y_m, CELL_QUADRATURE_POINTS)
+                rho = quarter[np.minimum(ix, mx - ix)][:, np.minimum(iy, my - iy)]
             eigen = fft.fft2(rho).real
-            if eigen.min() >= -NEGATIVE_TOLERANCE * eigen.max():
+            if -eigen[eigen < 0.0].sum() <= NEGATIVE_SHARE * eigen.sum():
                 sqrt_eigen = np.sqrt(np.maximum(eigen, 0.0) / (mx * my))
                 sqrt_eigen.setflags(write=False)  # shared by the cache
-                return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen)
+                return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen, cell_m)
         raise ValueError(f"the {model} correlation with theta = ({theta_x_m:g}, {theta_y_m:g}) m has no "
-                         f"nonnegative circulant embedding up to {MAX_EMBEDDING} times the grid")
+                         f"nonnegative circulant embedding up to {MAX_EMBEDDING} times the grid (negative "
+                         f"eigenvalues above {NEGATIVE_SHARE:g} of their sum)")
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
@@ -112,21 +142,37 @@ def variance_function(model: str, length_x_m: float, length_y_m: float, theta_x_
     return float(4.0 * inner.sum() / (length_x_m * length_y_m) ** 2)
 
 
-def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, theta_x_m: float,
-                     theta_y_m: float, points: int = 48) -> float:
-    """The correlation of the averages of two ``cell_m`` x ``cell_m`` squares whose centres lie
-    (tau_x, tau_y) apart: Cov / Var with Cov = int int w(a) w(b) rho(tau_x + a, tau_y + b) da db,
-    w(a) = (T - |a|) / T^2 on [-T, T] the density of the difference of two points of one side
-    (so that Var = gamma(T, T), :func:`variance_function`)."""
+def cell_covariance(model: str, cell_m: float, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float,
+                    points: int = 48) -> np.ndarray:
+    """The covariance of the averages of a unit-variance field over two ``cell_m`` x ``cell_m`` squares
+    whose centres lie (tau_x, tau_y) apart, on the grid of lags ``tau_x_m`` x ``tau_y_m`` (1-D arrays;
+    a (len(tau_x), len(tau_y)) array):
+
+        C_A = int int w(a) w(b) rho(tau_x + a, tau_y + b) da db,
+
+    w(a) = (T - |a|) / T^2 on [-T, T] the density of the difference of two points of one side (so
+    that C_A(0) = gamma(T, T), :func:`variance_function`), by Gauss-Legendre quadrature with
+    ``points`` nodes on each half of [-T, T] (the kink of w at 0 between them)."""
     nodes, weights = np.polynomial.legendre.leggauss(points)
     half = 0.5 * cell_m * (nodes + 1.0)  # [0, T], used for both signs of a
     a = np.concatenate([-half, half])
     w = np.concatenate([weights, weights]) * 0.5 * cell_m * (cell_m - np.abs(a)) / cell_m**2
+    tau_x_m, tau_y_m = np.atleast_1d(np.asarray(tau_x_m, float)), np.atleast_1d(np.asarray(tau_y_m, float))
+    out = np.empty((tau_x_m.size, tau_y_m.size))
+    by = (tau_y_m[:, None] + a[None, :])[:, None, :]  # (lags y, 1, nodes b)
+    for i, tx in enumerate(tau_x_m):  # one x lag at a time: (lags y, nodes a, nodes b) values of rho
+        rho = correlation(model, (tx + a)[None, :, None], by, theta_x_m, theta_y_m)
+        out[i] = (rho @ w) @ w
+    return out
 
-    def covariance(tx, ty):
-        return float(w @ correlation(model, tx + a[:, None], ty + a[None, :], theta_x_m, theta_y_m) @ w)
 
-    return covariance(tau_x_m, tau_y_m) / covariance(0.0, 0.0)
+def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, theta_x_m: float,
+                     theta_y_m: float, points: int = 48) -> float:
+    """The correlation of the averages of two ``cell_m`` x ``cell_m`` squares whose centres lie
+    (tau_x, tau_y) apart: C_A(tau) / C_A(0) (:func:`cell_covariance`)."""
+    covariance = cell_covariance(model, cell_m, [0.0, abs(tau_x_m)], [0.0, abs(tau_y_m)], theta_x_m, theta_y_m,
+                                 points)
+    return float(covariance[1, 1] / covariance[0, 0])
 
 
 def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
@@ -138,21 +184,24 @@ def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
 
 
 class ParticleField:
-    """Standard Gaussian values of a field at particles: each the average over its cell.
+    """Standard Gaussian values of a field at particles: each the average over its cell (module doc).
 
-    The grid covers the particles' bounding box with spacing ``h / GRID_PER_CELL`` (``h`` the
-    smallest particle spacing); a particle takes the box average of side its own spacing at the
-    grid point nearest it."""
+    One spacing h: the grid of the cell averages, step ``h / CELL_GRID``, over the particles'
+    bounding box; a particle takes the value at the grid point nearest it.  Several: the point
+    field on a grid of step ``h_min / GRID_PER_CELL``; a particle takes the box average of side its
+    own spacing about the grid point nearest it."""
 
     def __init__(self, model: str, theta_x_m: float, theta_y_m: float, x_m: np.ndarray, y_m: np.ndarray,
                  spacing_m: np.ndarray | float):
         x_m, y_m = np.asarray(x_m, float), np.asarray(y_m, float)
         spacing = np.broadcast_to(np.asarray(spacing_m, float), x_m.shape)
-        self.step_m = float(spacing.min()) / GRID_PER_CELL
+        one_spacing = float(spacing.max()) <= float(spacing.min()) * (1.0 + 1e-9)
+        self.step_m = float(spacing.min()) / (CELL_GRID if one_spacing else GRID_PER_CELL)
         self.origin = (x_m.min() - spacing.max(), y_m.min() - spacing.max())
         nx = int(math.ceil((x_m.max() + spacing.max() - self.origin[0]) / self.step_m)) + 1
         ny = int(math.ceil((y_m.max() + spacing.max() - self.origin[1]) / self.step_m)) + 1
-        self.grid = GridField.build(model, theta_x_m, theta_y_m, nx, ny, self.step_m, self.step_m)
+        self.grid = GridField.build(model, theta_x_m, theta_y_m, nx, ny, self.step_m, self.step_m,
+                                    float(spacing.min()) if one_spacing else None)
         self.ix = np.rint((x_m - self.origin[0]) / self.step_m).astype(np.int64)
         self.iy = np.rint((y_m - self.origin[1]) / self.step_m).astype(np.int64)
         self.cell_points = np.maximum(np.rint(spacing / self.step_m).astype(np.int64), 1)
@@ -163,6 +212,8 @@ class ParticleField:
         return tuple(self._at_particles(values) for values in self.grid.draw(rng))
 
     def _at_particles(self, grid_values: np.ndarray) -> np.ndarray:
+        if self.grid.cell_m is not None:  # the grid holds the cell averages
+            return grid_values[self.ix, self.iy]
         out = np.empty(self.ix.shape)
         for size in self.sizes:
             mine = self.cell_points == size
