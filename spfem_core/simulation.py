@@ -127,9 +127,12 @@ class Simulation:
     :meth:`snapshot` values.
     """
 
-    def __init__(self, scene: Scene, settings: SolverSettings | None = None, allow_detached: bool = False):
+    def __init__(self, scene: Scene, settings: SolverSettings | None = None, allow_detached: bool = False,
+                 initial_mesh: Mesh | None = None):
         """``allow_detached``: accept particles in no triangle of the first mesh (they fly under
-        gravity with the nominal mass rho h^2 until they land); otherwise such a cloud is an error."""
+        gravity with the nominal mass rho h^2 until they land); otherwise such a cloud is an error.
+        ``initial_mesh``: the mesh of ``scene.node_xy_m`` as ``Remesher.triangulate`` makes it, when
+        the caller has it already (runs of one cloud on one worker; it is never changed in place)."""
         self.scene = scene
         self.settings = settings or SolverSettings()
         self.threads = set_threads(self.settings.threads, scene.n_particles)  # threads of the compiled step
@@ -166,7 +169,7 @@ class Simulation:
         self._set_supports(scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
                            scene.node_slip_side)
 
-        self._set_mesh(self.remesher.triangulate(self.nodes.xy_m))
+        self._set_mesh(self.remesher.triangulate(self.nodes.xy_m) if initial_mesh is None else initial_mesh)
         self._initial_mesh = self.mesh
         orphans = self.mesh.orphan_nodes
         if orphans.size and not allow_detached:

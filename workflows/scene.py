@@ -12,6 +12,7 @@ like the file checks, before anything is run or written.
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numpy as np
@@ -58,8 +59,15 @@ def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
 
 def cloud(study: Study) -> tuple[np.ndarray, np.ndarray]:
     """(positions (n, 2), spacing of each particle (n,)) of the study's particle cloud: uniform at
-    geometry.spacing_m, or graded around ``[[geometry.refined]]`` zones (``spfem_core.cloud``)."""
-    geometry = study.geometry
+    geometry.spacing_m, or graded around ``[[geometry.refined]]`` zones (``spfem_core.cloud``).
+    Made once per geometry in a process (the runs of a study, the realisations of a probabilistic
+    one, build the same cloud); each call gets its own copies."""
+    node_xy_m, node_spacing_m = _cloud_of(study.geometry)
+    return node_xy_m.copy(), node_spacing_m.copy()
+
+
+@functools.lru_cache(maxsize=4)
+def _cloud_of(geometry) -> tuple[np.ndarray, np.ndarray]:
     if not geometry.refined:
         node_xy_m = particles_in_polygon(np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter,
                                          seed=geometry.seed)

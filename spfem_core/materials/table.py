@@ -65,8 +65,12 @@ class MaterialTable:
         names = tuple(self.name)
         n = len(names)
         object.__setattr__(self, "name", names)
-        codes = [MODEL_CODES.get(m, -1) if isinstance(m, str) else int(m) for m in np.asarray(self.model).reshape(-1)]
-        model = np.ascontiguousarray(codes, dtype=np.int64)
+        given = np.asarray(self.model).reshape(-1)
+        if given.dtype.kind in "iu":  # codes already (a table of a row per particle: no loop over them)
+            model = np.ascontiguousarray(given, dtype=np.int64)
+        else:
+            model = np.ascontiguousarray([MODEL_CODES.get(m, -1) if isinstance(m, str) else int(m) for m in given],
+                                         dtype=np.int64)
         if model.shape != (n,):
             raise ValueError(f"MaterialTable.model: expected {n} values, got {model.shape[0]}")
         if n and (model.min() < 0 or model.max() >= len(MODELS)):

@@ -69,13 +69,13 @@ class StageResult(NamedTuple):
     dataset: object  # xarray.Dataset
 
 
-def new_simulation(study: Study, scene, threads: int = 0) -> Simulation:
-    """The study's Simulation (the compiled step on ``threads`` threads, 0: all cores); what the core
-    refuses is a StudyError naming the field: a time step (``solver.cfl`` or ``solver.dt_s``), or
-    particles the first mesh leaves out (``geometry.spacing_m``); and so is a stage too long for the
-    time step (:func:`check_stage_lengths`)."""
+def new_simulation(study: Study, scene, threads: int = 0, initial_mesh=None) -> Simulation:
+    """The study's Simulation (the compiled step on ``threads`` threads, 0: all cores; ``initial_mesh``
+    the scene's first mesh when the caller has it); what the core refuses is a StudyError naming the
+    field: a time step (``solver.cfl`` or ``solver.dt_s``), or particles the first mesh leaves out
+    (``geometry.spacing_m``); and so is a stage too long for the time step (:func:`check_stage_lengths`)."""
     try:
-        sim = Simulation(scene, solver_settings(study, threads))
+        sim = Simulation(scene, solver_settings(study, threads), initial_mesh=initial_mesh)
     except UnstableTimeStepError as error:
         raise StudyError("solver.dt_s" if study.solver.dt_s is not None else "solver.cfl", str(error)) from None
     except DetachedParticlesError as error:
