@@ -140,3 +140,38 @@ def test_a_target_interval_width_stops_after_the_batch_that_reaches_it(tmp_path,
     assert xr.open_dataset(tmp_path / "probabilistic.nc").sizes["realisation"] == 3
     full = run_study(parse_study(probabilistic(9, "pf_interval_width = 0.01")), tmp_path, RunOptions(workers=2))
     assert full.n_realisations == 9 and full.runs_made == 6
+
+
+def _fields_by_run(folder: Path) -> dict[str, bool]:
+    """For each run file under ``folder``'s realisations: whether it holds the particle state."""
+    found = {}
+    for run_file in sorted(folder.glob("cases/*/srf_*.nc")):
+        with xr.open_dataset(run_file) as run:
+            found[f"{run_file.parent.name}/{run_file.name}"] = "particle_x" in run
+    return found
+
+
+def test_realisations_keep_the_particle_state_the_study_asks_for(tmp_path):
+    """fos mode, 4 realisations judged at F = 1.3 (seed 3: realisation 3 fails, 1 and 2 do not), keep_fields_first = 1:
+    realisation 0 keeps every run whole; of the others, a failed realisation keeps its failed runs'
+    particle state and a stable one none; every run file keeps its histories.  With keep_fields =
+    "none" nothing is kept, and the runs are reused; asking for all of them again makes them again."""
+    text = probabilistic(4, 'compute = "fos"\nkeep_fields_first = 1')
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    verdicts = dict(zip(ds["case_folder"].values, ds["verdict"].values))
+    assert set(list(verdicts.values())[1:]) == {"stable", "failed"}  # both kinds among those without keep_fields_first
+    kept = _fields_by_run(tmp_path)
+    for name, has_fields in kept.items():
+        folder = name.split("/")[0]
+        with xr.open_dataset(tmp_path / "cases" / name) as run:
+            status = run.attrs["status"]
+            assert run.sizes["time"] > 1 and bool(run.attrs["particle_fields"]) == has_fields
+        expected = folder.endswith("00000") or (verdicts[folder] == "failed" and status == "failed")
+        assert has_fields == expected, name
+    none = run_study(parse_study(text.replace("keep_fields_first = 1", 'keep_fields = "none"')), tmp_path / "none",
+                     RunOptions(workers=2))
+    assert not any(_fields_by_run(tmp_path / "none").values()) and none.pf == outcome.pf
+    again = run_study(parse_study(text.replace("keep_fields_first = 1", 'keep_fields = "all"')), tmp_path / "none",
+                      RunOptions(workers=2))
+    assert all(_fields_by_run(tmp_path / "none").values()) and again.runs_made == none.runs_made

@@ -136,13 +136,18 @@ def test_cross_correlated_fields_must_share_their_correlation_structure():
 
 def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_realisations(tmp_path):
     """A cohesion field alone ([probabilistic] without variables), 3 realisations at F = 1.3: each a
-    run of its own field on one shared gravity state, the result in probabilistic.nc; rerun, nothing
-    is computed again."""
+    run of its own field on one shared gravity state (one file, OUT/gravity/), the result in
+    probabilistic.nc; the failed realisations' run files keep the particle state, the stable ones'
+    only their histories; rerun, nothing is computed again."""
     text = with_fields(COHESION_FIELD) + "\n[probabilistic]\nrealisations = 3\nfactor = 1.3\n"
     first = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
-    assert first.runs_made == 3 and first.n_undecided == 0
-    gravity_files = list((tmp_path / "cases").glob("*/gravity*.nc"))
-    assert len(gravity_files) == 3  # copied to each case, relaxed once (one gravity key)
+    assert first.runs_made == 3 and first.n_undecided == 0 and 0 < first.n_failed < 3  # both kinds of file
+    assert not list((tmp_path / "cases").glob("*/gravity*.nc"))
+    assert [path.name for path in (tmp_path / "gravity").glob("*.nc")] == ["gravity.nc"]  # relaxed once
+    for run_file in (tmp_path / "cases").glob("*/srf_*.nc"):
+        with xr.open_dataset(run_file) as run:
+            assert ("particle_x" in run) == (run.attrs["status"] == "failed") == bool(run.attrs["particle_fields"])
+            assert "max_displacement" in run and run.sizes["time"] > 1
     ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
     assert ds.sizes["realisation"] == 3
     assert len(list(tmp_path.glob("failed_realisation_*.png"))) == min(3, first.n_failed)

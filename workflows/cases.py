@@ -35,6 +35,10 @@ class Case:
     case_id: str = ""  # "" for a single study; a sweep's folder name under OUT/cases/
     position: tuple[int, ...] = ()  # index along each axis (grid), or (i,) the i-th case (zip)
     values: dict = field(default_factory=dict)  # axis label -> the value of this case
+    gravity_dir: Path | None = None  # where its gravity files are read and written (default out_dir): cases
+    # that share one gravity state may share one folder of it
+    write_gravity: bool = True  # False: its gravity state is kept in memory only (recomputed if needed again)
+    runs: object = None  # a ``fos.task.RunPolicy`` for its SRF runs (default: every run kept whole)
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,7 @@ class Placement:
     quiet_cases: bool  # a case's messages only when they are warnings
     keep_going: bool  # a case that diverges is recorded (the DivergenceError as its outcome)
     rounds: bool = False  # it makes cases in rounds (``StudyType.next_cases``): one cluster serves them all
+    summaries: bool = True  # each FOS case writes its summary.nc (False: cases of one run each, summed up by the type)
 
 
 @dataclass
@@ -94,10 +99,13 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
     from workflows.fos.cluster import dask_session
     from workflows.fos.engine import CaseSearch, Engine
     from workflows.fos.summary import conclude_case
+    from workflows.fos.task import RunPolicy
 
     start_unix_s = time.time()
     searches = [CaseSearch(index, case.study, case.out_dir, label=case.case_id,
-                           gravity_here=placement.gravity_in_process) for index, case in enumerate(cases)]
+                           gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
+                           write_gravity=case.write_gravity, policy=case.runs or RunPolicy())
+                for index, case in enumerate(cases)]
     case_progress = OnlyWarnings(progress) if placement.quiet_cases else progress
     outcomes, timings = {}, CaseTimings()
     own = session is None
@@ -110,7 +118,8 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
             if own and all(each.concluded for each in searches):
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
             outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
-                                                                   figures=placement.figures)
+                                                                   figures=placement.figures,
+                                                                   summary_file=placement.summaries)
             if on_case is not None:
                 on_case(search.label, outcomes[search.label])
         timings.cases_elapsed = time.perf_counter() - engine_start

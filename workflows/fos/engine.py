@@ -4,8 +4,10 @@ Every case (one study, or one case of a sweep) has its gravity state, its own se
 (``workflows.fos.search.SrfSearch``) and its own folder.  One loop in the client keeps the
 workers busy with all of them at once, with no barrier between cases:
 
-1. a case without a gravity state reuses the one on disk for its key (in its folder, or in
-   the folder of another case with the same key), or computes it (``workflows.fos.gravity``):
+1. a case whose every run its search asks for is on disk already is concluded from them, with
+   no gravity state (a finished case of an interrupted study); a case without a gravity state
+   reuses the one on disk for its key (in its gravity folder, read once for the cases that share
+   it, or in the folder of another case with the same key), or computes it (``workflows.fos.gravity``):
    in this process before the cluster is needed, for a case placed so (a single study: its
    gravity runs on all cores while the cluster starts), else as a gravity task on a worker, whose
    files the client writes when it returns; cases with the same gravity key (a sweep over
@@ -16,7 +18,8 @@ workers busy with all of them at once, with no barrier between cases:
    the workers busy;
 3. queued runs are submitted as tasks (``workflows.fos.task.run_srf``) only as workers free
    up, earlier cases and lower SRF first: a task submitted ahead would be placed on a busy
-   worker's queue by the scheduler while the other worker idled;
+   worker's queue by the scheduler while the other worker idled (the runs of cases of one run
+   each, a probabilistic study's realisations, go one per worker ahead: none is ever stopped);
 4. finished runs are written, runs above a case's first failure are cancelled or dropped from
    the queue (they cannot move its knee), and a case whose search is done is handed back
    (:meth:`Engine.run` yields it) to be concluded (its ``summary.nc``);
@@ -40,6 +43,7 @@ import functools
 import math
 import time
 import uuid
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -59,7 +63,7 @@ from workflows.fos.gravity import (
 from workflows.fos.keys import gravity_key, run_key
 from workflows.fos.run_store import remove_stale_runs, run_file_name, stored_run, write_run
 from workflows.fos.search import SrfSearch
-from workflows.fos.task import RunRecord, SrfRunResult, run_srf
+from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
@@ -77,6 +81,9 @@ class CaseSearch:
     out_dir: Path
     label: str = ""  # how messages name the case ("" for a single study)
     gravity_here: bool = False  # compute its gravity in this process (step 1)
+    gravity_dir: Path | None = None  # where its gravity files are (default out_dir; cases may share one)
+    write_gravity: bool = True  # False: its gravity state is never written (recomputed if needed again)
+    policy: RunPolicy = field(default_factory=RunPolicy)  # what its runs keep, and when they end
     gravity: StressState | None = None  # once known
     gravity_reused: bool = False
     gravity_wall_s: float = 0.0
@@ -92,11 +99,27 @@ class CaseSearch:
     error: DivergenceError | None = None  # the gravity stage diverged: no search
     concluded: bool = False
     started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
-    shared: tuple = ()  # scattered (study text, gravity state) for the run tasks
+    shared: tuple = ()  # (study text, scattered gravity state) for the run tasks
+    plan_again: bool = True  # something its search plans on has changed since it was last asked
+    planned_parallel: int = 0  # the search's n_parallel when it was last asked
+
+    def __post_init__(self):
+        if self.gravity_dir is None:
+            self.gravity_dir = self.out_dir
 
     @functools.cached_property
     def gkey(self) -> str:
         return gravity_key(self.study)
+
+    def key(self, srf: float) -> str:
+        """The run key of its run at ``srf`` (``workflows.fos.keys``)."""
+        return run_key(self.study, srf, self.policy.stop_at_failure)
+
+    @property
+    def single_run(self) -> bool:
+        """Its search makes one run (srf_min = srf_max): nothing to cancel, nothing to plan on early."""
+        stage = self.study.strength_reduction
+        return stage.srf_min == stage.srf_max
 
     def say(self, text: str) -> str:
         return f"{self.label}: {text}" if self.label else text
@@ -149,6 +172,8 @@ class Engine:
         self.queue: list[_Task] = []  # runs asked for, not yet submitted (step 3)
         self.just_concluded: list[CaseSearch] = []  # handed back at the end of the pass
         self.n_submitted = 0
+        self.stored_states: dict = {}  # (gravity folder, gravity key) -> the StressState on disk, or None
+        self.scattered: dict = {}  # gravity key -> the gravity state scattered to the workers
 
     # ------------------------------------------------------------------ submitting
     def _submit(self, function, *args, priority: int, **kwargs):
@@ -156,24 +181,36 @@ class Engine:
         return self.client.submit(function, *args, priority=priority, pure=False, **kwargs)
 
     def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: TaskKind):
+        """A run task.  A case that makes one run gets no Events: it has nothing to stop or plan on
+        early, and each Event costs its run a scheduler round trip per stop-rule check."""
+        if not case.shared:
+            if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
+                self.scattered[case.gkey] = self.client.scatter([case.gravity], broadcast=True)[0]
+            case.shared = (case.study.source_text, self.scattered[case.gkey])
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
-        event, failing = f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}"
-        future = self._submit(run_srf, *case.shared, srf, cancel_event=event, run_key=key, gravity_key=case.gkey,
-                              failing_event=failing, key=f"srf-{srf:.4f}-{name}", priority=-case.index)
+        event, failing = ("", "") if case.single_run else (f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}")
+        future = self._submit(run_srf, *case.shared, srf, cancel_event=event or None, run_key=key,
+                              gravity_key=case.gkey, failing_event=failing or None, policy=case.policy,
+                              key=f"srf-{srf:.4f}-{name}", priority=-case.index)
         self.tasks[future] = _Task(case, kind, srf, key, event, failing)
         return future
 
     def _cancel(self, future) -> None:
         """Stop a run at its next check (its worker is free then) and forget it."""
         task = self.tasks.pop(future)
-        Event(task.event, client=self.client).set()
+        if task.event:
+            Event(task.event, client=self.client).set()
         future.cancel()
 
     # ------------------------------------------------------------------ gravity (step 1)
     def _load_stored_gravity(self, case: CaseSearch) -> None:
-        """The case's gravity state from its folder, when its files and key are there."""
+        """The case's gravity state from its gravity folder, when its files and key are there (read
+        once for all the cases that share the folder and key)."""
         if case.gravity is None and not self.force:
-            state = stored_gravity(case.study, case.out_dir)
+            slot = (case.gravity_dir, case.gkey)
+            if slot not in self.stored_states:
+                self.stored_states[slot] = stored_gravity(case.study, case.gravity_dir)
+            state = self.stored_states[slot]
             if state is not None:
                 case.gravity, case.gravity_reused, case.n_particles = state, True, state.n_particles
 
@@ -199,12 +236,19 @@ class Engine:
         self._gravity_done(case, result, computed=True, written=True)
 
     def _start(self, case: CaseSearch) -> None:
-        """Gravity from the case, from another case with the same gravity key (its files copied),
-        or a gravity task (shared by the cases with its key)."""
+        """The case concluded from its runs on disk, or its gravity: from its gravity folder, from
+        another case with the same gravity key (its files copied where the case keeps its own), or a
+        gravity task (shared by the cases with its key)."""
+        if case.search is None:
+            self._new_search(case)
+        if case.gravity is None and self._replay(case):
+            return
+        self._load_stored_gravity(case)
         if case.gravity is None:
             donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey), None)
             if donor is not None:
-                copy_gravity(donor.study, donor.out_dir, case.study, case.out_dir)
+                if case.write_gravity and donor.gravity_dir != case.gravity_dir:
+                    copy_gravity(donor.study, donor.gravity_dir, case.study, case.gravity_dir)
                 case.gravity, case.gravity_reused, case.n_particles = donor.gravity, True, donor.n_particles
         if case.gravity is None:
             waiting = self.gravity_waiting.get(case.gkey)
@@ -240,38 +284,70 @@ class Engine:
                 self._concluded(each)
             return
         for each in waiting:
-            self._gravity_done(each, result, computed=each is case)
+            written = not each.write_gravity or (each is not case and each.gravity_dir == case.gravity_dir)
+            self._gravity_done(each, result, computed=each is case, written=written)
             self._prepare_search(each)
 
     # ------------------------------------------------------------------ one case
-    def _prepare_search(self, case: CaseSearch) -> None:
+    def _new_search(self, case: CaseSearch) -> None:
+        """The case's folder without files another study made, and its search."""
         make_output_folder(case.out_dir)
         if self.force:
             for path in case.out_dir.glob("srf_*.nc"):
                 path.unlink()
-        removed = remove_stale_runs(case.out_dir, lambda srf: run_key(case.study, srf))
+        removed = remove_stale_runs(case.out_dir, case.key)
         if removed:
             self.progress.message(case.say(f"removed {removed} run files another study made"))
         stage = case.study.strength_reduction
         case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                                 displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,
                                 failure_m=failure_displacement_m(case.study))
-        items = (case.study.source_text, case.gravity)
-        case.shared = tuple(self.client.scatter([item], broadcast=True)[0] for item in items)
+
+    def _replay(self, case: CaseSearch) -> bool:
+        """Feed the search the runs it asks for while every one of them is on disk; True (the case
+        concluded, no gravity needed) if that finishes it.  Otherwise the search stands where the
+        first missing run is asked for, and the loop plans from there once the gravity is known."""
+        if self.force:
+            return False
+        search = case.search
+        while True:
+            planned = search.next_values()
+            if not planned:
+                break
+            stored = [stored_run(case.out_dir / run_file_name(srf), case.key(srf), case.policy) for srf in planned]
+            if any(record is None for record in stored):
+                return False
+            for record in stored:
+                search.started(record.srf)
+                case.runs[record.srf] = record
+                case.reused_runs += 1
+                search.finished(record.outcome)
+        if search.pending:
+            return False
+        case.n_particles = max((record.n_particles for record in case.runs.values()), default=0)
         case.started_s = time.perf_counter()
+        self._concluded(case)
+        return True
+
+    def _prepare_search(self, case: CaseSearch) -> None:
+        """The case's gravity is known: its search can run."""
+        case.started_s = time.perf_counter()
+        case.plan_again = True
 
     def _finished(self, case: CaseSearch, result: SrfRunResult) -> None:
         record = result.record_since(self.start_unix_s)
+        case.plan_again = True
         case.runs[record.srf] = record
         case.unwritten.append(result)
         case.search.finished(record.outcome)
         if record.status == DIVERGED:
             self.progress.message(case.say(f"warning: SRF {record.srf:g} diverged: {record.status_reason}"))
 
-    def _pending(self, case: CaseSearch) -> list:
-        """The case's runs and gravity task not finished yet: running or queued."""
-        return ([f for f, t in self.tasks.items() if t.case is case and t.kind in (TaskKind.RUN, TaskKind.GRAVITY)]
-                + [t for t in self.queue if t.case is case])
+    def _pending(self) -> Counter:
+        """Case index -> its runs and gravity task not finished yet: running or queued."""
+        counts = Counter(t.case.index for t in self.tasks.values() if t.kind in (TaskKind.RUN, TaskKind.GRAVITY))
+        counts.update(t.case.index for t in self.queue)
+        return counts
 
     def _cancel_guesses(self, case: CaseSearch) -> None:
         """Stop the case's guesses still running."""
@@ -280,11 +356,13 @@ class Engine:
                 self._cancel(future)
                 del self.guesses[(index, srf)]
 
-    def _plan(self, case: CaseSearch, n_active: int) -> None:
+    def _plan(self, case: CaseSearch, n_parallel: int, n_pending: int) -> None:
         """Ask the case's search for values until something runs or it has nothing more to ask;
-        hand the case back when its search is done."""
+        hand the case back when its search is done.  ``n_pending``: its runs (and gravity task)
+        running or queued when the pass began."""
         search = case.search
-        search.n_parallel = max(1, math.ceil(self.n_workers / max(n_active, 1)))
+        search.n_parallel = case.planned_parallel = n_parallel
+        case.plan_again = False
         while True:
             planned = search.next_values()
             for srf in planned:
@@ -297,20 +375,22 @@ class Engine:
                 if guess in self.guesses:  # a guess that came true, still running
                     case.n_guesses_used += 1
                     self.tasks[self.guesses.pop(guess)].kind = TaskKind.RUN
+                    n_pending += 1
                     continue
-                key = run_key(case.study, srf)
-                stored = stored_run(case.out_dir / run_file_name(srf), key)
+                key = case.key(srf)
+                stored = stored_run(case.out_dir / run_file_name(srf), key, case.policy)
                 if stored is not None:
                     case.runs[srf] = stored
                     case.reused_runs += 1
                     search.finished(stored.outcome)
                     continue
                 self.queue.append(_Task(case, TaskKind.RUN, srf, key))
+                n_pending += 1
             if planned:  # the decision the case's guesses were made for is taken: stop the unused ones
                 self._cancel_guesses(case)
-            if self._pending(case) or not planned:
+            if n_pending or not planned:
                 break  # waiting for runs, or done
-        if not self._pending(case):
+        if not n_pending:
             self._cancel_guesses(case)  # no decision left to guess ahead of
             self._write(case)
             self._concluded(case)
@@ -322,7 +402,7 @@ class Engine:
     def _write(self, case: CaseSearch) -> None:
         start = time.perf_counter()
         if case.unwritten_gravity is not None:
-            write_gravity(case.study, case.out_dir, case.unwritten_gravity)
+            write_gravity(case.study, case.gravity_dir, case.unwritten_gravity)
             case.unwritten_gravity = None
         for result in case.unwritten:  # the workers are busy with the next runs meanwhile
             write_run(result, case.out_dir / run_file_name(result.srf))
@@ -333,17 +413,20 @@ class Engine:
         """Stop the runs and guesses that can no longer move their case's knee: above a failed run,
         or above a run known to fail (step 6); their workers are free for runs that can."""
         for future, task in list(self.tasks.items()):
-            if task.kind is TaskKind.GRAVITY or not task.case.search.above_failure(task.srf):
+            if task.kind is TaskKind.GRAVITY or task.case.single_run or not task.case.search.above_failure(task.srf):
                 continue
             self._cancel(future)
+            task.case.plan_again = True
             if task.kind is TaskKind.RUN:
                 task.case.search.withdraw(task.srf)
             else:
                 self.guesses.pop((task.case.index, task.srf), None)
-        for task in list(self.queue):
-            if task.case.search.above_failure(task.srf):
-                task.case.search.withdraw(task.srf)
-                self.queue.remove(task)
+        if any(not task.case.single_run for task in self.queue):
+            for task in list(self.queue):
+                if not task.case.single_run and task.case.search.above_failure(task.srf):
+                    task.case.search.withdraw(task.srf)
+                    task.case.plan_again = True
+                    self.queue.remove(task)
 
     def _failures_signalled(self) -> bool:
         """Tell each case's search which of its running runs have passed the failure displacement
@@ -351,10 +434,11 @@ class Engine:
         news = False
         for task in list(self.tasks.values()):
             search = task.case.search
-            if task.kind is not TaskKind.RUN or task.srf in search.failing:
+            if task.kind is not TaskKind.RUN or not task.failing_event or task.srf in search.failing:
                 continue
             if Event(task.failing_event, client=self.client).is_set():
                 search.passed_failure(task.srf)
+                task.case.plan_again = True
                 news = True
         return news
 
@@ -371,10 +455,13 @@ class Engine:
 
     def _dispatch(self) -> None:
         """Submit queued runs to free workers, earlier cases and lower SRF first (step 3); a
-        running guess is stopped when a queued run needs its worker."""
+        running guess is stopped when a queued run needs its worker.  The run of a case of one run
+        (a realisation) may also wait on a busy worker, one per worker: nothing stops or reorders it,
+        and the worker starts it without waiting for the client to hear of the last one."""
         self.queue.sort(key=lambda task: (task.case.index, task.srf))
         while self.queue:
-            if len(self.tasks) >= self.n_workers:
+            ahead = self.n_workers if self.queue[0].case.single_run else 0
+            if len(self.tasks) >= self.n_workers + ahead:
                 guesses = [f for f, t in self.tasks.items() if t.kind is TaskKind.GUESS]
                 if not guesses:
                     return
@@ -390,12 +477,12 @@ class Engine:
         for case in active:
             if idle <= 0:
                 return
-            if case.search is None:
+            if case.gravity is None:
                 continue
             known = {srf for (index, srf) in list(self.guesses) + list(self.guesses_done) if index == case.index}
             for srf in [f for f in case.search.speculative_values(idle + len(known)) if f not in known][:idle]:
-                key = run_key(case.study, srf)
-                if stored_run(case.out_dir / run_file_name(srf), key) is not None:
+                key = case.key(srf)
+                if stored_run(case.out_dir / run_file_name(srf), key, case.policy) is not None:
                     continue  # on disk already: reused when asked for
                 self.guesses[(case.index, srf)] = self._submit_run(case, srf, key, TaskKind.GUESS)
                 case.n_guessed += 1
@@ -412,15 +499,17 @@ class Engine:
         self.client = self.session.client()
         self.n_workers = max(1, sum(self.client.nthreads().values()))
         for case in self.cases:
-            self._load_stored_gravity(case)
-        for case in self.cases:
             self._start(case)
         idle_passes = 0
         while True:
             active = [case for case in self.cases if not case.concluded]
-            for case in active:
-                if case.search is not None and case.error is None:
-                    self._plan(case, len(active))
+            pending = self._pending()
+            n_parallel = max(1, math.ceil(self.n_workers / max(len(active), 1)))
+            for case in active:  # a case whose search has learnt nothing new would ask for nothing new
+                if case.gravity is None or case.error is not None:
+                    continue
+                if case.plan_again or not pending[case.index] or case.planned_parallel != n_parallel:
+                    self._plan(case, n_parallel, pending[case.index])
             self._cancel_above_failures()
             self._dispatch()
             active = [case for case in self.cases if not case.concluded]

@@ -50,9 +50,10 @@ def gravity_key(study: Study) -> str:
     return _digest(raw)
 
 
-def run_key(study: Study, srf: float) -> str:
+def run_key(study: Study, srf: float, stop_at_failure: bool = False) -> str:
     """Hash of the gravity key, the materials (their strength too), what a run does (not how the
-    search picks runs) and F."""
+    search picks runs; ``stop_at_failure``: whether it ends at the failure displacement,
+    ``fos.task.RunPolicy``) and F."""
     stage = dataclasses.asdict(study.strength_reduction)
     for key in SEARCH_FIELDS:
         stage.pop(key)
@@ -62,6 +63,8 @@ def run_key(study: Study, srf: float) -> str:
                "seismic": None if seismic is None else dataclasses.asdict(seismic)}
     if study.random_field is not None:
         payload["random_field"] = dataclasses.asdict(study.random_field)
+    if stop_at_failure:  # (left out otherwise: the keys of runs made before it existed still hold)
+        payload["stop_at_failure"] = True
     return _digest(payload)
 
 

@@ -13,8 +13,15 @@ from typing import Callable
 
 import xarray as xr
 
-from workflows.fos.task import RESULT_SCALARS, RunRecord, SrfRunResult
-from workflows.output.writing import interrupts_deferred, write_bytes
+from workflows.fos.task import (
+    FIELDS_POLICY_ATTRIBUTE,
+    PARTICLE_FIELDS_ATTRIBUTE,
+    RESULT_SCALARS,
+    RunPolicy,
+    RunRecord,
+    SrfRunResult,
+)
+from workflows.output.writing import interrupts_deferred, write_bytes, write_dataset
 
 SUMMARY_NAME = "summary.nc"
 
@@ -23,9 +30,10 @@ def run_file_name(srf: float) -> str:
     return f"srf_{srf:.4f}.nc"
 
 
-def stored_run(path: Path, key: str) -> RunRecord | None:
+def stored_run(path: Path, key: str, policy: RunPolicy = RunPolicy()) -> RunRecord | None:
     """The record of a finished run file with this key (made by an earlier invocation: no start and
-    end in this one); None if missing, stale or damaged (a damaged file is removed)."""
+    end in this one); None if missing, stale, damaged (a damaged file is removed), or made under a
+    policy that keeps fewer particle fields than ``policy`` (then it is made again)."""
     if not path.is_file():
         return None
     try:
@@ -37,7 +45,10 @@ def stored_run(path: Path, key: str) -> RunRecord | None:
         return None
     if attrs.get("run_key") != key:
         return None
-    return RunRecord(srf=float(attrs["srf"]), **{name: attrs[f"run_{name}"] for name in RESULT_SCALARS})
+    if not policy.covered_by(attrs.get(FIELDS_POLICY_ATTRIBUTE, "all")):
+        return None
+    return RunRecord(srf=float(attrs["srf"]), n_particles=int(attrs.get("n_particles", 0)),
+                     **{name: attrs[f"run_{name}"] for name in RESULT_SCALARS})
 
 
 def write_run(result: SrfRunResult, path: Path) -> None:
@@ -61,3 +72,17 @@ def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str]) -> int:
     for path in out_dir.glob("*.nc.tmp"):
         path.unlink(missing_ok=True)
     return removed
+
+
+def without_particle_fields(path: Path) -> bool:
+    """Rewrite the run file ``path`` without its final particle state (the ``particle`` and ``face``
+    variables and the mesh), keeping its histories, verdict and keys; False if it had none."""
+    with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
+        if not ds.attrs.get(PARTICLE_FIELDS_ATTRIBUTE, 1):
+            return False
+        dropped = [name for name, variable in ds.variables.items()
+                   if {"particle", "face"} & set(variable.dims) or name == "mesh2d"]
+        slim = ds.drop_vars(dropped).load()
+    slim.attrs[PARTICLE_FIELDS_ATTRIBUTE] = 0
+    write_dataset(slim, path)
+    return True

@@ -31,7 +31,7 @@ class FosOutcome:
     """What a strength-reduction study (or one case of a sweep) did and found."""
 
     out_dir: Path
-    summary_path: Path
+    summary_path: Path | None  # None: not written (conclude_case)
     fos: float
     fos_low: float
     fos_high: float
@@ -52,9 +52,10 @@ class FosOutcome:
     stiffness_factor: float = 1.0  # the runs' moduli over the declared ones (StrengthReductionStage.stiffness_factor)
 
 
-def conclude_case(case, progress, wall_start: float, figures: bool) -> FosOutcome:
+def conclude_case(case, progress, wall_start: float, figures: bool, summary_file: bool = True) -> FosOutcome:
     """The FOS and its report from a case's runs (``case`` a ``workflows.fos.engine.CaseSearch`` whose
-    search is done): its messages, ``summary.nc`` and, with ``figures``, the figures."""
+    search is done): its messages, ``summary.nc`` (unless ``summary_file`` is False: a case of one run,
+    whose run file holds all of it) and, with ``figures``, the figures."""
     study, out_dir, search, runs = case.study, case.out_dir, case.search, case.runs
     if case.reused_runs:
         progress.message(case.say(f"{case.reused_runs} SRF runs reused from {out_dir} "
@@ -89,6 +90,10 @@ def conclude_case(case, progress, wall_start: float, figures: bool) -> FosOutcom
         timings_s=timings, n_particles=case.n_particles, guesses=(case.n_guessed, case.n_guesses_used),
         stiffness_factor=stage.stiffness_factor(build_material_table(study), study),
     )
+    if not summary_file:
+        outcome.summary_path = None
+        (out_dir / SUMMARY_NAME).unlink(missing_ok=True)  # not one of an earlier invocation's
+        return outcome
     io_start = time.perf_counter()
     summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
     timings["total"] = time.perf_counter() - wall_start

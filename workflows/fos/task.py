@@ -13,6 +13,7 @@ bytes on disk, so workers need not share a file system with it, and the client's
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 import time
 from dataclasses import dataclass
@@ -24,9 +25,10 @@ from distributed import Event
 from xarray.backends import NetCDF4DataStore
 
 from spfem_core.divergence import DivergenceError
+from spfem_core.mesh import Mesh, triangulate
 from spfem_core.snapshot import StressState
 from workflows.fos.search import RunOutcome
-from workflows.fos.verdict import DIVERGED, verdict_for
+from workflows.fos.verdict import DIVERGED, FAILED, verdict_for
 from workflows.output.stage_file import stage_dataset
 from workflows.output.writing import dataset_bytes
 from workflows.scene import build_scene, monitor_particles
@@ -49,12 +51,43 @@ class RunRecord:
     n_steps: int
     started_s: float = math.nan  # on its worker, since the study started (NaN: made by an earlier invocation)
     finished_s: float = math.nan
+    n_particles: int = 0
 
     @property
     def outcome(self) -> RunOutcome:
         """What the search needs of it."""
         return RunOutcome(self.srf, self.max_displacement_m, self.status)
 
+
+RUN_FIELDS = ("all", "failed", "none")
+"""Which runs' files carry the final particle state (:class:`RunPolicy`)."""
+
+
+@dataclass(frozen=True)
+class RunPolicy:
+    """What a case's runs keep and when they end: every run keeps its particle fields and runs until
+    its stop rule ends it, unless a probabilistic study asks for less of its realisations
+    (``[probabilistic] keep_fields``; ``workflows.probabilistic.study_type``)."""
+
+    fields: str = "all"  # RUN_FIELDS: every run, only failed runs, or none keep the particle state
+    stop_at_failure: bool = False  # end once the largest displacement passes the failure displacement:
+    # the verdict (failed) is then known, and nothing else of the run is used (a realisation's one run)
+
+    def keeps_fields(self, status: str) -> bool:
+        """Whether a run that ended ``status`` keeps its particle fields."""
+        return self.fields == "all" or (self.fields == "failed" and status == FAILED)
+
+    def covered_by(self, fields: str) -> bool:
+        """Whether a run file made under ``fields`` (RUN_FIELDS) keeps every particle state this policy
+        keeps: all covers failed covers none."""
+        return RUN_FIELDS.index(fields) <= RUN_FIELDS.index(self.fields)
+
+
+PARTICLE_FIELDS_ATTRIBUTE = "particle_fields"
+"""A run file's attribute: 1 when it holds the final particle state, 0 when its policy left it out."""
+FIELDS_POLICY_ATTRIBUTE = "run_fields"
+"""A run file's attribute: the ``RunPolicy.fields`` it was made under (a later study that keeps more
+makes it again)."""
 
 RESULT_SCALARS = ("status", "status_reason", "max_displacement_m", "final_kinetic_energy_j_per_m", "stop_time_s",
                   "wall_time_s", "remesh_wall_s", "n_steps")
@@ -85,6 +118,30 @@ class SrfRunResult:
                                    finished_s=self.finished_unix_s - study_start_unix_s)
 
 
+FIRST_MESHES_KEPT = 4
+"""First meshes a worker keeps (:func:`first_mesh`): the clouds of the studies it serves at once."""
+_first_meshes: dict[bytes, Mesh] = {}
+
+
+def first_mesh(scene) -> Mesh:
+    """The alpha-shape mesh of the scene's particles at their initial positions, triangulated once
+    per cloud on this worker: every run of a study (every realisation of a probabilistic one) starts
+    from the same cloud, whose Delaunay triangulation is a tenth of a small run.  Keyed on the
+    positions, spacings and alpha themselves, so a different cloud never gets another's mesh."""
+    digest = hashlib.blake2b(digest_size=16)
+    spacing = scene.spacing_m if scene.node_spacing_m is None else scene.node_spacing_m
+    for part in (scene.node_xy_m, np.asarray(spacing, dtype=np.float64), np.float64(scene.alpha)):
+        digest.update(np.ascontiguousarray(part).tobytes())
+    key = digest.digest()
+    mesh = _first_meshes.pop(key, None)
+    if mesh is None:
+        mesh = triangulate(scene.node_xy_m, spacing, scene.alpha)
+    _first_meshes[key] = mesh  # most recent last
+    while len(_first_meshes) > FIRST_MESHES_KEPT:
+        del _first_meshes[next(iter(_first_meshes))]
+    return mesh
+
+
 def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: float):
     """``rule``, which also stops the run once the dask Event ``cancel_event`` is set (one round
     trip to the scheduler per check, about 50 per run) and sets the Event ``failing_event`` once
@@ -106,7 +163,7 @@ def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: fl
 
 
 def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str | None = None, run_key: str = "",
-            gravity_key: str = "", failing_event: str | None = None) -> SrfRunResult:
+            gravity_key: str = "", failing_event: str | None = None, policy: RunPolicy = RunPolicy()) -> SrfRunResult:
     """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
 
     ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
@@ -115,6 +172,8 @@ def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str
     displacement passes the failure displacement (it will end failed).  Both need
     ``stage.early_stop`` and ``cancel_event`` (the checks come with the stop rule).
     ``run_key`` and ``gravity_key`` (``workflows.fos.keys``, from the client) go into the file.
+    ``policy``: which runs keep their particle fields, and whether the run ends at the failure
+    displacement (:class:`RunPolicy`).
     """
     started_unix_s = time.time()
     study = parse_study(study_text)
@@ -122,11 +181,11 @@ def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str
     stage_index = len(study.stages) - 1
     scene = build_scene(study)
     monitors = monitor_particles(study, scene)
-    sim = new_simulation(study, scene, threads=1)  # a dask worker: one core of its own
+    sim = new_simulation(study, scene, threads=1, initial_mesh=first_mesh(scene))  # a worker: one core of its own
     begin_stage(study, sim, stage_index, start_from=gravity)
     verdict = verdict_for(study)
     remesh_start = sim.counters.remesh_wall_s
-    stop = verdict.stop_rule() if stage.early_stop else None
+    stop = verdict.stop_rule(at_failure=policy.stop_at_failure) if stage.early_stop else None
     if stop is not None and cancel_event is not None:
         stop = _connected(stop, cancel_event, failing_event, verdict.failure_m)
     try:
@@ -137,15 +196,17 @@ def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str
         status, reason = DIVERGED, str(error)
         series.notes["diverged"] = str(error)
     ds = stage_dataset(study=study, stage_index=stage_index, series=series, final=sim.snapshot(series.time_s[-1]),
-                       monitor_particles=monitors)
+                       monitor_particles=monitors, particles=policy.keeps_fields(status))
     max_u = float(np.max(series.max_displacement_m)) if series.max_displacement_m.size else math.nan
     record = RunRecord(
         srf=float(srf), status=status, status_reason=reason, max_displacement_m=max_u,
         final_kinetic_energy_j_per_m=float(series.kinetic_energy_j_per_m[-1]), stop_time_s=float(series.time_s[-1]),
         wall_time_s=float(series.wall_time_s), remesh_wall_s=float(sim.counters.remesh_wall_s - remesh_start),
-        n_steps=int(series.n_steps),
+        n_steps=int(series.n_steps), n_particles=scene.n_particles,
     )
     ds.attrs.update(srf=float(srf), status=status, status_reason=reason, run_key=run_key, gravity_key=gravity_key)
+    ds.attrs[PARTICLE_FIELDS_ATTRIBUTE] = int(policy.keeps_fields(status))
+    ds.attrs[FIELDS_POLICY_ATTRIBUTE] = policy.fields
     ds.attrs.update({f"run_{name}": getattr(record, name) for name in RESULT_SCALARS})
     file_bytes = dataset_bytes(ds)
     return SrfRunResult(record, started_unix_s, time.time(), file_bytes)

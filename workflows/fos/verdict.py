@@ -92,13 +92,18 @@ class Verdict:
         u_now, last, before = _window_growth(time_s, max_u_m, self.window_s)
         return last > self.growth * max(u_now, self.floor_m) and last >= before
 
-    def stop_rule(self):
+    def stop_rule(self, at_failure: bool = False):
         """The early-stop rule handed to the simulation: slid past ``slide_stop_m``, or (undamped)
-        at rest.  A quasi-static run also ends by itself once the unbalanced force converges."""
+        at rest.  A quasi-static run also ends by itself once the unbalanced force converges.
+        ``at_failure``: end as soon as the run has failed, past ``failure_m`` (the running maximum
+        only grows, so :meth:`classify` says failed whatever follows): for a run of which only the
+        verdict is used, a realisation judged by its one run."""
+        stop_m = self.failure_m if at_failure else self.slide_stop_m
 
         def rule(time_s, max_u_m, energy):
-            if self.past(max_u_m, self.slide_stop_m):
-                return f"slid: largest displacement {float(np.max(max_u_m)):.3g} m > {self.slide_stop_m:g} m"
+            if self.past(max_u_m, stop_m):
+                return (f"{'failed' if at_failure else 'slid'}: largest displacement {float(np.max(max_u_m)):.3g} m "
+                        f"> {stop_m:g} m")
             if not self.quasi_static and self.at_rest(time_s, max_u_m):
                 return f"at rest: largest displacement grew < {self.growth:g} of itself in the last {self.window_s:g} s"
             return None

@@ -60,58 +60,75 @@ def _attribute_value(value):
     return value
 
 
-def stage_dataset(*, study: Study, stage_index: int, series, final, monitor_particles) -> xr.Dataset:
+def stage_dataset(*, study: Study, stage_index: int, series, final, monitor_particles,
+                  particles: bool = True) -> xr.Dataset:
     """The result of one stage as a dataset (nothing is written).
 
     ``series`` is the stage's ``TimeSeries``; ``final`` the particles at its end (a
     ``spfem_core.snapshot.Snapshot``); ``monitor_particles`` the particle index of each
-    ``[[monitors]]`` entry.
+    ``[[monitors]]`` entry.  ``particles=False`` leaves out the final particle state and its mesh
+    (the ``particle`` and ``face`` variables): the run of a realisation a probabilistic study
+    does not keep (``[probabilistic] keep_fields``), whose histories and counters stay.
+    The variables are gathered first and made into one Dataset at once (a Dataset grown a
+    variable at a time aligns them all again at each step: 10 times slower).
     """
     var = STAGE_FILE
     monitor_particles = np.asarray(monitor_particles, dtype=np.int64)
-    ds = xr.Dataset(coords={
-        "time": var["time"](np.asarray(series.time_s, dtype=np.float64)),
-        "monitor": var["monitor"](np.array([m.name for m in study.monitors], dtype=str)),
-    })
     initial_xy = final.initial_xy_m
-    ds["monitor_particle"] = var["monitor_particle"](monitor_particles)
-    ds["monitor_x0"] = var["monitor_x0"](initial_xy[monitor_particles, 0])
-    ds["monitor_y0"] = var["monitor_y0"](initial_xy[monitor_particles, 1])
+    data = {
+        "monitor_particle": var["monitor_particle"](monitor_particles),
+        "monitor_x0": var["monitor_x0"](initial_xy[monitor_particles, 0]),
+        "monitor_y0": var["monitor_y0"](initial_xy[monitor_particles, 1]),
+    }
     for name, (field, component) in _MONITOR_COMPONENTS.items():
-        ds[name] = var[name](np.asarray(getattr(series, field), dtype=np.float64)[:, :, component].T)
+        data[name] = var[name](np.asarray(getattr(series, field), dtype=np.float64)[:, :, component].T)
     energy = np.asarray(series.energy_j_per_m, dtype=np.float64)
     for column, energy_name in enumerate(ENERGY_COLUMNS):
         name = energy_variable_name(energy_name)
-        ds[name] = var[name](energy[:, column])
-    ds["max_displacement"] = var["max_displacement"](np.asarray(series.max_displacement_m, dtype=np.float64))
-    ds["max_speed"] = var["max_speed"](np.asarray(series.max_speed_m_s, dtype=np.float64))
+        data[name] = var[name](energy[:, column])
+    data["max_displacement"] = var["max_displacement"](np.asarray(series.max_displacement_m, dtype=np.float64))
+    data["max_speed"] = var["max_speed"](np.asarray(series.max_speed_m_s, dtype=np.float64))
+    if particles:
+        data.update(_particle_variables(final))
+    ds = xr.Dataset(data, coords={
+        "time": var["time"](np.asarray(series.time_s, dtype=np.float64)),
+        "monitor": var["monitor"](np.array([m.name for m in study.monitors], dtype=str)),
+    })
+    ds.attrs = global_attributes(study, stage_index, series, final)
+    return ds
 
+
+def _particle_variables(final) -> dict:
+    """The final particle state of ``final`` (a ``Snapshot``) and its UGRID mesh, as (dims, values,
+    attrs) by variable name."""
+    var = STAGE_FILE
+    initial_xy = final.initial_xy_m
+    data = {}
     for name, (field, component) in _PARTICLE_COMPONENTS.items():
-        ds[name] = var[name](np.asarray(getattr(final, field), dtype=np.float64)[:, component])
-    ds["particle_x0"] = var["particle_x0"](np.asarray(initial_xy[:, 0]))
-    ds["particle_y0"] = var["particle_y0"](np.asarray(initial_xy[:, 1]))
-    ds["particle_plastic_strain"] = var["particle_plastic_strain"](final.plastic_strain)
-    ds["particle_area"] = var["particle_area"](final.area_m2)
+        data[name] = var[name](np.asarray(getattr(final, field), dtype=np.float64)[:, component])
+    for name in ("particle_x", "particle_y"):
+        data[name] = var[name](data[name][1], mesh="mesh2d", location="node")
+    data["particle_x0"] = var["particle_x0"](np.asarray(initial_xy[:, 0]))
+    data["particle_y0"] = var["particle_y0"](np.asarray(initial_xy[:, 1]))
+    data["particle_plastic_strain"] = var["particle_plastic_strain"](final.plastic_strain)
+    data["particle_area"] = var["particle_area"](final.area_m2)
     if final.particle_spacing_m is not None:  # a graded cloud ([[geometry.refined]])
-        ds["particle_spacing"] = var["particle_spacing"](final.particle_spacing_m)
-    ds["particle_mass"] = var["particle_mass"](final.mass_kg)
-    ds["particle_pore_pressure"] = var["particle_pore_pressure"](final.pore_pressure_pa)
+        data["particle_spacing"] = var["particle_spacing"](final.particle_spacing_m)
+    data["particle_mass"] = var["particle_mass"](final.mass_kg)
+    data["particle_pore_pressure"] = var["particle_pore_pressure"](final.pore_pressure_pa)
     material_names = final.material_names
-    ds["particle_material"] = var["particle_material"](
+    data["particle_material"] = var["particle_material"](
         final.material, flag_values=np.arange(len(material_names), dtype=np.int64),
         flag_meanings=" ".join(material_names),
     )
-    ds["mesh2d"] = var["mesh2d"](
+    data["mesh2d"] = var["mesh2d"](
         np.int32(0), cf_role="mesh_topology", topology_dimension=2, node_coordinates="particle_x particle_y",
         node_dimension="particle", face_node_connectivity="mesh2d_face_nodes", face_dimension="face",
     )
-    ds["mesh2d_face_nodes"] = var["mesh2d_face_nodes"](
+    data["mesh2d_face_nodes"] = var["mesh2d_face_nodes"](
         final.elem_nodes, cf_role="face_node_connectivity", start_index=0,
     )
-    for name in ("particle_x", "particle_y"):
-        ds[name].attrs.update(mesh="mesh2d", location="node")
-    ds.attrs = global_attributes(study, stage_index, series, final)
-    return ds
+    return data
 
 
 def particle_stress(ds: xr.Dataset) -> np.ndarray:

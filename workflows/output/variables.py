@@ -140,6 +140,9 @@ STAGE_FILE_ATTRIBUTES = (
               "and its scalars as in summary.nc"),
     Attribute("gravity_key, run_key", "FOS studies: hashes of what shaped the gravity state and the run; a rerun "
               "reuses files whose key matches"),
+    Attribute("particle_fields, run_fields", "SRF run files: 1 if the file holds the final particle state and its "
+              "mesh (the particle and face variables), 0 if left out; the policy it was made under (all, failed or "
+              "none: a probabilistic study's keep_fields); a rerun that keeps more makes the run again"),
 )
 
 COLLAPSE_METRICS = _table(

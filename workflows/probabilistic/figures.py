@@ -127,7 +127,8 @@ def draw_pf_sweep(out_dir: Path, ds: xr.Dataset) -> Path:
 
 def failed_realisation(folder: Path, path: Path) -> Path | None:
     """The realisation's fields at its particles (from its ``case.toml``) and the final plastic
-    strain of its failed run with the lowest SRF; None when no failed run file is there."""
+    strain of its failed run with the lowest SRF; None when no failed run file with the particle state
+    is there (``keep_fields``)."""
     import matplotlib.tri as mtri
 
     from workflows.scene import build_scene
@@ -136,7 +137,7 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
     runs = []
     for run_file in sorted(folder.glob("srf_*.nc")):
         with xr.open_dataset(run_file, engine="netcdf4") as run:
-            if run.attrs.get("status") == "failed":
+            if run.attrs.get("status") == "failed" and run.attrs.get("particle_fields", 1):
                 runs.append((float(run.attrs["srf"]), run_file))
     if not runs:
         return None

@@ -7,9 +7,16 @@
    ``verdict`` mode the strength-reduction stage makes the one run at ``factor``
    (``srf_min = srf_max = factor``).
 2. They run as a sweep's cases do (``workflows.sweep.study_type``): on one cluster, in
-   ``OUT/cases/realisation_<i>/``, realisations that share a gravity state (only strengths random)
-   relaxing it once, every finished run reused by the next invocation, so that a Monte Carlo study
-   extended from 200 to 1,000 realisations computes only the 800 new ones.  With
+   ``OUT/cases/realisation_<i>/``, every finished run reused by the next invocation, so that a
+   Monte Carlo study extended from 200 to 1,000 realisations computes only the 800 new ones (a
+   finished realisation is read back from its run files without its gravity state).  Each keeps
+   only what is asked of it (:meth:`ProbabilisticStudy._placed`, a ``fos.task.RunPolicy``):
+   realisations that share a gravity state (only strengths random) relax it once into
+   ``OUT/gravity/``, others keep theirs in memory only; a run file keeps the final particle
+   state only as ``keep_fields`` and ``keep_fields_first`` say (in ``fos`` mode the failed runs
+   of a realisation that did not fail lose theirs once it concludes); in ``verdict`` mode a run
+   ends as soon as it has failed (past the failure displacement: its verdict can no longer
+   change) and no ``summary.nc`` is written (the run file holds it all).  With
    ``pf_interval_width`` they go in batches of :data:`BATCH_REALISATIONS`, and the study stops
    after the batch that brings the 95% interval of pf within it.
 3. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
@@ -29,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import CaseTimings, Report
+from workflows.cases import Case, CaseTimings, Report
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_sweep_path
 from workflows.study.toml_text import to_toml
@@ -41,6 +48,8 @@ BATCH_REALISATIONS = 100
 """With ``pf_interval_width``, realisations go to the cluster in batches of this many, the interval
 checked after each batch (the same batches whatever the workers: the stop is reproducible)."""
 CASE_PREFIX = "realisation_"
+GRAVITY_FOLDER = "gravity"
+"""``OUT/gravity/``: the one gravity state of realisations that share it (random strengths only)."""
 STABLE, FAILED, UNDECIDED = "stable", "failed", "undecided"
 
 
@@ -53,11 +62,11 @@ def variable_labels(study: Study) -> list[str]:
 
 def sampled_values(study: Study) -> np.ndarray:
     """(realisations, variables): the values of every realisation (module doc, step 1)."""
-    from workflows.probabilistic.sampling import Marginal, Sampler  # scipy.stats: only when sampling
-
     table = study.probabilistic
     if not table.variables:  # only a [random_field] varies
         return np.empty((table.realisations, 0))
+    from workflows.probabilistic.sampling import Marginal, Sampler  # scipy.stats: only when sampling
+
     raw = _loads(study.source_text)
     marginals = []
     for k, variable in enumerate(table.variables):
@@ -172,6 +181,9 @@ class ProbabilisticStudy(SweepStudy):
         super().__init__(study, out_dir)
         self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far
         self.waiting: list = []  # realisations of the later batches (pf_interval_width)
+        self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known with the cases)
+        if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
+            self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
             self.placement = dataclasses.replace(self.placement, rounds=True)
 
@@ -187,11 +199,22 @@ class ProbabilisticStudy(SweepStudy):
         return realisation_cases(self.study)
 
     def case_concluded(self, case_id: str, outcome, progress) -> None:
-        """The running tally: realisations failed so far and pf (identical realisations count once)."""
+        """The running tally: realisations failed so far and pf (identical realisations count once);
+        in fos mode, the failed runs of a realisation that did not fail lose their particle state
+        (``keep_fields = "failed"``: only the mechanisms of failed realisations are kept)."""
         table = self.study.probabilistic
         tally = self.tally
         result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
-        tally[realisation_verdict(result, table.compute, table.factor)] += 1
+        verdict = realisation_verdict(result, table.compute, table.factor)
+        tally[verdict] += 1
+        index = int(case_id[len(CASE_PREFIX):])
+        if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
+                and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
+            from workflows.fos.run_store import run_file_name, without_particle_fields
+
+            for record in outcome.runs:
+                if record.status == FAILED:
+                    without_particle_fields(outcome.out_dir / run_file_name(record.srf))
         decided = tally[FAILED] + tally[STABLE]
         progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
 
@@ -236,11 +259,25 @@ class ProbabilisticStudy(SweepStudy):
     def cases(self):
         """Every realisation, or with ``pf_interval_width`` the first batch (module doc)."""
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
-        cases = super().cases()
+        cases = [self._placed(case) for case in super().cases()]
         if self.study.probabilistic.pf_interval_width is None:
             return cases
         self.waiting = cases[BATCH_REALISATIONS:]
         return cases[:BATCH_REALISATIONS]
+
+    def _placed(self, case: Case) -> Case:
+        """A realisation with what its runs keep and where its gravity state lives (module doc, step 2)."""
+        from workflows.fos.keys import gravity_key
+        from workflows.fos.task import RunPolicy
+
+        table = self.study.probabilistic
+        if self.shared_gravity is None:  # one gravity key for every realisation: random strengths only
+            self.shared_gravity = len({gravity_key(each.study) for each in self.sweep_cases}) == 1
+        first = case.position[0] < table.keep_fields_first
+        policy = RunPolicy(fields="all" if first else table.keep_fields, stop_at_failure=table.compute == "verdict")
+        if self.shared_gravity:
+            return dataclasses.replace(case, gravity_dir=self.out_dir / GRAVITY_FOLDER, runs=policy)
+        return dataclasses.replace(case, write_gravity=False, runs=policy)
 
     def next_cases(self, outcomes: dict, progress) -> list:
         """The next batch while the pf interval is wider than ``pf_interval_width``."""

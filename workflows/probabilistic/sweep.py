@@ -60,6 +60,8 @@ class ProbabilisticSweepStudy(StudyType):
         self.sweep_cases = sweep_cases(study)
         self.studies = {case.case_id: ProbabilisticStudy(case.study, out_dir / CASES_FOLDER / case.case_id)
                         for case in self.sweep_cases}
+        if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
+            self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:  # each case in batches (ProbabilisticStudy)
             self.placement = dataclasses.replace(self.placement, rounds=True)
 

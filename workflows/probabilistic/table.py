@@ -9,6 +9,7 @@ from workflows.fields import Record, StudyError, any_values, integer, number, ta
 
 MAX_REALISATIONS = 100_000
 DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
+KEEP_FIELDS = ("failed", "all", "none")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -72,6 +73,14 @@ class Probabilistic(Record):
     )
     factor: float = number("1", "the SRF a realisation is judged at: it fails if its run at factor fails (verdict) "
                            "or its FOS is below factor (fos)", default=1.0, gt=0.0)
+    keep_fields: str = text(
+        "which realisations keep the final particle state in their run files (`OUT/cases/realisation_<i>/srf_*.nc`): "
+        "`failed` (their failed runs: the mechanism), `all`, or `none`; every run file keeps its histories and "
+        "verdict whatever this says (disk use per 1,000 realisations: docs/benchmarks.md)",
+        default="failed", choices=KEEP_FIELDS,
+    )
+    keep_fields_first: int = integer("the first this many realisations keep the particle state of all their runs "
+                                     "too, stable or failed", default=0, ge=0)
 
     def check(self):
         n = len(self.variables)
