@@ -120,6 +120,11 @@ def numbers(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
     return _declare(Spec("numbers", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
 
 
+def _frozen(value):
+    """A TOML list as nested tuples: a table's values are immutable (and a study hashable)."""
+    return tuple(_frozen(v) for v in value) if isinstance(value, (list, tuple)) else value
+
+
 def any_values(doc, *, default=REQUIRED):
     """A non-empty list of TOML values of any type (their meaning is checked where they are used)."""
     return _declare(Spec("values", "", doc), default)
@@ -272,7 +277,7 @@ def check_value(spec: Spec, value):
     if spec.type == "values":
         if not isinstance(value, (list, tuple)) or not value:
             raise ValueError(f"must be a non-empty list of values, got {show(value)}")
-        return tuple(value)
+        return _frozen(value)
     if spec.type == "integer":
         if isinstance(value, bool) or not isinstance(value, int):
             raise ValueError(f"must be an integer, got {show(value)}")

@@ -99,7 +99,7 @@ class CaseSearch:
     error: DivergenceError | None = None  # the gravity stage diverged: no search
     concluded: bool = False
     started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
-    shared: tuple = ()  # (study text, scattered gravity state) for the run tasks
+    shared: tuple = ()  # (study, scattered gravity state) for the run tasks
     plan_again: bool = True  # something its search plans on has changed since it was last asked
     planned_parallel: int = 0  # the search's n_parallel when it was last asked
 
@@ -186,7 +186,7 @@ class Engine:
         if not case.shared:
             if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
                 self.scattered[case.gkey] = self.client.scatter([case.gravity], broadcast=True)[0]
-            case.shared = (case.study.source_text, self.scattered[case.gkey])
+            case.shared = (case.study, self.scattered[case.gkey])
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
         event, failing = ("", "") if case.single_run else (f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}")
         future = self._submit(run_srf, *case.shared, srf, cancel_event=event or None, run_key=key,
@@ -216,9 +216,9 @@ class Engine:
 
     def _gravity_here(self, case: CaseSearch) -> None:
         """The case's gravity state computed in this process (all cores, with the study's snapshots),
-        or reused from its folder once the study's scene passes its checks and has the particles of
-        the stored state."""
-        study, out_dir = case.study, case.out_dir
+        or reused from its gravity folder once the study's scene passes its checks and has the
+        particles of the stored state."""
+        study, out_dir = case.study, case.gravity_dir
         stored = None if self.force else stored_gravity(study, out_dir)
         path = gravity_paths(study, out_dir)[-1]
         if stored is not None:
@@ -493,9 +493,11 @@ class Engine:
         """Run every case (module doc); yield each one as soon as its search is done (or its gravity
         stage diverged: ``case.error``).  A single case whose gravity diverges raises the
         DivergenceError instead."""
-        for case in self.cases:
-            if case.gravity_here:
-                self._gravity_here(case)  # before the cluster is needed: it starts meanwhile
+        relaxed = set()
+        for case in self.cases:  # before the cluster is needed: it starts meanwhile
+            if case.gravity_here and case.gkey not in relaxed:  # once per key: _start shares it with the others
+                self._gravity_here(case)
+                relaxed.add(case.gkey)
         self.client = self.session.client()
         self.n_workers = max(1, sum(self.client.nthreads().values()))
         for case in self.cases:

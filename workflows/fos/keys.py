@@ -13,6 +13,7 @@ The search's own settings are left out of the run key: refining the search reuse
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 
@@ -29,8 +30,26 @@ def _digest(payload) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
+def _remembered(function):
+    """``function`` of a study, remembered for the last 4,096 studies (a sweep's or a probabilistic
+    study's cases ask for their keys many times); computed each time for a study that cannot be
+    hashed (a table holding an inline TOML table)."""
+    remembered = functools.lru_cache(maxsize=4096)(function)
+
+    @functools.wraps(function)
+    def keyed(study, *args):
+        try:
+            hash(study)
+        except TypeError:
+            return function(study, *args)
+        return remembered(study, *args)
+
+    return keyed
+
+
+@_remembered
 def gravity_key(study: Study) -> str:
-    """Hash of everything that shapes the gravity state (module doc)."""
+    """Hash of everything that shapes the gravity state (module doc); equal studies, equal keys."""
     raw = dataclasses.asdict(study)
     for key in ("source_text", "output", "metrics"):
         raw.pop(key, None)
@@ -50,6 +69,7 @@ def gravity_key(study: Study) -> str:
     return _digest(raw)
 
 
+@_remembered
 def run_key(study: Study, srf: float, stop_at_failure: bool = False) -> str:
     """Hash of the gravity key, the materials (their strength too), what a run does (not how the
     search picks runs; ``stop_at_failure``: whether it ends at the failure displacement,

@@ -33,7 +33,7 @@ from workflows.output.stage_file import stage_dataset
 from workflows.output.writing import dataset_bytes
 from workflows.scene import build_scene, monitor_particles
 from workflows.stages.running import begin_stage, new_simulation
-from workflows.study import parse_study
+from workflows.study import Study, parse_study
 
 
 @dataclass(frozen=True)
@@ -162,9 +162,10 @@ def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: fl
     return checked
 
 
-def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str | None = None, run_key: str = "",
+def run_srf(study: Study | str, gravity: StressState, srf: float, cancel_event: str | None = None, run_key: str = "",
             gravity_key: str = "", failing_event: str | None = None, policy: RunPolicy = RunPolicy()) -> SrfRunResult:
-    """Run strength-reduction factor ``srf`` from the gravity state; an :class:`SrfRunResult`.
+    """Run strength-reduction factor ``srf`` of ``study`` (a checked Study, as the engine sends it: no
+    parsing on the worker; or its text) from the gravity state; an :class:`SrfRunResult`.
 
     ``cancel_event``: name of a dask ``Event``; when it is set (the client found the run can no
     longer change the answer) the run stops at its next stop-rule check, so that its worker is
@@ -176,7 +177,7 @@ def run_srf(study_text: str, gravity: StressState, srf: float, cancel_event: str
     displacement (:class:`RunPolicy`).
     """
     started_unix_s = time.time()
-    study = parse_study(study_text)
+    study = parse_study(study) if isinstance(study, str) else study
     stage = study.strength_reduction
     stage_index = len(study.stages) - 1
     scene = build_scene(study)

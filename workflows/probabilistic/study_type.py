@@ -260,6 +260,8 @@ class ProbabilisticStudy(SweepStudy):
         """Every realisation, or with ``pf_interval_width`` the first batch (module doc)."""
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
         cases = [self._placed(case) for case in super().cases()]
+        if self.shared_gravity:  # its one gravity state relaxes on all cores while the cluster starts
+            self.placement = dataclasses.replace(self.placement, gravity_in_process=True)
         if self.study.probabilistic.pf_interval_width is None:
             return cases
         self.waiting = cases[BATCH_REALISATIONS:]
