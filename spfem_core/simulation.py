@@ -165,6 +165,7 @@ class Simulation:
                                  scene.alpha, self.settings.min_angle_deg, self.settings.crowded_fraction)
         self.time_step = TimeStepPolicy(self.settings)
         self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
+        self._last_critical_dt = None  # (mesh, its inputs, the step) of the last critical step computed
         self._set_material_arrays(self.particle_materials)
         self._set_supports(scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
                            scene.node_slip_side)
@@ -205,11 +206,20 @@ class Simulation:
                                  kernel_threads(self.threads))
 
     def _critical_dt(self) -> float:
+        """The critical step of the current mesh, positions, inertia and moduli; the last one again
+        when none of them has changed (a stage set up from the original positions asks three times)."""
         mesh = self.mesh
-        return float(critical_time_step(
+        inputs = (self.nodes.xy_m, self.nodes.inertia_kg, self.nodes.material_row,
+                  self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa)
+        last = self._last_critical_dt
+        if last is not None and last[0] is mesh and all(np.array_equal(a, b) for a, b in zip(last[1], inputs)):
+            return last[2]
+        value = float(critical_time_step(
             self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.inertia_kg,
             self.nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
         ))
+        self._last_critical_dt = (mesh, tuple(a.copy() for a in inputs), value)
+        return value
 
     def _choose_time_step(self):
         """dt of a dynamic stage on the current mesh (``timestep.TimeStepPolicy``)."""

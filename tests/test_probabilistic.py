@@ -75,6 +75,10 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     assert "failed" in verdicts and "stable" in verdicts  # seed 3: 2 of 8 fail
     assert cohesion[verdicts == "failed"].max() < cohesion[verdicts == "stable"].min()
     assert ds.attrs["pf"] == pytest.approx(np.mean(verdicts == "failed"))
+    failure_m = 0.005 * 10.0  # 0.5% of the slope height
+    assert list(ds["n_runs"].values) == [1] * 8 and (ds["n_steps"].values > 0).all()
+    assert ((ds["max_displacement"].values > failure_m) == (verdicts == "failed")).all()
+    assert list(ds["particle_fields"].values) == list(verdicts == "failed")  # keep_fields = "failed"
     assert ds.attrs["pf_low"] <= ds.attrs["pf"] <= ds.attrs["pf_high"]
     assert first.runs_made == 8
     n_failed = int(np.sum(verdicts == "failed"))

@@ -15,8 +15,9 @@ from workflows.study.reading import _loads, resolve_sweep_path
 FAILED, UNDECIDED = "failed", "undecided"
 
 
-def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outcome) -> xr.Dataset:
-    """The dataset of a finished probabilistic study (``outcome``: its ``ProbabilisticOutcome``)."""
+def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outcome, runs: dict) -> xr.Dataset:
+    """The dataset of a finished probabilistic study (``outcome``: its ``ProbabilisticOutcome``; ``runs``:
+    each realisation's ``RunRecord`` list by case id, empty where its gravity diverged)."""
     var = PROBABILISTIC_FILE
     table = study.probabilistic
     n = len(cases)
@@ -35,6 +36,16 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
     for name in ("fos", "fos_low", "fos_high"):
         ds[name] = var[name](np.array([getattr(r, name) for r in column], dtype=float))
     ds["case_folder"] = var["case_folder"](np.array([case.case_id for case in cases], dtype=object))
+    records = [runs[case.case_id] for case in cases]
+    ds["max_displacement"] = var["max_displacement"](np.array(
+        [max((r.max_displacement_m for r in each), default=np.nan) if table.compute == "verdict" else np.nan
+         for each in records]))
+    ds["n_runs"] = var["n_runs"](np.array([len(each) for each in records], dtype=np.int64))
+    ds["n_steps"] = var["n_steps"](np.array([sum(r.n_steps for r in each) for each in records], dtype=np.int64))
+    ds["run_wall_time"] = var["run_wall_time"](np.array([sum(r.wall_time_s for r in each) for each in records]))
+    kept = [case.position[0] < table.keep_fields_first or table.keep_fields == "all"
+            or (table.keep_fields == "failed" and verdict == FAILED) for case, verdict in zip(cases, verdicts)]
+    ds["particle_fields"] = var["particle_fields"](np.array(kept, dtype=np.int8))
     failed = np.cumsum([v == FAILED for v in verdicts])
     decided = np.cumsum([v != UNDECIDED for v in verdicts])
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -248,7 +248,9 @@ class ProbabilisticStudy(SweepStudy):
                             "run_loops": sum(record.wall_time_s for record in made),
                             "remesh": sum(record.remesh_wall_s for record in made),
                             "total": time.perf_counter() - wall_start}
-        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result)
+        case_runs = {case.case_id: ([] if isinstance(outcome := outcomes[self.same_as[case.case_id]], DivergenceError)
+                                    else outcome.runs) for case in self.sweep_cases}
+        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs)
         write_dataset(dataset, result.result_path)
         if self.study.output.figures:
             from workflows.probabilistic.figures import draw_probabilistic_figures  # matplotlib only when drawing
