@@ -4,6 +4,7 @@ shared by the sweep and notebook tests, and a separately started dask cluster on
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -57,6 +58,20 @@ def strength_sweep(tmp_path_factory):
 def separate_dask_cluster(tmp_path):
     """A ``dask scheduler`` and two ``dask worker`` processes (1 thread each) started on loopback
     as a user would start them; yields the scheduler's address, kills them afterwards."""
+    with _separate_cluster(tmp_path) as (address, _):
+        yield address
+
+
+@pytest.fixture
+def separate_dask_workers(tmp_path):
+    """As :func:`separate_dask_cluster`, yielding (the scheduler's address, the two worker processes,
+    each the leader of its own process group)."""
+    with _separate_cluster(tmp_path) as cluster:
+        yield cluster
+
+
+@contextlib.contextmanager
+def _separate_cluster(tmp_path):
     scheduler_file = tmp_path / "scheduler.json"
     env = dict(os.environ, DASK_DISTRIBUTED__WORKER__DAEMON="False")
     processes = [subprocess.Popen(
@@ -75,8 +90,9 @@ def separate_dask_cluster(tmp_path):
                 [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
             ))
-        yield address
+        yield address, processes[1:]
     finally:
         for process in processes:
-            os.killpg(process.pid, signal.SIGKILL)
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
             process.wait()

@@ -179,3 +179,34 @@ def test_realisations_keep_the_particle_state_the_study_asks_for(tmp_path):
     again = run_study(parse_study(text.replace("keep_fields_first = 1", 'keep_fields = "all"')), tmp_path / "none",
                       RunOptions(workers=2))
     assert all(_fields_by_run(tmp_path / "none").values()) and again.runs_made == none.runs_made
+
+
+def test_a_worker_killed_mid_study_changes_no_realisation(separate_dask_workers, tmp_path):
+    """40 realisations on a separately started scheduler and two workers, one of them killed once
+    five realisations are on disk: dask runs the lost task again on the other, and every value,
+    verdict and pf equals a clean run on a local cluster (each realisation is its seed's)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    address, workers = separate_dask_workers
+    path = tmp_path / "study.toml"
+    path.write_text(probabilistic(40))
+    process = subprocess.Popen([sys.executable, "-m", "workflows.cli", str(path), "--out", str(tmp_path / "killed"),
+                                "--scheduler", address, "--quiet"], cwd=REPO, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while len(list((tmp_path / "killed").glob("cases/*/srf_*.nc"))) < 5:
+        assert process.poll() is None and time.monotonic() < deadline, "the study ended before the kill"
+        time.sleep(0.05)
+    os.killpg(workers[0].pid, signal.SIGKILL)
+    assert len(list((tmp_path / "killed").glob("cases/*/srf_*.nc"))) < 40  # killed mid-study
+    _, stderr = process.communicate(timeout=300)
+    assert process.returncode == 0, stderr
+    run_study(parse_study(probabilistic(40)), tmp_path / "clean", RunOptions(workers=2))
+    killed, clean = (xr.open_dataset(tmp_path / name / "probabilistic.nc").load() for name in ("killed", "clean"))
+    np.testing.assert_array_equal(killed["cohesion_pa"].values, clean["cohesion_pa"].values)
+    assert list(killed["verdict"].values) == list(clean["verdict"].values)
+    assert killed.attrs["pf"] == clean.attrs["pf"] and 0 < killed.attrs["n_failed"] < 40

@@ -15,7 +15,7 @@ README = (REPO / "README.md").read_text(encoding="utf-8")
 
 
 BLOCKS = re.findall(r"```toml\n(.*?)```", README, flags=re.S)
-"""The README's TOML: the study file, the sweep axis, the refinement and refined-zone tables."""
+"""The README's TOML: the study file, the sweep axis, the probabilistic tables."""
 
 
 def test_readme_study_file_is_valid_and_builds_a_scene():
@@ -30,17 +30,6 @@ def test_readme_sweep_makes_cases_of_the_readme_study():
     block, axis = BLOCKS[:2]
     cases = sweep_cases(parse_study(block + "\n" + axis))
     assert [case.study.materials[0].cohesion_pa for case in cases] == [5e3, 10e3, 15e3]
-
-
-def test_readme_refinement_tables_fit_the_readme_study():
-    """[refinement] and [[geometry.refined]] as the README shows them, with the README's study."""
-    assert len(BLOCKS) == 4
-    block, _, tables, _ = BLOCKS
-    refinement, refined = tables.split("[[geometry.refined]]")
-    study = parse_study(block + "\n" + refinement)
-    assert study.refinement.spacings(study.geometry.spacing_m) == [1.0, 0.7071, 0.5]
-    zoned = parse_study(block.replace("[[materials]]", "[[geometry.refined]]" + refined + "\n[[materials]]", 1))
-    assert zoned.geometry.refined[0].spacing_m == 0.25 and build_scene(zoned).node_spacing_m.min() == 0.25
 
 
 def test_readme_set_up_commands_are_what_ci_runs():
@@ -58,6 +47,6 @@ def test_readme_links_exist():
 def test_readme_probabilistic_tables_fit_the_readme_study():
     """[probabilistic] and [random_field] as the README shows them, with the README's study: a
     cohesion field of the given COV at its particles."""
-    study = parse_study(BLOCKS[0] + "\n" + BLOCKS[3])
+    study = parse_study(BLOCKS[0] + "\n" + BLOCKS[2])
     assert study.probabilistic.realisations == 200 and study.random_field.properties[0].cov == 0.5
     assert "cohesion_pa" in build_scene(study).node_properties
