@@ -80,8 +80,8 @@ worker time on 2 workers, with these 72.6 s (69.2 s on 1 worker; ``python
 -m benchmarks.bench_fos --warm --workers 2``).  The nannies still check memory every second.
 
 The active memory manager is off: every 2 s it drops all but one copy of data held by
-several workers, such as the study and gravity state every run needs, which are scattered
-to every worker.  Runs then went to the worker that kept the copy even while it was busy,
+several workers, such as the gravity state every run needs, which is replicated to every
+worker.  Runs then went to the worker that kept the copy even while it was busy,
 and queued there while the other worker idled (6.4 s of one study).  Work stealing stays
 on as the remedy for any such placement."""
 

@@ -63,7 +63,7 @@ from workflows.fos.gravity import (
 from workflows.fos.keys import gravity_key, run_key
 from workflows.fos.run_store import remove_stale_runs, run_file_name, stored_run, write_run
 from workflows.fos.search import SrfSearch
-from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, run_srf
+from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, gravity_state, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
@@ -99,7 +99,7 @@ class CaseSearch:
     error: DivergenceError | None = None  # the gravity stage diverged: no search
     concluded: bool = False
     started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
-    shared: tuple = ()  # (study, scattered gravity state) for the run tasks
+    shared: tuple = ()  # (study, the future of its gravity state on the workers) for the run tasks
     plan_again: bool = True  # something its search plans on has changed since it was last asked
     planned_parallel: int = 0  # the search's n_parallel when it was last asked
 
@@ -173,7 +173,7 @@ class Engine:
         self.just_concluded: list[CaseSearch] = []  # handed back at the end of the pass
         self.n_submitted = 0
         self.stored_states: dict = {}  # (gravity folder, gravity key) -> the StressState on disk, or None
-        self.scattered: dict = {}  # gravity key -> the gravity state scattered to the workers
+        self.scattered: dict = {}  # gravity key -> the future of that gravity state on every worker
 
     # ------------------------------------------------------------------ submitting
     def _submit(self, function, *args, priority: int, **kwargs):
@@ -185,7 +185,11 @@ class Engine:
         early, and each Event costs its run a scheduler round trip per stop-rule check."""
         if not case.shared:
             if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
-                self.scattered[case.gkey] = self.client.scatter([case.gravity], broadcast=True)[0]
+                state = self.client.submit(gravity_state, case.gravity, pure=False, priority=2_000_000,
+                                           key=f"gravity-state-{case.gkey}-{self.token}")
+                wait([state])
+                self.client.replicate([state])  # on every worker now: runs go wherever a worker is free
+                self.scattered[case.gkey] = state
             case.shared = (case.study, self.scattered[case.gkey])
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
         event, failing = ("", "") if case.single_run else (f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}")

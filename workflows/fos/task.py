@@ -118,6 +118,13 @@ class SrfRunResult:
                                    finished_s=self.finished_unix_s - study_start_unix_s)
 
 
+def gravity_state(state: StressState) -> StressState:
+    """The gravity state the runs start from, as the result of a task rather than scattered data:
+    when every worker holding it dies, the scheduler runs this task again on another (scattered
+    data would be lost, and every run waiting for it cancelled)."""
+    return state
+
+
 FIRST_MESHES_KEPT = 4
 """First meshes a worker keeps (:func:`first_mesh`): the clouds of the studies it serves at once."""
 _first_meshes: dict[bytes, Mesh] = {}
