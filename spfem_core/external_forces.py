@@ -16,7 +16,8 @@ pressure of where it is now):
 plus a pore pressure carried by the particle itself (``node_pore_pressure_pa``: ru).
 
 **Ponded water** at level L loads the current boundary (the alpha shape, so it follows the
-deforming surface).  On a boundary edge a -> b (material on its left) the pressure
+deforming surface) between two abscissae (a reservoir on one face of a dam: edges whose midpoint
+x lies outside [x_min, x_max] are dry).  On a boundary edge a -> b (material on its left) the pressure
 p = gamma_w max(L - y, 0) is linear along the edge, clipped at the water line, and pushes along
 the inward normal (-dy, dx) / |ab|:
 
@@ -111,12 +112,17 @@ def add_external_forces(node_xy, node_disp, elem_nodes, elem_geom, loads, time_s
     level = loads.pond_level_m
     if level == level:  # not NaN: water stands on the surface
         edges = loads.boundary_edges
+        x_min = loads.pond_x_range_m[0]
+        x_max = loads.pond_x_range_m[1]
         for b in range(edges.shape[0]):
             a = edges[b, 0]
             c = edges[b, 1]
             ya = node_xy[a, 1] - shift * node_disp[a, 1]
             yc = node_xy[c, 1] - shift * node_disp[c, 1]
             if ya >= level and yc >= level:
+                continue
+            x_mid = 0.5 * (node_xy[a, 0] - shift * node_disp[a, 0] + node_xy[c, 0] - shift * node_disp[c, 0])
+            if x_mid < x_min or x_mid > x_max:
                 continue
             wa, wc = _edge_pressure_integrals(gamma_w * (level - ya), gamma_w * (level - yc), ya, yc, level)
             nx = -(yc - ya)

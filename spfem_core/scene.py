@@ -46,6 +46,7 @@ class Scene:
     phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x strictly increasing
     node_phreatic_line: np.ndarray | None = None  # (n,) int64 line of each particle in phreatic_lines_m; -1: none
     pond_level_m: float | None = None  # level of water standing on the ground surface (m)
+    pond_x_range_m: tuple = (-np.inf, np.inf)  # the pond stands on the surface between these x only (a reservoir)
     water_unit_weight_n_m3: float = 9810.0  # gamma_w
     node_spacing_m: np.ndarray | None = None  # (n,) spacing of each particle of a graded cloud (None: spacing_m)
 

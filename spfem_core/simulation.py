@@ -154,6 +154,7 @@ class Simulation:
             phreatic_xy_m=np.zeros((0, 2)), phreatic_start=np.zeros(1, dtype=np.int64),
             node_phreatic_line=np.full(n, -1, dtype=np.int64),
             water_unit_weight_n_m3=float(scene.water_unit_weight_n_m3), pond_level_m=np.nan,
+            pond_x_range_m=np.array(scene.pond_x_range_m, dtype=np.float64).reshape(2),
             boundary_edges=np.zeros((0, 2), dtype=np.int64), at_initial_positions=False, ramp_time_s=0.0,
         )
         self._set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)

@@ -119,6 +119,7 @@ class ExternalLoads(NamedTuple):
     node_phreatic_line: np.ndarray  # (n,) int64 line of each particle; -1: none (no pore pressure from a line)
     water_unit_weight_n_m3: float  # gamma_w
     pond_level_m: float  # level of water standing on the surface; NaN: none
+    pond_x_range_m: np.ndarray  # (2,) the pond loads boundary edges whose midpoint x lies in [x_min, x_max]
     boundary_edges: np.ndarray  # (n_edges, 2) int64 edges of the current mesh's boundary, material on the left
     at_initial_positions: bool  # water pressures from x - u (a gravity stage, whose displacement is discarded)
     ramp_time_s: float  # the surface loads grow as min(t / ramp_time_s, 1) over the stage time t; 0: at once

@@ -35,6 +35,9 @@ class StudyError(ValueError):
         self.problem = " ".join(str(problem).split())
         super().__init__(f"{field}: {self.problem}" if field else self.problem)
 
+    def __reduce__(self):  # crosses to and from dask workers whole (the default would lose the field)
+        return StudyError, (self.field, self.problem)
+
 
 # ---------------------------------------------------------------------------------------
 # How a field is declared

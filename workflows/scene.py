@@ -24,6 +24,7 @@ from spfem_core.scene import Scene
 from spfem_core.settings import DEFAULT_CFL, SolverSettings
 from workflows import water
 from workflows.loads.surface import UpperSurface
+from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
 from workflows.study import Study, StudyError
 
 
@@ -34,8 +35,13 @@ def build_material_table(study: Study) -> MaterialTable:
 
 def material_rows(study: Study, points_xy_m: np.ndarray) -> np.ndarray:
     """Material row of every point: the last material whose region holds it (-1: none)."""
+    return rows_of_materials(study.materials, points_xy_m)
+
+
+def rows_of_materials(materials, points_xy_m: np.ndarray) -> np.ndarray:
+    """Row in ``materials`` of every point: the last material whose region holds it (-1: none)."""
     rows = np.full(points_xy_m.shape[0], -1, dtype=np.int64)
-    for i, material in enumerate(study.materials):
+    for i, material in enumerate(materials):
         if material.region_m is None:
             rows[:] = i
         else:
@@ -62,7 +68,12 @@ def cloud(study: Study) -> tuple[np.ndarray, np.ndarray]:
     geometry.spacing_m, or graded around ``[[geometry.refined]]`` zones (``spfem_core.cloud``).
     Made once per geometry in a process (the runs of a study, the realisations of a probabilistic
     one, build the same cloud); each call gets its own copies."""
-    node_xy_m, node_spacing_m = _cloud_of(study.geometry)
+    return cloud_of_geometry(study.geometry)
+
+
+def cloud_of_geometry(geometry) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`cloud` of a ``[geometry]`` table (copies of the one made per process)."""
+    node_xy_m, node_spacing_m = _cloud_of(geometry)
     return node_xy_m.copy(), node_spacing_m.copy()
 
 
@@ -99,9 +110,9 @@ def build_scene(study: Study) -> Scene:
     node_material = assign_materials(study, node_xy_m)
     water_fields = water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points))
     if study.random_field is not None:  # spatially variable soil (workflows.probabilistic.spatial)
-        water_fields["node_properties"] = {**water_fields.get("node_properties", {}),
-                                           **study.random_field.node_properties(study, node_xy_m, node_spacing_m,
-                                                                                node_material)}
+        varying = study.random_field.node_properties(study.materials, node_xy_m, node_spacing_m, node_material)
+        varying.pop(SEEPAGE_PROPERTY, None)  # the flow's (workflows.seepage.flow), not the core's
+        water_fields["node_properties"] = {**water_fields.get("node_properties", {}), **varying}
     scene = Scene(
         node_xy_m=node_xy_m,
         node_material=node_material,

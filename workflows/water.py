@@ -6,7 +6,10 @@
   sigma_v0 = g int_y^{y_s(x)} rho dy, the weight of the column above its initial position up to
   the ground surface y_s (the midpoint rule on ``OVERBURDEN_SAMPLES`` points);
 - **weight**: a material's saturated density at or below its piezometric line, its density above;
-- **ponded water** at ``pond_level_m`` loads the current boundary (the core, ``external_forces``).
+- **ponded water** at ``pond_level_m`` loads the current boundary (the core, ``external_forces``),
+  between ``pond_x_min_m`` and ``pond_x_max_m``;
+- **steady seepage** (``[seepage]``, ``workflows.seepage``) instead of a line: the flow's pore pressure
+  carried by each particle, the saturated density where the particle is at or below the water table.
 
 The line is fixed in space while the ground deforms.  :func:`scene_fields` gives the scene its
 water; a stage may change it (``workflows.stages.base.StageBase.water``).
@@ -49,13 +52,26 @@ class Water(Record):
         "m", "level of water standing on the ground surface: the submerged surface carries gamma_w (level - y) "
         "normal to it, on the current boundary; default: none", default=None,
     )
+    pond_x_min_m: float | None = number("m", "the pond stands on the surface from this x (a reservoir against one "
+                                        "face); default: unbounded", default=None)
+    pond_x_max_m: float | None = number("m", "the pond stands on the surface up to this x; default: unbounded",
+                                        default=None)
 
     def check(self):
         given = [name for name in ("phreatic_line_m", "phreatic_level_m", "ru") if getattr(self, name) is not None]
         if len(given) > 1:
             raise StudyError(given[1], f"give one of phreatic_line_m, phreatic_level_m and ru, not {given[0]} too")
-        if not given and self.pond_level_m is None:
-            raise StudyError("phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m")
+        for name in ("pond_x_min_m", "pond_x_max_m"):
+            if getattr(self, name) is not None and self.pond_level_m is None:
+                raise StudyError(name, "applies to ponded water: give pond_level_m")
+        if self.pond_x_min_m is not None and self.pond_x_max_m is not None and self.pond_x_min_m >= self.pond_x_max_m:
+            raise StudyError("pond_x_max_m", f"must be above pond_x_min_m = {self.pond_x_min_m:g}")
+
+    @property
+    def pond_x_range_m(self) -> tuple[float, float]:
+        """(x_min, x_max) of the ponded water, infinite where unbounded."""
+        return (-np.inf if self.pond_x_min_m is None else self.pond_x_min_m,
+                np.inf if self.pond_x_max_m is None else self.pond_x_max_m)
 
     @property
     def phreatic_line(self) -> tuple | None:
@@ -121,9 +137,43 @@ def ru_pore_pressure_pa(study, node_xy_m: np.ndarray, material_at, gravity_m_s2:
     return study.water.ru * overburden
 
 
+def seepage_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray) -> dict:
+    """Scene fields of a study with ``[seepage]``: the flow's pore pressure carried by each particle and,
+    where a material has a saturated density, that density at or below the water table."""
+    from workflows.seepage.flow import study_flow  # scipy's solver: only with [seepage]
+
+    flow = study_flow(study)
+    if flow.node_xy_m.shape != node_xy_m.shape or not np.array_equal(flow.node_xy_m, node_xy_m):
+        raise ValueError("seepage: the flow was solved on another cloud than the scene's (a bug)")
+    fields = dict(node_pore_pressure_pa=flow.pore_pressure_pa(), water_unit_weight_n_m3=flow.water_unit_weight_n_m3)
+    if any(m.saturated_density_kg_m3 is not None for m in study.materials):
+        dry = np.array([m.density_kg_m3 for m in study.materials])
+        wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
+                        for m in study.materials])
+        fields["node_properties"] = {"density_kg_m3": np.where(flow.saturated(), wet[node_material],
+                                                               dry[node_material])}
+    if study.water is not None and study.water.pond_level_m is not None:
+        fields.update(pond_level_m=study.water.pond_level_m, pond_x_range_m=scene_pond_range(study))
+    return fields
+
+
+POND_SLACK = 0.5
+"""The pond's abscissae are widened by this fraction of the spacing for the scene: a face the pond is
+bounded by (pond_x_max_m at a vertical upstream face) stays wet as its particles move."""
+
+
+def scene_pond_range(study) -> tuple[float, float]:
+    """The pond's (x_min, x_max) as the core applies it (:data:`POND_SLACK`)."""
+    x_min, x_max = study.water.pond_x_range_m
+    slack = POND_SLACK * study.geometry.finest_spacing_m
+    return x_min - slack, x_max + slack
+
+
 def scene_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray, material_at) -> dict:
-    """Keyword arguments of ``spfem_core.scene.Scene`` for the study's water (empty without ``[water]``
-    and without a material's own piezometric line); saturated densities as a per-particle density."""
+    """Keyword arguments of ``spfem_core.scene.Scene`` for the study's water (empty without ``[water]``,
+    ``[seepage]`` and a material's own piezometric line); saturated densities as a per-particle density."""
+    if study.seepage is not None:
+        return seepage_fields(study, node_xy_m, node_material)
     water = study.water
     if water is None and all(m.phreatic_line_m is None for m in study.materials):
         return {}
@@ -134,7 +184,8 @@ def scene_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray, materi
         fields["node_properties"] = {"density_kg_m3": density}
     if water is None:
         return fields
-    fields.update(water_unit_weight_n_m3=water.unit_weight_n_m3, pond_level_m=water.pond_level_m)
+    fields.update(water_unit_weight_n_m3=water.unit_weight_n_m3, pond_level_m=water.pond_level_m,
+                  pond_x_range_m=scene_pond_range(study))
     if water.ru is not None:
         g = float(np.hypot(*study.loads.gravity_m_s2))
         fields["node_pore_pressure_pa"] = ru_pore_pressure_pa(study, node_xy_m, material_at, g)
@@ -142,13 +193,23 @@ def scene_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray, materi
 
 
 def draw_water(ax, study, x_m: np.ndarray, ground_m: np.ndarray) -> None:
-    """The piezometric lines (dashed, below the ground) and ponded water (solid) in blue over a
-    figure of the domain, on the abscissae ``x_m`` where the ground is at ``ground_m``."""
+    """The piezometric lines (dashed, below the ground), or the phreatic surface of the study's steady
+    seepage, and ponded water (solid) in blue over a figure of the domain, on the abscissae ``x_m``
+    where the ground is at ``ground_m``."""
     water = study.water
+    if study.seepage is not None:
+        from spfem_core.seepage import phreatic_segments
+        from workflows.seepage.flow import study_flow
+
+        flow = study_flow(study)
+        psi = flow.solution.pressure_head_m(flow.node_xy_m)
+        for segment in phreatic_segments(flow.node_xy_m, flow.elem_nodes, psi):
+            ax.plot(segment[:, 0], segment[:, 1], "--", color="tab:blue", lw=1.2)
     lines = [] if water is None or water.phreatic_line is None else [water.phreatic_line]
     lines += [m.phreatic_line_m for m in study.materials if m.phreatic_line_m is not None]
     for line in map(np.array, lines):
         ax.plot(x_m, np.minimum(np.interp(x_m, line[:, 0], line[:, 1]), ground_m), "--", color="tab:blue", lw=1.2)
     if water is not None and water.pond_level_m is not None:
-        ax.plot(x_m, np.where(ground_m < water.pond_level_m, water.pond_level_m, np.nan), "-", color="tab:blue",
-                lw=1.5)
+        x_min, x_max = water.pond_x_range_m
+        wet = (ground_m < water.pond_level_m) & (x_m >= x_min) & (x_m <= x_max)
+        ax.plot(x_m, np.where(wet, water.pond_level_m, np.nan), "-", color="tab:blue", lw=1.5)

@@ -63,7 +63,7 @@ from workflows.fos.gravity import (
 from workflows.fos.keys import gravity_key, run_key
 from workflows.fos.run_store import remove_stale_runs, run_file_name, stored_run, write_run
 from workflows.fos.search import SrfSearch
-from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, gravity_state, run_srf
+from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, held, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
@@ -99,7 +99,7 @@ class CaseSearch:
     error: DivergenceError | None = None  # the gravity stage diverged: no search
     concluded: bool = False
     started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
-    shared: tuple = ()  # (study, the future of its gravity state on the workers) for the run tasks
+    shared: tuple = ()  # (study, the futures of its gravity state and steady flow on the workers) for its runs
     plan_again: bool = True  # something its search plans on has changed since it was last asked
     planned_parallel: int = 0  # the search's n_parallel when it was last asked
 
@@ -174,6 +174,7 @@ class Engine:
         self.n_submitted = 0
         self.stored_states: dict = {}  # (gravity folder, gravity key) -> the StressState on disk, or None
         self.scattered: dict = {}  # gravity key -> the future of that gravity state on every worker
+        self.flows: dict = {}  # the inputs of a steady flow (seepage.flow.flow_inputs) -> its future on every worker
 
     # ------------------------------------------------------------------ submitting
     def _submit(self, function, *args, priority: int, **kwargs):
@@ -185,18 +186,31 @@ class Engine:
         early, and each Event costs its run a scheduler round trip per stop-rule check."""
         if not case.shared:
             if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
-                state = self.client.submit(gravity_state, case.gravity, pure=False, priority=2_000_000,
-                                           key=f"gravity-state-{case.gkey}-{self.token}")
-                wait([state])
-                self.client.replicate([state])  # on every worker now: runs go wherever a worker is free
-                self.scattered[case.gkey] = state
-            case.shared = (case.study, self.scattered[case.gkey])
+                self.scattered[case.gkey] = self._on_every_worker(case.gravity, f"gravity-state-{case.gkey}")
+            flow = None
+            if case.study.seepage is not None:  # the client's flow: the workers do not solve it again
+                from workflows.seepage.flow import flow_inputs, study_flow
+
+                inputs = flow_inputs(case.study)
+                if inputs not in self.flows:
+                    self.flows[inputs] = self._on_every_worker(study_flow(case.study),
+                                                               f"steady-flow-{case.gkey}-{len(self.flows)}")
+                flow = self.flows[inputs]
+            case.shared = (case.study, self.scattered[case.gkey], flow)
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
         event, failing = ("", "") if case.single_run else (f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}")
-        future = self._submit(run_srf, *case.shared, srf, cancel_event=event or None, run_key=key,
-                              gravity_key=case.gkey, failing_event=failing or None, policy=case.policy,
+        study, gravity, flow = case.shared
+        future = self._submit(run_srf, study, gravity, srf, cancel_event=event or None, run_key=key,
+                              gravity_key=case.gkey, failing_event=failing or None, policy=case.policy, flow=flow,
                               key=f"srf-{srf:.4f}-{name}", priority=-case.index)
         self.tasks[future] = _Task(case, kind, srf, key, event, failing)
+        return future
+
+    def _on_every_worker(self, value, name: str):
+        """``value`` as a task's result replicated to every worker (``fos.task.held``)."""
+        future = self.client.submit(held, value, pure=False, priority=2_000_000, key=f"{name}-{self.token}")
+        wait([future])
+        self.client.replicate([future])  # on every worker now: runs go wherever a worker is free
         return future
 
     def _cancel(self, future) -> None:
@@ -287,6 +301,11 @@ class Engine:
                 self.progress.message(each.say(f"warning: the gravity stage diverged: {error}"))
                 self._concluded(each)
             return
+        if result.flow is not None:  # solved by the worker that relaxed gravity: not again here
+            from workflows.seepage.flow import remember
+
+            for each in waiting:
+                remember(each.study, result.flow)
         for each in waiting:
             written = not each.write_gravity or (each is not case and each.gravity_dir == case.gravity_dir)
             self._gravity_done(each, result, computed=each is case, written=written)

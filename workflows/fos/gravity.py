@@ -38,6 +38,7 @@ class GravityResult:
     n_particles: int
     wall_time_s: float
     unconverged: list[str] = field(default_factory=list)  # stages that reached max_duration_s
+    flow: object = None  # the study's steady flow (``workflows.seepage.flow.StudyFlow``), or None
 
 
 def gravity_paths(study: Study, out_dir: Path) -> list[Path]:
@@ -107,8 +108,13 @@ def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
         datasets.append(result.dataset)
         if result.series.converged is False:
             unconverged.append(stage.name)
+    flow = None
+    if study.seepage is not None:
+        from workflows.seepage.flow import study_flow
+
+        flow = study_flow(study)  # solved with the scene above: the client writes it, the runs reuse it
     return GravityResult(sim.snapshot().stress_state, datasets, scene.n_particles, time.perf_counter() - start,
-                         unconverged)
+                         unconverged, flow)
 
 
 def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
@@ -117,6 +123,10 @@ def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
     make_output_folder(out_dir)
     for dataset, path in zip(result.datasets, gravity_paths(study, out_dir)):
         write_dataset(dataset.assign_attrs(provenance(study)), path)
+    if result.flow is not None:
+        from workflows.seepage.results import seepage_dataset, write_seepage
+
+        write_seepage(study, seepage_dataset(study, result.flow), out_dir)
 
 
 def copy_gravity(donor_study: Study, donor_dir: Path, study: Study, out_dir: Path) -> None:

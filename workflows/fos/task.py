@@ -118,11 +118,11 @@ class SrfRunResult:
                                    finished_s=self.finished_unix_s - study_start_unix_s)
 
 
-def gravity_state(state: StressState) -> StressState:
-    """The gravity state the runs start from, as the result of a task rather than scattered data:
-    when every worker holding it dies, the scheduler runs this task again on another (scattered
-    data would be lost, and every run waiting for it cancelled)."""
-    return state
+def held(value):
+    """``value`` (the gravity state the runs start from, the steady flow they share) as the result of a
+    task rather than scattered data: when every worker holding it dies, the scheduler runs this task
+    again on another (scattered data would be lost, and every run waiting for it cancelled)."""
+    return value
 
 
 FIRST_MESHES_KEPT = 4
@@ -170,7 +170,8 @@ def _connected(rule, cancel_event: str, failing_event: str | None, failure_m: fl
 
 
 def run_srf(study: Study | str, gravity: StressState, srf: float, cancel_event: str | None = None, run_key: str = "",
-            gravity_key: str = "", failing_event: str | None = None, policy: RunPolicy = RunPolicy()) -> SrfRunResult:
+            gravity_key: str = "", failing_event: str | None = None, policy: RunPolicy = RunPolicy(),
+            flow=None) -> SrfRunResult:
     """Run strength-reduction factor ``srf`` of ``study`` (a checked Study, as the engine sends it: no
     parsing on the worker; or its text) from the gravity state; an :class:`SrfRunResult`.
 
@@ -181,10 +182,15 @@ def run_srf(study: Study | str, gravity: StressState, srf: float, cancel_event: 
     ``stage.early_stop`` and ``cancel_event`` (the checks come with the stop rule).
     ``run_key`` and ``gravity_key`` (``workflows.fos.keys``, from the client) go into the file.
     ``policy``: which runs keep their particle fields, and whether the run ends at the failure
-    displacement (:class:`RunPolicy`).
+    displacement (:class:`RunPolicy`); ``flow``: the study's steady flow, solved by the client
+    (``workflows.seepage.flow``), which the scene then takes instead of solving it again.
     """
     started_unix_s = time.time()
     study = parse_study(study) if isinstance(study, str) else study
+    if flow is not None:
+        from workflows.seepage.flow import remember
+
+        remember(study, flow)
     stage = study.strength_reduction
     stage_index = len(study.stages) - 1
     scene = build_scene(study)

@@ -35,6 +35,14 @@ class MaterialBase(Record):
         "m", "this material's own piezometric line [[x, y], ...] (a perched water table), instead of [water]'s; "
         "x increasing, spanning the domain", default=None,
     )
+    permeability_m_s: float | None = number(
+        "m s-1", "*with [seepage]:* saturated hydraulic conductivity k (along permeability_angle_deg); required "
+        "there", default=None, gt=0.0,
+    )
+    permeability_ratio: float = number("1", "*with [seepage]:* k across / k along the principal direction "
+                                       "(anisotropy; layered ground: below 1)", default=1.0, gt=0.0)
+    permeability_angle_deg: float = number("degree", "*with [seepage]:* direction of the larger conductivity from "
+                                           "the horizontal, anticlockwise", default=0.0, ge=-90.0, le=90.0)
 
     @property
     def plastic(self) -> bool:

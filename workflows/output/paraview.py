@@ -6,7 +6,8 @@ Every result file of ``OUT_DIR`` holding a particle mesh (``gravity.nc``, ``srf_
 ``run.nc``, ``<stage>.nc``) becomes ``<name>.vtu``: an XML UnstructuredGrid of the final
 particle positions (points, z = 0) and triangles, with point data ``displacement`` (m),
 ``velocity`` (m s-1), ``stress`` (Pa, effective, 4 components xx, yy, zz, xy, tension positive),
-``pore_pressure`` (Pa), ``plastic_strain``, ``material`` and ``initial_position`` (m).  ``results.pvd`` lists them:
+``pore_pressure`` (Pa), ``plastic_strain``, ``material`` and ``initial_position`` (m); ``seepage.nc``
+becomes ``seepage.vtu`` (heads, pore pressure, Darcy velocity), outside the collection.  ``results.pvd`` lists them:
 SRF runs at "timestep" = F, stage files at their stage index, so ParaView's time slider
 steps through the SRF values or the stages.  Data are ASCII: simple to read back and check.
 
@@ -66,6 +67,37 @@ def vtu_text(xy, triangles, displacement, velocity, stress, pore_pressure, plast
         f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
         '<PointData Scalars="plastic_strain" Vectors="displacement">', *point_data, "</PointData>",
         "<Points>", _array("Points", vector(xy), 3, "Float64"), "</Points>",
+        "<Cells>", *cells, "</Cells>",
+        "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
+    ])
+
+
+def seepage_vtu_text(ds: xr.Dataset) -> str:
+    """The VTU text of a ``seepage.nc``: the particles of the flow's mesh with point data
+    ``total_head`` (m), ``pressure_head`` (m), ``pore_pressure`` (Pa) and cell data
+    ``darcy_velocity`` (m s-1) and ``relative_permeability``."""
+    x, y = ds["particle_x"].values, ds["particle_y"].values
+    n = x.size
+    triangles = np.asarray(ds["mesh2d_face_nodes"].values, dtype=np.int64)
+    velocity = np.column_stack([ds["darcy_vx"].values, ds["darcy_vy"].values, np.zeros(triangles.shape[0])])
+    cells = [
+        _array("connectivity", triangles, 1, "Int64"),
+        _array("offsets", 3 * np.arange(1, triangles.shape[0] + 1), 1, "Int64"),
+        _array("types", np.full(triangles.shape[0], VTK_TRIANGLE), 1, "UInt8"),
+    ]
+    return "\n".join([
+        '<?xml version="1.0"?>',
+        '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
+        "<UnstructuredGrid>",
+        f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
+        '<PointData Scalars="total_head">',
+        _array("total_head", ds["total_head"].values, 1, "Float64"),
+        _array("pressure_head", ds["pressure_head"].values, 1, "Float64"),
+        _array("pore_pressure", ds["pore_pressure"].values, 1, "Float64"),
+        "</PointData>",
+        '<CellData Vectors="darcy_velocity">', _array("darcy_velocity", velocity, 3, "Float64"),
+        _array("relative_permeability", ds["relative_permeability"].values, 1, "Float64"), "</CellData>",
+        "<Points>", _array("Points", np.column_stack([x, y, np.zeros(n)]), 3, "Float64"), "</Points>",
         "<Cells>", *cells, "</Cells>",
         "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
     ])
@@ -137,9 +169,12 @@ def export_folder(out_dir: str | Path, to: str | Path | None = None) -> Path:
     for index, path in enumerate(sorted(out_dir.glob("*.nc"))):
         with xr.open_dataset(path, engine="netcdf4") as ds:
             if "mesh2d_face_nodes" not in ds:
-                continue  # summary.nc
+                continue  # summary.nc; a run file without its particle state (keep_fields)
             to.mkdir(parents=True, exist_ok=True)
             vtu = to / (path.stem + ".vtu")
+            if "total_head" in ds:  # seepage.nc: the flow, beside the stages (not a step of them)
+                _write_text(vtu, seepage_vtu_text(ds))
+                continue
             _write_text(vtu, dataset_to_vtu(ds))
             entries.append((_timestep(ds, index), vtu.name))
     if not entries:

@@ -19,6 +19,8 @@ from workflows.output.variables import (
     REFINEMENT_FILE,
     REFINEMENT_FILE_ATTRIBUTES,
     RUNOUT_METRICS,
+    SEEPAGE_FILE,
+    SEEPAGE_FILE_ATTRIBUTES,
     STAGE_FILE,
     STAGE_FILE_ATTRIBUTES,
     STAGE_SWEEP_FILE,
@@ -53,6 +55,7 @@ notebooks in `studies/notebooks/`.
 | `OUT/study.nc` | a sweep: the FOS of every case over the sweep's dimensions |
 | `OUT/cases/<case>/` | a sweep: each case's files, as an FOS study's (`case.toml` its study text; no figures) |
 | `OUT/fos_<axis>.png`, `OUT/fos_map.png` | a sweep with `[output] figures = true`: FOS against each axis, and the map of a grid of two or more axes |
+| `OUT/seepage.nc`, `OUT/seepage.png` | a study with `[seepage]`: the steady flow whose pore pressures every stage uses (beside `gravity.nc` in an FOS study) |
 """
 
 
@@ -120,6 +123,11 @@ def page() -> str:
               "probabilistic study in `OUT/cases/<case>/` (its `probabilistic.nc` as above, its realisations "
               "under `OUT/cases/<case>/cases/`). `study.nc` has the dimensions, axis coordinates and attributes "
               "of a sweep's, and:", "", *_variables(PROBABILISTIC_SWEEP_FILE), ""]
+    parts += ["## `seepage.nc` of a study with `[seepage]`", "",
+              "The steady flow (`workflows/seepage/`, docs/method.md section 15) on the particles' first mesh: "
+              "heads and pore pressure at the particles, Darcy velocities in the triangles, the water through "
+              "each boundary condition and the phreatic surface.", "", *_variables(SEEPAGE_FILE), "",
+              "Global attributes:", "", *_attributes(SEEPAGE_FILE_ATTRIBUTES), ""]
     return "\n".join(parts)
 
 

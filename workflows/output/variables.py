@@ -370,3 +370,42 @@ REFINEMENT_FILE_ATTRIBUTES = (
     Attribute("safety_factor, level_fos_tolerance", "Fs of the GCI, and each level's search tolerance"),
     Attribute("extrapolation_reason, verdict", "one line each: how the band was found; the report's first line"),
 )
+
+SEEPAGE_FILE = _table(
+    Variable("particle_x", ("particle",), "m", "x of the particle (its initial position: the flow is solved there)"),
+    Variable("particle_y", ("particle",), "m", "y of the particle"),
+    Variable("total_head", ("particle",), "m", "total head h: elevation plus pressure head"),
+    Variable("pressure_head", ("particle",), "m", "pressure head h - y (negative above the water table)"),
+    Variable("pore_pressure", ("particle",), "Pa",
+             "pore pressure gamma_w max(h - y, 0) the particle carries through every stage (no suction)"),
+    Variable("particle_inflow", ("particle",), "m2 s-1",
+             "water entering the ground at the particle, per metre of thickness (negative: leaving; 0 inside)"),
+    Variable("particle_condition", ("particle",), "1",
+             "the boundary condition holding at the particle (index into condition; -1: none, no flow)"),
+    Variable("mesh2d", (), "1", "the particles' first triangle mesh, on which the flow is solved (UGRID)"),
+    Variable("mesh2d_face_nodes", ("face", "three"), "1", "the three particles of each triangle, counter-clockwise"),
+    Variable("darcy_vx", ("face",), "m s-1", "x Darcy velocity (specific discharge) -k_r K grad h in the triangle"),
+    Variable("darcy_vy", ("face",), "m s-1", "y Darcy velocity (specific discharge) in the triangle"),
+    Variable("relative_permeability", ("face",), "1",
+             "k_r of the triangle: 1 saturated, residual_permeability dry, between where the water table crosses it"),
+    Variable("condition", ("condition",), "1",
+             "name of each boundary condition: pond (ponded water) first, then the [[seepage.boundary]] names"),
+    Variable("condition_inflow", ("condition",), "m2 s-1",
+             "water entering the ground through each condition, per metre of thickness (negative: leaving)"),
+    Variable("phreatic_x", ("segment", "end"), "m", "x of the ends of each segment of the phreatic surface (h = y)"),
+    Variable("phreatic_y", ("segment", "end"), "m", "y of the ends of each segment of the phreatic surface"),
+    Variable("head_change", ("iteration",), "m", "largest change of the head in each iteration"),
+)
+"""``seepage.nc`` of a study with ``[seepage]``: the steady flow on the particles' first mesh."""
+
+SEEPAGE_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the study's text)"),
+    Attribute("iterations, converged, tolerance", "iterations of the free surface and seepage faces, whether the "
+              "largest head change fell below tolerance times the range of the fixed heads"),
+    Attribute("residual_permeability, unsaturated_band_m", "as in [seepage]"),
+    Attribute("inflow_m2_s, outflow_m2_s", "the water entering and leaving the ground, per metre of thickness "
+              "(their difference is the solution's mass balance)"),
+    Attribute("exit_x_m, exit_y_m", "the exit point: the highest seepage-face particle water leaves through "
+              "(NaN without one)"),
+    Attribute("wall_time_s", "time to build and solve the flow"),
+)

@@ -37,6 +37,9 @@ from workflows.probabilistic.random_field import MODELS, ParticleField, lognorma
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
 FIELD_DISTRIBUTIONS = ("normal", "lognormal")
+SEEPAGE_PROPERTY = "permeability_m_s"
+"""The one property of a field that is no property of the core's: the conductivity the steady flow
+takes (``workflows.seepage.flow``), with ``[seepage]``."""
 OUTSIDE_RANGE_LIMIT = 1e-6
 """A normal field whose point value leaves its field's allowed range with a probability above this is
 refused (lognormal instead); below it, values beyond the bound are set to the bound."""
@@ -107,9 +110,11 @@ class RandomField(Record):
                 raise StudyError(f"{where}.material", f"no material named {entry.material!r} "
                                  f"(known: {', '.join(materials)})")
             numeric = [name for name, spec in specs(type(material)).items() if spec.type == "number"]
-            if entry.property not in numeric or entry.property not in material.core_row():
-                raise StudyError(f"{where}.property", f"{entry.property!r} is no property of {entry.material!r} "
-                                 f"(a {material.model}; its properties: {', '.join(p for p in numeric if p in material.core_row())})")
+            varying = [p for p in numeric if p in material.core_row()] + [SEEPAGE_PROPERTY] * (study.seepage is not None)
+            if entry.property not in varying:
+                raise StudyError(f"{where}.property", f"{entry.property!r} is no property of {entry.material!r} that "
+                                 f"can vary (a {material.model}: {', '.join(varying)}"
+                                 + ("; permeability_m_s with [seepage]" if study.seepage is None else "") + ")")
             if entry.property == "density_kg_m3" and study.water is not None:
                 raise StudyError(f"{where}.property", "a random density with [water] is not supported (the water "
                                  "sets saturated densities per particle)")
@@ -157,10 +162,11 @@ class RandomField(Record):
                                  f"{std:g} leaves {entry.property} {op} {bound:g} with probability {outside:.2g}; "
                                  "use a lognormal field or a smaller std")
 
-    def node_properties(self, study, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
+    def node_properties(self, materials, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
                         node_material: np.ndarray) -> dict[str, np.ndarray]:
-        """property -> (n,) values at the particles (NaN: a particle of another material), module doc."""
-        by_name = {material.name: row for row, material in enumerate(study.materials)}
+        """property -> (n,) values at the particles (NaN: a particle of another material) of the study's
+        ``materials`` (module doc)."""
+        by_name = {material.name: row for row, material in enumerate(materials)}
         out: dict[str, np.ndarray] = {}
         fields: dict[tuple, ParticleField] = {}
         gaussian: dict[str, np.ndarray] = {}
@@ -181,13 +187,13 @@ class RandomField(Record):
                 rho = entry.correlation
                 g = rho * gaussian[entry.correlated_with] + math.sqrt(1.0 - rho * rho) * g
             gaussian[entry.name] = g
-            mean, std = self.moments(entry, study.materials[row])
+            mean, std = self.moments(entry, materials[row])
             if entry.distribution == "lognormal":
                 mu, sigma = lognormal_parameters(mean, std / mean)
                 values = np.exp(mu + sigma * g)
             else:
                 values = mean + std * g
-            spec = specs(type(study.materials[row]))[entry.property]
+            spec = specs(type(materials[row]))[entry.property]
             for op, bound in spec.bounds:  # a normal field's rare values beyond its range (OUTSIDE_RANGE_LIMIT)
                 limit = {">": np.nextafter(bound, math.inf), "<": np.nextafter(bound, -math.inf)}.get(op, bound)
                 values = np.maximum(values, limit) if op in (">", ">=") else np.minimum(values, limit)

@@ -225,6 +225,11 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
     for path in paths:  # results of another study text must not outlive a failed rerun
         path.unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
+    if study.seepage is not None:  # the flow every stage's pore pressure comes from
+        from workflows.seepage.flow import study_flow
+        from workflows.seepage.results import seepage_dataset, write_seepage
+
+        write_seepage(study, seepage_dataset(study, study_flow(study)), out_dir)
     for index, (stage, path) in enumerate(zip(study.stages, paths)):
         report = lambda fraction, stage=stage: progress.stage(case, stage.name, stage.kind, fraction)  # noqa: E731
         series = run_and_write_stage(study, sim, index, path, monitor_nodes, out_dir, progress=report).series

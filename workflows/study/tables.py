@@ -35,6 +35,7 @@ from workflows.materials import MATERIAL_MODELS
 from workflows.probabilistic.spatial import RandomField
 from workflows.probabilistic.table import Probabilistic
 from workflows.refinement.table import Refinement
+from workflows.seepage.table import Seepage
 from workflows.stages import STAGE_KINDS
 from workflows.stages.strength_reduction import StrengthReductionStage
 from workflows.water import Water
@@ -396,6 +397,7 @@ class Study(Record):
     refinement: Refinement | None = optional_table(Refinement)
     probabilistic: Probabilistic | None = optional_table(Probabilistic)
     random_field: RandomField | None = optional_table(RandomField)
+    seepage: Seepage | None = optional_table(Seepage)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -464,7 +466,14 @@ class Study(Record):
                 raise StudyError(field, f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
                                  f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
         study_line = water is not None and water.phreatic_line is not None
+        if self.seepage is not None:
+            self._check_seepage()
+        elif water is not None and not study_line and water.ru is None and water.pond_level_m is None:
+            raise StudyError("water.phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m "
+                             "(or [seepage] to compute the water)")
         for i, material in enumerate(self.materials):
+            if self.seepage is not None:
+                continue
             if material.saturated_density_kg_m3 is not None and not study_line and material.phreatic_line_m is None:
                 raise StudyError(f"materials[{i}].saturated_density_kg_m3", "applies below a piezometric line: give "
                                  "[water] phreatic_line_m or phreatic_level_m, or the material's phreatic_line_m")
@@ -484,6 +493,20 @@ class Study(Record):
         if seismic is not None and not seismic.in_gravity and self.strength_reduction is None:
             raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
                              "and this study has none")
+
+    def _check_seepage(self):
+        """[seepage] computes the water: no line or ru beside it, a permeability for every material."""
+        water = self.water
+        for name in ("phreatic_line_m", "phreatic_level_m", "ru"):
+            if water is not None and getattr(water, name) is not None:
+                raise StudyError(f"water.{name}", "[seepage] computes the pore pressure: leave the line and ru out")
+        for i, material in enumerate(self.materials):
+            if material.phreatic_line_m is not None:
+                raise StudyError(f"materials[{i}].phreatic_line_m", "[seepage] computes the pore pressure: leave "
+                                 "the line out")
+            if material.permeability_m_s is None:
+                raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
+                                 "the study has [seepage]")
 
     def _check_frames(self):
         snapshotted = [s for s in self.stages if s.snapshotted]

@@ -1,0 +1,233 @@
+"""Steady groundwater flow on the particles' triangle mesh: the total head, the free surface and
+the flow through the boundary.
+
+The unknown is the total head h (m) at every particle (node) of the mesh (``spfem_core.mesh``:
+linear triangles).  Darcy's law q = -k_r(psi) K grad h with the mass balance div q = 0 gives, on
+each triangle of area A_e and constant shape-function gradients B_e (2 x 3),
+
+    K_e = A_e B_e^T (k_r,e K_sat,e) B_e,      sum_e K_e h = Q,
+
+Q the water a boundary puts in at each node (m2/s per metre of thickness; positive in).
+K_sat = R(a) diag(k_1, k_2) R(a)^T is a material's saturated conductivity (m/s), k_1 along the
+direction a from the horizontal.  A node's inflow Q_i = (K h)_i is what holds a fixed head there.
+
+**Unconfined flow** (the free surface found on the fixed mesh).  Above the water table the soil
+conducts only a residual fraction of its saturated conductivity: with the pressure head
+psi = h - y at a triangle's centroid,
+
+    k_r = 1                                          psi >= 0
+    k_r = k_r0 + (1 - k_r0) (1 + psi / band)         -band < psi < 0      (a linear front)
+    k_r = k_r0                                       psi <= -band
+
+so that the phreatic surface (psi = 0) is where the flow leaves the saturated soil.  The heads
+are found by Picard iteration: K is assembled with the k_r of the last heads and solved again,
+a fraction of each update taken (halved whenever the full update grows, an oscillation of the
+water table across the triangles; grown back towards 1 otherwise), until the change of h is below
+``tolerance`` times the range of the fixed heads.
+
+**Seepage face** (the "unknown: p = 0 or q = 0" condition).  A seepage-face node holds h = y
+(atmospheric pressure) while water leaves through it (Q_i < 0), and is no-flow while its
+pressure stays below atmospheric (h < y); a held node whose Q_i turns inflow is released, and a
+released node whose head rises above its elevation is held again, each iteration, until no node
+changes.  The exit point is the highest held node.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse.linalg import spsolve
+
+
+@dataclass(frozen=True)
+class FlowProblem:
+    """A steady flow problem on a triangle mesh (SI units; arrays per node or per element)."""
+
+    node_xy_m: np.ndarray  # (n, 2)
+    elem_nodes: np.ndarray  # (e, 3), counter-clockwise
+    elem_conductivity_m_s: np.ndarray  # (e, 2, 2) saturated conductivity tensor K_sat
+    node_fixed_head_m: np.ndarray  # (n,) the prescribed total head; NaN where none
+    node_inflow_m2_s: np.ndarray  # (n,) given inflow (flux boundaries); 0 elsewhere
+    node_seepage_face: np.ndarray  # (n,) bool: may hold h = y where water leaves
+    residual_permeability: float = 1e-3  # k_r0
+    unsaturated_band_m: float = 1.0  # band: the pressure head over which k_r falls to k_r0
+
+
+@dataclass
+class FlowSolution:
+    """The heads of a steady flow problem and how they were found."""
+
+    head_m: np.ndarray  # (n,) total head h
+    node_inflow_m2_s: np.ndarray  # (n,) (K h)_i: the water each node takes in (out when negative)
+    elem_relative_permeability: np.ndarray  # (e,) k_r of the last iteration
+    elem_darcy_velocity_m_s: np.ndarray  # (e, 2) q = -k_r K_sat grad h
+    node_held: np.ndarray  # (n,) bool: fixed head, or seepage-face node held at h = y
+    iterations: int
+    converged: bool
+    head_change_m: list[float] = field(default_factory=list)  # largest |delta h| of each iteration
+
+    def pressure_head_m(self, node_xy_m: np.ndarray) -> np.ndarray:
+        """psi = h - y at the nodes."""
+        return self.head_m - node_xy_m[:, 1]
+
+
+def shape_gradients(node_xy_m: np.ndarray, elem_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(B (e, 2, 3), area A (e,)) of linear triangles: grad N_a = (y_b - y_c, x_c - x_b) / (2 A)."""
+    xy = node_xy_m[elem_nodes]  # (e, 3, 2)
+    x, y = xy[..., 0], xy[..., 1]
+    b = np.stack([y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1]], axis=1)
+    c = np.stack([x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0]], axis=1)
+    area = 0.5 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
+    return np.stack([b, c], axis=1) / (2.0 * area)[:, None, None], area
+
+
+def conductivity_tensor(k1_m_s, k2_m_s, angle_deg) -> np.ndarray:
+    """K = R diag(k1, k2) R^T, k1 along ``angle_deg`` from the horizontal (arrays broadcast; (..., 2, 2))."""
+    a = np.radians(np.asarray(angle_deg, dtype=float))
+    c, s = np.cos(a), np.sin(a)
+    k1, k2 = np.asarray(k1_m_s, dtype=float), np.asarray(k2_m_s, dtype=float)
+    return np.stack([np.stack([k1 * c * c + k2 * s * s, (k1 - k2) * c * s], axis=-1),
+                     np.stack([(k1 - k2) * c * s, k1 * s * s + k2 * c * c], axis=-1)], axis=-2)
+
+
+def relative_permeability(pressure_head_m: np.ndarray, residual: float, band_m: float) -> np.ndarray:
+    """k_r(psi) at points (module doc; ``band_m`` 0: a step from ``residual`` to 1 at psi = 0)."""
+    if band_m <= 0.0:
+        return np.where(pressure_head_m >= 0.0, 1.0, residual)
+    return np.clip(residual + (1.0 - residual) * (1.0 + pressure_head_m / band_m), residual, 1.0)
+
+
+def _partial_expectation(low, mid, high, t):
+    """E[(P - t)+] of P triangular on [low, high] with its mode at mid (arrays, low <= mid <= high): the
+    distribution of a linear field's values over a triangle's area, its vertex values low, mid, high."""
+    span = np.maximum(high - low, 1e-300)
+    upper = np.maximum(high - mid, 1e-300)
+    lower = np.maximum(mid - low, 1e-300)
+    above = (high - t) ** 3 / (3.0 * span * upper)  # mid <= t <= high
+    within = (high - mid) ** 2 / (3.0 * span) + (mid - t) - ((mid - low) ** 3 - (t - low) ** 3) / (3.0 * span * lower)
+    return np.where(t >= high, 0.0,
+                    np.where(t >= mid, np.where(high > mid, above, 0.0),
+                             np.where(t >= low, within, (low + mid + high) / 3.0 - t)))
+
+
+def element_relative_permeability(node_pressure_head_m: np.ndarray, elem_nodes: np.ndarray, residual: float,
+                                  band_m: float) -> np.ndarray:
+    """k_r of each triangle: the mean of k_r(psi) over its area, psi linear between its nodes (exact: the
+    values of a linear field over a triangle are distributed as the triangular distribution of its three
+    vertex values).  With ``band_m`` 0 this is k_r0 + (1 - k_r0) times the saturated fraction of the area:
+    the free surface crosses a triangle sharply, and k_r moves continuously with the heads."""
+    psi = np.sort(node_pressure_head_m[elem_nodes], axis=1)
+    low, mid, high = psi[:, 0], psi[:, 1], psi[:, 2]
+    if band_m > 0.0:
+        front = (_partial_expectation(low, mid, high, -band_m) - _partial_expectation(low, mid, high, 0.0)) / band_m
+    else:  # P(psi >= 0) = 1 - F(0)
+        span = np.maximum(high - low, 1e-300)
+        cdf = np.where(0.0 <= low, 0.0, np.where(0.0 >= high, 1.0, np.where(
+            0.0 <= mid, low * low / (span * np.maximum(mid - low, 1e-300)),
+            1.0 - high * high / (span * np.maximum(high - mid, 1e-300)))))
+        front = 1.0 - cdf
+    return residual + (1.0 - residual) * np.clip(front, 0.0, 1.0)
+
+
+MIN_RELAXATION = 0.02
+"""The smallest fraction of a Picard update taken (module doc): 0.05 left the perched-water study
+(studies/seepage_perched.toml) oscillating for ever, 0.02 settles it in about 560 iterations."""
+RELAXATION_GROWTH = 1.05
+"""After an update that did not grow, the fraction taken grows by this factor, back towards 1."""
+
+
+class _System:
+    """The conductivity matrix of a problem, assembled again for each set of k_r."""
+
+    def __init__(self, problem: FlowProblem):
+        self.b, self.area = shape_gradients(problem.node_xy_m, problem.elem_nodes)
+        if np.any(self.area <= 0.0):
+            raise ValueError("seepage: every triangle must be counter-clockwise with a positive area")
+        # K_e (sat) = A B^T K B
+        self.k_sat_elem = self.area[:, None, None] * np.einsum("eia,eij,ejb->eab", self.b,
+                                                              problem.elem_conductivity_m_s, self.b)
+        nodes = problem.elem_nodes
+        self.rows = np.repeat(nodes, 3, axis=1).ravel()
+        self.cols = np.tile(nodes, (1, 3)).ravel()
+        self.n = problem.node_xy_m.shape[0]
+
+    def matrix(self, kr: np.ndarray) -> sparse.csr_matrix:
+        data = (kr[:, None, None] * self.k_sat_elem).ravel()
+        return sparse.csr_matrix((data, (self.rows, self.cols)), shape=(self.n, self.n))
+
+
+def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterations: int = 2000) -> FlowSolution:
+    """The steady heads of ``problem`` (module doc): Picard iteration on k_r and the seepage face until
+    the largest head change is below ``tolerance`` times the range of the fixed heads and no
+    seepage-face node changes; ValueError when no node has a fixed head or a seepage face (the heads
+    would be undetermined)."""
+    xy = problem.node_xy_m
+    y = xy[:, 1]
+    fixed = np.isfinite(problem.node_fixed_head_m)
+    face = problem.node_seepage_face & ~fixed
+    if not fixed.any() and not face.any():
+        raise ValueError("seepage: no boundary fixes a head (total head, pressure head, seepage face or ponded "
+                         "water): the heads are undetermined")
+    system = _System(problem)
+    head_range = np.ptp(np.concatenate([problem.node_fixed_head_m[fixed], y[face]]))
+    scale = max(head_range, np.ptp(y), 1e-12)
+    held_face = face.copy()  # start with every face node at atmospheric pressure
+    head = np.where(fixed, problem.node_fixed_head_m, np.max(np.concatenate(
+        [problem.node_fixed_head_m[fixed], y[face]])))
+    kr = np.ones(problem.elem_nodes.shape[0])
+    changes: list[float] = []
+    relaxation, last_update = 1.0, None
+    converged = False
+    iteration = 0
+    for iteration in range(1, max_iterations + 1):
+        held = fixed | held_face
+        target = np.where(fixed, problem.node_fixed_head_m, y)
+        matrix = system.matrix(kr)
+        free = ~held
+        new = target.copy()
+        if free.any():
+            rhs = problem.node_inflow_m2_s[free] - matrix[free][:, held] @ target[held]
+            new[free] = spsolve(matrix[free][:, free].tocsc(), rhs)
+        update = float(np.max(np.abs(new - head)))
+        if last_update is not None and update > last_update:
+            relaxation = max(MIN_RELAXATION, 0.5 * relaxation)  # the update grew: a Picard oscillation, damp it
+        elif relaxation < 1.0:
+            relaxation = min(1.0, RELAXATION_GROWTH * relaxation)
+        last_update = update
+        change = relaxation * update
+        changes.append(change)
+        head = head + relaxation * (new - head)
+        inflow = matrix @ head
+        # the seepage face: release held nodes that take water in, hold released ones above atmospheric
+        release = held_face & (inflow - problem.node_inflow_m2_s > 0.0)
+        hold = face & ~held_face & (head > y)
+        held_face = (held_face & ~release) | hold
+        kr = element_relative_permeability(head - y, problem.elem_nodes, problem.residual_permeability,
+                                           problem.unsaturated_band_m)
+        if change <= tolerance * scale and not release.any() and not hold.any():
+            converged = True
+            break
+    matrix = system.matrix(kr)
+    velocity = -np.einsum("eij,ejb,eb->ei", kr[:, None, None] * problem.elem_conductivity_m_s, system.b,
+                          head[problem.elem_nodes])
+    return FlowSolution(head, matrix @ head, kr, velocity, fixed | held_face, iteration, converged, changes)
+
+
+def phreatic_segments(node_xy_m: np.ndarray, elem_nodes: np.ndarray, pressure_head_m: np.ndarray) -> np.ndarray:
+    """(s, 2, 2) the segments of the phreatic surface psi = 0 across the triangles where psi changes
+    sign (linear within each triangle)."""
+    psi = pressure_head_m[elem_nodes]  # (e, 3)
+    segments = []
+    for e in np.flatnonzero((psi.min(axis=1) < 0.0) & (psi.max(axis=1) >= 0.0)):
+        points = []
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            pa, pb = psi[e, a], psi[e, b]
+            if (pa < 0.0) != (pb < 0.0):
+                t = pa / (pa - pb)
+                xa, xb = node_xy_m[elem_nodes[e, a]], node_xy_m[elem_nodes[e, b]]
+                points.append(xa + t * (xb - xa))
+        if len(points) == 2:
+            segments.append(points)
+    return np.array(segments, dtype=float).reshape(-1, 2, 2)

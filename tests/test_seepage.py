@@ -1,0 +1,235 @@
+"""Steady seepage: the solver against exact fields (patch test, radial flow, the rectangular dam),
+the study file's conditions and their errors, and the pore pressure the particles carry."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from spfem_core.cloud import particles_in_polygon
+from spfem_core.mesh import triangulate
+from spfem_core.seepage import (
+    FlowProblem,
+    conductivity_tensor,
+    element_relative_permeability,
+    solve_steady_flow,
+)
+from verification.seepage import (
+    PK_EXIT_Y_M,
+    PK_FREE_SURFACE,
+    flow_of,
+    quarter_annulus,
+    rectangular_dam,
+    rectangular_dam_text,
+    sheet_pile_exact,
+    sheet_pile_text,
+)
+from workflows.cases import RunOptions
+from workflows.scene import build_scene
+from workflows.study import StudyError, parse_study
+from workflows.study_types import run_study
+
+
+@pytest.mark.parametrize("k1, k2, angle", [(1e-5, 1e-5, 0.0), (2e-5, 5e-7, 30.0)])
+def test_a_linear_head_is_exact_on_a_jittered_cloud(k1, k2, angle):
+    """Patch test: h = 13 + 0.2 x - 0.5 y on the boundary gives it inside to round-off, and the Darcy
+    velocity -K grad h in every triangle, isotropic or anisotropic at 30 degrees."""
+    xy = particles_in_polygon(np.array([[0, 0], [6, 0], [6, 4], [0, 4]], float), 0.5, jitter=0.25, seed=3)
+    elem = triangulate(xy, 0.5, 1.5).elem_nodes
+    exact = 13.0 + 0.2 * xy[:, 0] - 0.5 * xy[:, 1]  # above the domain: saturated
+    edge = (xy[:, 0] < 1e-9) | (xy[:, 0] > 6 - 1e-9) | (xy[:, 1] < 1e-9) | (xy[:, 1] > 4 - 1e-9)
+    k = conductivity_tensor(k1, k2, angle)
+    problem = FlowProblem(xy, elem, np.broadcast_to(k, (elem.shape[0], 2, 2)), np.where(edge, exact, np.nan),
+                          np.zeros(len(xy)), np.zeros(len(xy), bool))
+    solution = solve_steady_flow(problem)
+    assert (~edge).sum() > 50
+    np.testing.assert_allclose(solution.head_m, exact, atol=1e-11)
+    np.testing.assert_allclose(solution.elem_darcy_velocity_m_s, np.broadcast_to(-k @ [0.2, -0.5], (elem.shape[0], 2)),
+                               rtol=1e-9, atol=1e-20)
+
+
+def test_a_triangle_the_water_table_crosses_conducts_in_proportion_to_its_saturated_area():
+    """psi = (1, -1, -1) at the vertices: a quarter of the area is saturated (psi >= 0), so k_r =
+    k_r0 + (1 - k_r0) / 4; with a band, the mean of the linear front over the triangle."""
+    elem = np.array([[0, 1, 2]])
+    assert element_relative_permeability(np.array([1.0, -1.0, -1.0]), elem, 1e-3, 0.0)[0] == pytest.approx(
+        1e-3 + (1 - 1e-3) * 0.25)
+    assert element_relative_permeability(np.array([2.0, 3.0, 4.0]), elem, 1e-3, 0.5)[0] == 1.0
+    assert element_relative_permeability(np.array([-2.0, -3.0, -4.0]), elem, 1e-3, 0.5)[0] == 1e-3
+
+
+def test_radial_flow_converges_to_the_closed_form_at_second_order():
+    """A quarter annulus r = 2-10 m: the discharge error falls about 4 times per halving of h (at
+    least 3.4 times), below 5e-4 at h = 0.25 m."""
+    errors = [abs(quarter_annulus(h)[0]) for h in (0.5, 0.25, 0.125)]
+    assert errors[1] < 5e-4
+    assert errors[0] / errors[1] > 3.4 and errors[1] / errors[2] > 3.4
+
+
+def test_flow_under_a_sheet_pile_approaches_pavlovskys_closed_form():
+    """s / T = 0.5 (q / kH = 0.5 exactly): +1.3% at h = 0.25 m, halving with h (the flow is singular
+    at the pile's tip: first order)."""
+    coarse, fine = (flow_of(sheet_pile_text(h, 10.0, 5.0, 10.0)) for h in (0.5, 0.25))
+    q = [dict(zip(f.conditions, f.condition_inflow_m2_s()))["below_tip"] / (1e-5 * 10.0) for f in (coarse, fine)]
+    exact = sheet_pile_exact(10.0, 5.0)
+    assert exact == pytest.approx(0.5, abs=1e-12)
+    assert 0.0 < q[1] / exact - 1.0 < 0.02
+    assert (q[0] - exact) / (q[1] - exact) == pytest.approx(2.0, rel=0.15)
+
+
+def test_the_rectangular_dam_passes_dupuits_discharge_and_polubarinova_kochinas_free_surface():
+    """H1 = 10 m, H2 = 2 m, L = 10 m at h = 0.5 m: in = out = Dupuit's q within 0.1% (k_r0 = 1e-3 lets
+    a trickle through the dry soil), the exit point within one spacing of the exact 3.94 m and above the
+    tailwater, the free surface within 0.03 m of the exact one."""
+    result = rectangular_dam(0.5)
+    assert result["inflow_ratio"] == pytest.approx(1.0, abs=1e-3)
+    assert result["outflow_ratio"] == pytest.approx(result["inflow_ratio"], rel=1e-5)  # the tolerance 1e-6
+    assert result["exit_y_m"] > 2.0 and abs(result["exit_y_m"] - PK_EXIT_Y_M) <= 0.5
+    np.testing.assert_allclose(result["surface_m"], [y for _, y in PK_FREE_SURFACE], atol=0.03)
+
+
+def _without_upstream(text: str) -> str:
+    start = text.index('[[seepage.boundary]]\nname = "upstream"')
+    return text[:start] + text[text.index("[[seepage.boundary]]", start + 1):]
+
+
+DAM = (_without_upstream(rectangular_dam_text(0.5)) + '\n[water]\npond_level_m = 10.0\npond_x_max_m = 0.0\n').replace(
+    "density_kg_m3 = 2000.0", "density_kg_m3 = 1800.0\nsaturated_density_kg_m3 = 2000.0")
+"""The rectangular dam with its upstream head set by ponded water against the upstream face alone."""
+
+
+def test_the_particles_carry_the_flows_pore_pressure_and_weigh_saturated_below_the_water_table():
+    study = parse_study(DAM)
+    scene = build_scene(study)
+    flow = flow_of(DAM)
+    psi = flow.solution.pressure_head_m(flow.node_xy_m)
+    np.testing.assert_allclose(scene.node_pore_pressure_pa, 9810.0 * np.maximum(psi, 0.0))
+    assert set(np.unique(scene.node_properties["density_kg_m3"])) == {1800.0, 2000.0}
+    np.testing.assert_array_equal(scene.node_properties["density_kg_m3"] == 2000.0, psi >= 0.0)
+    assert scene.pond_x_range_m == (-math.inf, 0.25)  # half a spacing of slack: the face stays wet as it moves
+
+
+def test_a_study_writes_its_flow_and_every_stage_uses_it(tmp_path):
+    """The gravity stage of the dam: seepage.nc (mass balance closed, the pond on the upstream face
+    alone) and seepage.png beside the stage file, whose pore pressures are the flow's."""
+    run_study(parse_study(DAM), tmp_path, RunOptions())
+    with xr.open_dataset(tmp_path / "seepage.nc") as seepage, xr.open_dataset(tmp_path / "run.nc") as run:
+        assert seepage.attrs["converged"] == 1
+        assert seepage.attrs["inflow_m2_s"] == pytest.approx(seepage.attrs["outflow_m2_s"], rel=1e-5)
+        inflow = dict(zip(seepage["condition"].values, seepage["condition_inflow"].values))
+        assert inflow["pond"] == pytest.approx(-(inflow["face"] + inflow["tailwater"]), rel=1e-5)
+        assert inflow["pond"] == pytest.approx(1e-5 * (10.0**2 - 2.0**2) / 20.0, rel=1e-3)  # Dupuit's q
+        np.testing.assert_allclose(run["particle_pore_pressure"].values, seepage["pore_pressure"].values)
+        assert seepage["phreatic_x"].sizes["segment"] > 10
+    assert (tmp_path / "seepage.png").is_file()
+
+
+@pytest.mark.parametrize("change, field", [
+    ("permeability_m_s = 1e-05\n", "materials[0].permeability_m_s"),
+    ('condition = "seepage_face"\nx_min_m = 10.0\n', "seepage.boundary[1]"),
+    ("[seepage]\n", "water.phreatic_level_m"),
+])
+def test_a_seepage_study_that_cannot_be_solved_names_the_field(change, field):
+    """A material without permeability; a seepage face whose box misses the boundary; a line beside
+    the computed water."""
+    if field.startswith("materials"):
+        text = rectangular_dam_text(0.5).replace(change, "")
+    elif field.startswith("seepage"):
+        text = rectangular_dam_text(0.5).replace(change, 'condition = "seepage_face"\nx_min_m = 20.0\n')
+    else:
+        text = rectangular_dam_text(0.5).replace(change, "[water]\nphreatic_level_m = 5.0\n" + change)
+    with pytest.raises(StudyError) as error:
+        build_scene(parse_study(text))
+    assert error.value.field == field
+
+
+def test_no_head_anywhere_is_refused_and_a_flux_must_find_an_edge():
+    no_head = rectangular_dam_text(0.5).replace('condition = "total_head"', 'condition = "no_flow"').replace(
+        'condition = "seepage_face"', 'condition = "no_flow"').replace("total_head_m = 10.0\n", "").replace(
+        "total_head_m = 2.0\n", "")
+    with pytest.raises(StudyError, match="no boundary fixes a head") as error:
+        build_scene(parse_study(no_head))
+    assert error.value.field == "seepage.boundary"
+    one_point = rectangular_dam_text(0.5) + ('[[seepage.boundary]]\nname = "rain"\ncondition = "infiltration"\n'
+                                             'flux_m_s = 1e-6\nx_min_m = 10.0\ny_min_m = 12.0\n')
+    with pytest.raises(StudyError, match="no edge") as error:
+        build_scene(parse_study(one_point))
+    assert error.value.field == "seepage.boundary[3]"
+
+
+def test_ponded_water_loads_only_the_surface_within_its_abscissae():
+    """The pond of the dam stands against its upstream face (x <= 0) alone: after one step, the water's
+    horizontal push on the particles is gamma_w H1^2 / 2 in +x (the pore pressure's own forces sum to
+    zero over each triangle); the downstream face, below the pond's level too, is dry."""
+    from workflows.stages.running import begin_stage, new_simulation
+
+    study = parse_study(DAM)
+    sim = new_simulation(study, build_scene(study), threads=1)
+    begin_stage(study, sim, 0)
+    sim.run(1.5 * sim.dt_s, damping=0.0)
+    push = sim.scratch.external_force_n[:, 0].sum()
+    assert push == pytest.approx(9810.0 * 10.0**2 / 2.0, rel=2e-3)
+
+
+PERMEABILITY_FIELD = ('\n[random_field]\nseed = 2\n[[random_field.properties]]\nname = "k"\nmaterial = "clay"\n'
+                      'property = "permeability_m_s"\ndistribution = "lognormal"\ncov = 1.0\ntheta_x_m = 4.0\n')
+
+
+def _dam(spacing_m: float) -> str:
+    from verification.seepage import DAM_STUDY
+
+    return DAM_STUDY.read_text().replace("spacing_m = 0.25", f"spacing_m = {spacing_m!r}")
+
+
+def test_a_permeability_field_changes_the_flow_of_each_realisation_and_only_the_flow():
+    """A lognormal permeability field in the shipped dam: two realisations give two flows (another exit,
+    other pore pressures), each the pore pressure its particles carry; the core gets no permeability."""
+    from workflows.seepage.flow import study_flow
+
+    flows, scenes = [], []
+    for realisation in (0, 1):
+        study = parse_study(_dam(0.5) + PERMEABILITY_FIELD.replace("seed = 2", f"seed = 2\nrealisation = {realisation}"))
+        flows.append(study_flow(study))
+        scenes.append(build_scene(study))
+        np.testing.assert_allclose(scenes[-1].node_pore_pressure_pa, flows[-1].pore_pressure_pa())
+        assert "permeability_m_s" not in scenes[-1].node_properties
+    assert not np.allclose(flows[0].pore_pressure_pa(), flows[1].pore_pressure_pa())
+    homogeneous = study_flow(parse_study(_dam(0.5)))
+    assert not np.allclose(flows[0].pore_pressure_pa(), homogeneous.pore_pressure_pa())
+
+
+def test_permeability_varies_only_with_seepage():
+    text = rectangular_dam_text(0.5).replace("[seepage]", "[unused]").split("[unused]")[0]  # no [seepage]
+    text = text.replace("permeability_m_s = 1e-05\n", "") + PERMEABILITY_FIELD.replace('"clay"', '"soil"')
+    with pytest.raises(StudyError, match="permeability_m_s with \\[seepage\\]") as error:
+        parse_study(text)
+    assert error.value.field == "random_field.properties[0].property"
+
+
+def test_a_probabilistic_study_of_a_permeability_field_runs_each_realisation_on_its_own_flow(tmp_path):
+    """Three realisations of the dam at h = 0.5 m judged at F = 1.05 (near its FOS): each relaxes its own
+    gravity state (its pore pressures differ) and gets a verdict."""
+    text = _dam(0.5) + PERMEABILITY_FIELD + "\n[probabilistic]\nrealisations = 3\nfactor = 1.05\n"
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert outcome.n_realisations == 3 and outcome.n_undecided == 0 and outcome.runs_made == 3
+    assert not (tmp_path / "gravity").exists()  # one gravity state per realisation, in memory
+
+
+def test_the_reservoir_level_and_a_permeability_ratio_are_sweepable():
+    """A [sweep] over the dam's reservoir level and its clay's anisotropy makes cases whose flows
+    differ: a higher reservoir puts more pore pressure in the dam, whatever the anisotropy."""
+    from workflows.seepage.flow import study_flow
+    from workflows.study.reading import sweep_cases
+
+    text = _dam(0.5) + ('\n[sweep]\n[[sweep.axes]]\npath = "water.pond_level_m"\nvalues = [3.0, 5.1]\n'
+                        '[[sweep.axes]]\npath = "materials.clay.permeability_ratio"\nvalues = [1.0, 0.1]\n')
+    cases = sweep_cases(parse_study(text))
+    total = {case.values["pond_level_m"]: [] for case in cases}
+    for case in cases:
+        total[case.values["pond_level_m"]].append(study_flow(case.study).pore_pressure_pa().sum())
+    assert len(cases) == 4
+    assert all(high > low for high, low in zip(total[5.1], total[3.0]))
+    assert total[5.1][0] != total[5.1][1]  # the anisotropy moves the water table

@@ -1,0 +1,195 @@
+"""A study's steady flow: its problem on the particles' first mesh, solved once per process, and
+what it does to the particles.
+
+1. The mesh is the simulation's first mesh of the study's cloud (``workflows.scene.cloud``,
+   ``spfem_core.mesh.triangulate``); a triangle takes the conductivity of the material whose region
+   holds its centroid (of the particles' material where the centroid lies in none).
+2. The conditions (``workflows.seepage.table``): ponded water first, then each
+   ``[[seepage.boundary]]`` entry in order, on the mesh's boundary particles inside its box; a flux
+   goes to the nodes of the boundary edges both of whose ends it selects (half each, times the
+   edge's length, or its horizontal length for infiltration).
+3. ``spfem_core.seepage.solve_steady_flow`` finds the heads.  Each particle then carries the pore
+   pressure u = gamma_w max(h - y, 0) of its initial position (no suction above the water table),
+   and weighs its material's saturated density where h >= y.
+
+The pressure stays with the particles: a strength-reduction run starts from the gravity state at
+the particles' initial positions and is judged by the displacement at which a mechanism forms,
+well before the ground has moved far enough to change the flow; recomputing the flow on the
+deformed mesh would need the boundary conditions of a surface that is no longer where the study
+file put it (docs/method.md, section 15).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from spfem_core.mesh import boundary_edges, triangulate
+from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, solve_steady_flow
+from workflows.fields import StudyError
+from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+
+POND = "pond"
+"""The name of ponded water's condition in the results."""
+DEFAULT_WATER_UNIT_WEIGHT_N_M3 = 9810.0
+
+
+@dataclass
+class StudyFlow:
+    """A study's flow problem on its particles and the solution."""
+
+    node_xy_m: np.ndarray
+    elem_nodes: np.ndarray
+    elem_material: np.ndarray
+    problem: FlowProblem
+    solution: FlowSolution
+    conditions: tuple[str, ...]  # the name of each condition: the pond (if any), then each entry
+    node_condition: np.ndarray  # (n,) the condition that holds at each particle; -1: none (no flow or interior)
+    water_unit_weight_n_m3: float
+    wall_time_s: float
+
+    def pore_pressure_pa(self) -> np.ndarray:
+        """u = gamma_w max(h - y, 0) at every particle."""
+        return self.water_unit_weight_n_m3 * np.maximum(self.solution.pressure_head_m(self.node_xy_m), 0.0)
+
+    def saturated(self) -> np.ndarray:
+        """Particles at or below the water table (h >= y)."""
+        return self.solution.pressure_head_m(self.node_xy_m) >= 0.0
+
+    def condition_inflow_m2_s(self) -> np.ndarray:
+        """The water each condition takes in (m2/s per metre; negative: out), summed over its particles."""
+        inflow = self.solution.node_inflow_m2_s
+        return np.array([inflow[self.node_condition == i].sum() for i in range(len(self.conditions))])
+
+
+FLOWS_KEPT = 4
+"""Flows a process keeps (:func:`study_flow`): those of the studies it serves at once."""
+_flows: dict[tuple, StudyFlow] = {}
+
+
+def flow_inputs(study) -> tuple:
+    """What a study's flow depends on (equal inputs, equal flow): its geometry, materials, [seepage],
+    ponded water, the alpha of its mesh, and a [random_field] of permeability."""
+    water = study.water
+    field = study.random_field
+    if field is not None and not any(entry.property == SEEPAGE_PROPERTY for entry in field.properties):
+        field = None  # the flow does not depend on it: shared by every realisation
+    return (study.geometry, study.materials, study.seepage, None if water is None else water.pond_level_m,
+            None if water is None else (water.pond_x_min_m, water.pond_x_max_m),
+            DEFAULT_WATER_UNIT_WEIGHT_N_M3 if water is None else water.unit_weight_n_m3, study.solver.alpha, field)
+
+
+def study_flow(study) -> StudyFlow:
+    """The flow of ``study`` (module doc), solved once per process for the same inputs (a sweep's or a
+    probabilistic study's cases that share them share it) unless :func:`remember` was given it;
+    StudyError naming the field for a problem that has no solution, or whose iteration does not
+    converge."""
+    inputs = flow_inputs(study)
+    flow = _flows.pop(inputs, None)
+    if flow is None:
+        flow = _flow(*inputs)
+    remember(study, flow)
+    return flow
+
+
+def remember(study, flow: StudyFlow) -> None:
+    """Keep ``flow`` as the flow of ``study`` in this process (a dask worker handed the flow the client
+    solved does not solve it again)."""
+    inputs = flow_inputs(study)
+    _flows.pop(inputs, None)
+    _flows[inputs] = flow  # most recent last
+    while len(_flows) > FLOWS_KEPT:
+        del _flows[next(iter(_flows))]
+
+
+def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit_weight_n_m3, alpha,
+          random_field=None) -> StudyFlow:
+    from workflows.scene import cloud_of_geometry, rows_of_materials
+
+    start = time.perf_counter()
+    node_xy_m, node_spacing_m = cloud_of_geometry(geometry)
+    spacing = node_spacing_m if geometry.refined else geometry.spacing_m
+    elem_nodes = triangulate(node_xy_m, spacing, alpha).elem_nodes
+    node_material = rows_of_materials(materials, node_xy_m)
+    centroid_material = rows_of_materials(materials, node_xy_m[elem_nodes].mean(axis=1))
+    majority = np.array([np.bincount(rows).argmax() for rows in node_material[elem_nodes]])
+    elem_material = np.where(centroid_material >= 0, centroid_material, majority)
+    k1 = np.array([m.permeability_m_s for m in materials])[elem_material]
+    if random_field is not None:  # a permeability field: a triangle takes the geometric mean of its particles'
+        node_k = random_field.node_properties(materials, node_xy_m, node_spacing_m, node_material)[SEEPAGE_PROPERTY]
+        node_k = np.where(np.isnan(node_k), np.array([m.permeability_m_s for m in materials])[node_material], node_k)
+        varies = np.isin(elem_material, [i for i, m in enumerate(materials) if any(
+            e.material == m.name and e.property == SEEPAGE_PROPERTY for e in random_field.properties)])
+        k1 = np.where(varies, np.exp(np.log(node_k[elem_nodes]).mean(axis=1)), k1)
+    ratio = np.array([m.permeability_ratio for m in materials])[elem_material]
+    angle = np.array([m.permeability_angle_deg for m in materials])[elem_material]
+    conductivity = conductivity_tensor(k1, k1 * ratio, angle)
+
+    n = node_xy_m.shape[0]
+    tol = 1e-3 * float(np.min(node_spacing_m))
+    edges = boundary_edges(elem_nodes)
+    on_boundary = np.zeros(n, dtype=bool)
+    on_boundary[edges.ravel()] = True
+    fixed_head = np.full(n, np.nan)
+    face = np.zeros(n, dtype=bool)
+    node_condition = np.full(n, -1, dtype=np.int64)
+    flux_of = {}  # condition index -> (n,) its nodal inflow
+    conditions = []
+    x, y = node_xy_m[:, 0], node_xy_m[:, 1]
+    if pond_level_m is not None:
+        x_min, x_max = pond_x_range_m
+        wet = on_boundary & (y <= pond_level_m + tol)
+        wet &= (x >= (-np.inf if x_min is None else x_min) - tol) & (x <= (np.inf if x_max is None else x_max) + tol)
+        fixed_head[wet] = pond_level_m
+        node_condition[wet] = len(conditions)
+        conditions.append(POND)
+    for i, entry in enumerate(seepage.boundary):
+        where = f"seepage.boundary[{i}]"
+        box = on_boundary.copy()
+        for axis, values in (("x", x), ("y", y)):
+            low, high = getattr(entry, f"{axis}_min_m"), getattr(entry, f"{axis}_max_m")
+            box &= (values >= (-np.inf if low is None else low) - tol) & (values <= (np.inf if high is None else high) + tol)
+        if not box.any():
+            raise StudyError(where, f"the box of {entry.name!r} holds no particle of the domain's boundary")
+        index = len(conditions)
+        conditions.append(entry.name)
+        fixed_head[box], face[box] = np.nan, False
+        node_condition[box] = index
+        if entry.condition == "total_head":
+            fixed_head[box] = entry.total_head_m
+        elif entry.condition == "pressure_head":
+            fixed_head[box] = y[box] + (entry.pressure_head_m or 0.0)
+        elif entry.condition == "seepage_face":
+            face[box] = True
+        elif entry.condition in ("inflow", "infiltration"):
+            selected = edges[box[edges[:, 0]] & box[edges[:, 1]]]
+            if selected.size == 0:
+                raise StudyError(where, f"the box of {entry.name!r} holds no edge of the domain's boundary "
+                                 "(a flux needs two neighbouring boundary particles)")
+            d = node_xy_m[selected[:, 1]] - node_xy_m[selected[:, 0]]
+            length = np.abs(d[:, 0]) if entry.condition == "infiltration" else np.hypot(d[:, 0], d[:, 1])
+            nodal = np.zeros(n)
+            np.add.at(nodal, selected.ravel(), np.repeat(0.5 * entry.flux_m_s * length, 2))
+            flux_of[index] = nodal
+        else:  # no_flow
+            node_condition[box] = -1
+    inflow = np.zeros(n)
+    for index, nodal in flux_of.items():
+        mine = node_condition == index
+        inflow[mine] = nodal[mine]
+    problem = FlowProblem(node_xy_m, elem_nodes, conductivity, fixed_head, inflow, face, seepage.residual_permeability,
+                          seepage.unsaturated_band_m)
+    try:
+        solution = solve_steady_flow(problem, seepage.tolerance, seepage.max_iterations)
+    except ValueError as error:
+        raise StudyError("seepage.boundary", f"{error} (give a total_head, pressure_head or seepage_face "
+                         "condition, or [water] pond_level_m)") from None
+    if not solution.converged:
+        raise StudyError("seepage.max_iterations", (
+            f"the free surface did not settle in {solution.iterations} iterations (last head change "
+            f"{solution.head_change_m[-1]:.3g} m); raise max_iterations, or give unsaturated_band_m (about "
+            "1 m) where water infiltrates dry ground"))
+    return StudyFlow(node_xy_m, elem_nodes, elem_material, problem, solution, tuple(conditions), node_condition,
+                     float(water_unit_weight_n_m3), time.perf_counter() - start)

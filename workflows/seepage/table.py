@@ -1,0 +1,77 @@
+"""``[seepage]``: the boundary conditions of steady groundwater flow and how the flow is solved.
+
+Each ``[[seepage.boundary]]`` entry applies one condition to the particles on the domain's
+boundary (the first mesh's) inside its box, as ``[[boundary]]`` selects supports; entries apply in
+file order, a later one over an earlier one.  A boundary particle no entry selects is no-flow,
+except below ponded water (``[water] pond_level_m`` between ``pond_x_min_m`` and ``pond_x_max_m``),
+where the total head is the pond's level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from workflows.fields import Record, StudyError, integer, name_field, number, tables, text
+
+CONDITIONS = ("total_head", "pressure_head", "seepage_face", "inflow", "infiltration", "no_flow")
+NEEDS = {"total_head": "total_head_m", "inflow": "flux_m_s", "infiltration": "flux_m_s"}
+"""The field each condition needs (``pressure_head`` takes pressure_head_m, default 0)."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class SeepageBoundary(Record):
+    """A flow condition on the boundary particles inside a box (closed, tolerance h/1000)."""
+
+    name: str = name_field("name of the condition")
+    condition: str = text(
+        "`total_head` (h = total_head_m), `pressure_head` (h = y + pressure_head_m; 0: atmospheric), "
+        "`seepage_face` (atmospheric where water leaves, no flow where it would enter), `inflow` (flux_m_s "
+        "normal to the boundary, positive into the ground), `infiltration` (flux_m_s per horizontal length: "
+        "rain), `no_flow`", choices=CONDITIONS,
+    )
+    x_min_m: float | None = number("m", "left side of the box; default: unbounded", default=None)
+    x_max_m: float | None = number("m", "right side of the box; default: unbounded", default=None)
+    y_min_m: float | None = number("m", "bottom of the box; default: unbounded", default=None)
+    y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
+    total_head_m: float | None = number("m", "*condition = total_head:* the total head h (an elevation)",
+                                        default=None)
+    pressure_head_m: float | None = number("m", "*condition = pressure_head:* h - y; default 0 (atmospheric)",
+                                           default=None)
+    flux_m_s: float | None = number("m s-1", "*condition = inflow or infiltration:* the water entering per unit "
+                                    "area (negative: leaving)", default=None)
+
+    def check(self):
+        for name in ("total_head_m", "pressure_head_m", "flux_m_s"):
+            wanted = NEEDS.get(self.condition) == name or (name == "pressure_head_m"
+                                                          and self.condition == "pressure_head")
+            if getattr(self, name) is not None and not wanted:
+                raise StudyError(name, f"does not apply to condition = {self.condition}")
+        needed = NEEDS.get(self.condition)
+        if needed is not None and getattr(self, needed) is None:
+            raise StudyError(needed, f"required by condition = {self.condition}")
+        for axis in "xy":
+            low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
+            if low is not None and high is not None and low > high:
+                raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Seepage(Record):
+    """Steady groundwater flow: the pore pressures come from the flow's boundary conditions and each
+    material's permeability_m_s (docs/method.md, section 15)."""
+
+    boundary: tuple = tables(SeepageBoundary, "the flow's boundary conditions by position, in order (a "
+                             "boundary particle none selects is no-flow, or below ponded water at the pond's "
+                             "level)")
+    residual_permeability: float = number(
+        "1", "k_r0: above the water table the soil conducts this fraction of its permeability (unconfined flow)",
+        default=1e-3, gt=0.0, lt=1.0,
+    )
+    unsaturated_band_m: float = number(
+        "m", "k_r falls linearly from 1 at the water table to residual_permeability this far above it (pressure "
+        "head); 0: a sharp free surface. Give about 1 m for infiltration through dry ground", default=0.0, ge=0.0,
+    )
+    tolerance: float = number("1", "the iteration stops once no head changes by more than this times the range "
+                              "of the fixed heads", default=1e-6, gt=0.0, lt=1e-2)
+    max_iterations: int = integer("most iterations of the free surface and seepage faces", default=2000, ge=1,
+                                  le=20_000)
