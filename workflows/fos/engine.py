@@ -251,6 +251,10 @@ class Engine:
             self.progress.message(case.say(f"gravity state relaxed again: {reason}"))
         result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label)
         write_gravity(study, out_dir, result)
+        if result.flow is not None:
+            from workflows.seepage.results import flow_line
+
+            self.progress.message(case.say(flow_line(result.flow)))
         self._gravity_done(case, result, computed=True, written=True)
 
     def _start(self, case: CaseSearch) -> None:

@@ -27,6 +27,16 @@ def write_seepage(study, dataset: xr.Dataset, out_dir: Path) -> list[Path]:
     return paths
 
 
+def flow_line(flow) -> str:
+    """The report's line on a flow: the water through the ground, the exit point, how it settled."""
+    solution, inflow = flow.solution, flow.solution.node_inflow_m2_s
+    through = float(inflow[(flow.node_condition >= 0) & (inflow > 0.0)].sum())
+    exit_x, exit_y = exit_point_m(flow)
+    where = f", exit point ({exit_x:.3g}, {exit_y:.3g}) m" if np.isfinite(exit_x) else ""
+    return (f"steady seepage: {through:.3g} m2/s per metre through the ground{where}; settled in "
+            f"{solution.iterations} iterations (largest head change {solution.head_change_m[-1]:.2g} m)")
+
+
 def exit_point_m(flow) -> tuple[float, float]:
     """(x, y) of the highest seepage-face particle water leaves through; NaN without one."""
     problem, solution = flow.problem, flow.solution

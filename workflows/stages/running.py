@@ -227,9 +227,11 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
     if study.seepage is not None:  # the flow every stage's pore pressure comes from
         from workflows.seepage.flow import study_flow
-        from workflows.seepage.results import seepage_dataset, write_seepage
+        from workflows.seepage.results import flow_line, seepage_dataset, write_seepage
 
-        write_seepage(study, seepage_dataset(study, study_flow(study)), out_dir)
+        flow = study_flow(study)
+        write_seepage(study, seepage_dataset(study, flow), out_dir)
+        progress.message(flow_line(flow))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):
         report = lambda fraction, stage=stage: progress.stage(case, stage.name, stage.kind, fraction)  # noqa: E731
         series = run_and_write_stage(study, sim, index, path, monitor_nodes, out_dir, progress=report).series
