@@ -2,6 +2,7 @@
 
     python -m verification.seepage          # the tables of docs/verification.md, "Steady seepage"
     python -m verification.seepage --dam    # the dam's FOS: its flow, a drawn line, the published values
+    python -m verification.seepage --dam-convergence 0.5 0.25 0.125   # the dam's FOS against h, wet and dry
 
 1. **Radial flow in a quarter annulus** (confined; no-flow on the two radii, heads h1 on r1 and
    h2 on r2, both above the domain: it is saturated): h = h1 + (h2 - h1) ln(r / r1) / ln(r2 / r1), the discharge
@@ -254,15 +255,42 @@ def dam_comparison(spacing_m: float | None, workers: int) -> None:
         print(f"| published: {label} | {value:g} ({rows[0][1] / value - 1:+.1%}) | |")
 
 
+def dam_convergence(spacings_m, workers: int) -> None:
+    """The dam's FOS against the spacing, with its flow and without water (the same dam dry)."""
+    import re
+    import tempfile
+
+    from workflows.cases import RunOptions
+    from workflows.study import parse_study
+    from workflows.study_types import run_study
+
+    text = DAM_STUDY.read_text()
+    dry = text[:text.index("[water]")] + text[text.index("[[boundary]]"):]
+    print("| h (m) | FOS with the flow | FOS dry |\n|---|---|---|")
+    for h in spacings_m:
+        row = []
+        for each in (text, dry):
+            each = re.sub(r"(?m)^spacing_m = .*$", f"spacing_m = {h:g}", each, count=1)
+            with tempfile.TemporaryDirectory() as scratch:
+                outcome = run_study(parse_study(each), Path(scratch), RunOptions(workers=workers))
+            row.append(f"{outcome.fos:.4f} [{outcome.fos_low:.4f}, {outcome.fos_high:.4f}]")
+        print(f"| {h:g} | {row[0]} | {row[1]} |", flush=True)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--spacings", type=float, nargs="+", default=[0.5, 0.25, 0.125])
     parser.add_argument("--dam", action="store_true", help="only the dam's FOS on its flow and on a line")
     parser.add_argument("--dam-spacing", type=float, default=None, help="the dam's spacing (m), default the study's")
+    parser.add_argument("--dam-convergence", type=float, nargs="+", metavar="H",
+                        help="only the dam's FOS at these spacings (m), with its flow and dry")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
     if args.dam:
         dam_comparison(args.dam_spacing, args.workers)
+        return 0
+    if args.dam_convergence:
+        dam_convergence(args.dam_convergence, args.workers)
         return 0
 
     print("Radial flow, quarter annulus r 2-10 m (closed form)\n")

@@ -137,3 +137,8 @@ def copy_gravity(donor_study: Study, donor_dir: Path, study: Study, out_dir: Pat
         with interrupts_deferred(), xr.open_dataset(source, engine="netcdf4") as ds:
             dataset = ds.load()
         write_dataset(dataset.assign_attrs(provenance(study)), target)
+    if study.seepage is not None:  # the flow the shared gravity state was relaxed with
+        from workflows.seepage.flow import study_flow
+        from workflows.seepage.results import seepage_dataset, write_seepage
+
+        write_seepage(study, seepage_dataset(study, study_flow(study)), out_dir)
