@@ -179,6 +179,7 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
     for index, nodal in flux_of.items():
         mine = node_condition == index
         inflow[mine] = nodal[mine]
+    _check_every_part_has_a_head(node_xy_m, elem_nodes, np.isfinite(fixed_head) | face)
     problem = FlowProblem(node_xy_m, elem_nodes, conductivity, fixed_head, inflow, face, seepage.residual_permeability,
                           seepage.unsaturated_band_m)
     try:
@@ -193,3 +194,21 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
             "1 m) where water infiltrates dry ground"))
     return StudyFlow(node_xy_m, elem_nodes, elem_material, problem, solution, tuple(conditions), node_condition,
                      float(water_unit_weight_n_m3), time.perf_counter() - start)
+
+
+def _check_every_part_has_a_head(node_xy_m: np.ndarray, elem_nodes: np.ndarray, held: np.ndarray) -> None:
+    """StudyError when a part of the mesh (particles joined by triangles) has no particle whose head a
+    condition fixes: its heads would be undetermined (a singular system, not a number)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = node_xy_m.shape[0]
+    edges = np.concatenate([elem_nodes[:, [0, 1]], elem_nodes[:, [1, 2]], elem_nodes[:, [2, 0]]])
+    graph = coo_matrix((np.ones(edges.shape[0]), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    count, part = connected_components(graph, directed=False)
+    anchored = np.zeros(count, dtype=bool)
+    anchored[part[held]] = True
+    if not anchored.all():
+        x, y = node_xy_m[np.flatnonzero(~anchored[part])[0]]
+        raise StudyError("seepage.boundary", f"no condition fixes a head on the part of the domain around "
+                         f"({x:.3g}, {y:.3g}) m (give it a total_head, pressure_head or seepage_face condition)")
