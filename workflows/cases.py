@@ -20,10 +20,14 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from spfem_core.divergence import DivergenceError
 from workflows.progress import OnlyWarnings, Progress
 from workflows.study import Study
+
+if TYPE_CHECKING:
+    from workflows.fos.task import RunPolicy  # (imports dask: only when FOS cases run)
 
 
 @dataclass(frozen=True)
@@ -38,7 +42,7 @@ class Case:
     gravity_dir: Path | None = None  # where its gravity files are read and written (default out_dir): cases
     # that share one gravity state may share one folder of it
     write_gravity: bool = True  # False: its gravity state is kept in memory only (recomputed if needed again)
-    runs: object = None  # a ``fos.task.RunPolicy`` for its SRF runs (default: every run kept whole)
+    runs: RunPolicy | None = None  # what its SRF runs keep and when they end (default: every run kept whole)
 
 
 @dataclass(frozen=True)

@@ -113,15 +113,21 @@ def particle_densities(study, node_xy_m: np.ndarray, node_material: np.ndarray) 
     line, its density above; None when no material has a saturated density."""
     if all(m.saturated_density_kg_m3 is None for m in study.materials):
         return None
-    dry = np.array([m.density_kg_m3 for m in study.materials])
-    wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
-                    for m in study.materials])
     lines, node_line = phreatic_lines(study, node_material)
     below = np.zeros(node_xy_m.shape[0], dtype=bool)
     for i, line in enumerate(lines):
         on = node_line == i
         below[on] = node_xy_m[on, 1] <= np.interp(node_xy_m[on, 0], line[:, 0], line[:, 1])
-    return np.where(below, wet[node_material], dry[node_material])
+    return densities(study, node_material, below)
+
+
+def densities(study, node_material: np.ndarray, saturated: np.ndarray) -> np.ndarray:
+    """Density of every particle (kg/m3): its material's saturated density where ``saturated``, its
+    density elsewhere (the saturated one defaults to it)."""
+    dry = np.array([m.density_kg_m3 for m in study.materials])
+    wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
+                    for m in study.materials])
+    return np.where(saturated, wet[node_material], dry[node_material])
 
 
 def ru_pore_pressure_pa(study, node_xy_m: np.ndarray, material_at, gravity_m_s2: float) -> np.ndarray:
@@ -147,11 +153,7 @@ def seepage_fields(study, node_xy_m: np.ndarray, node_material: np.ndarray) -> d
         raise ValueError("seepage: the flow was solved on another cloud than the scene's (a bug)")
     fields = dict(node_pore_pressure_pa=flow.pore_pressure_pa(), water_unit_weight_n_m3=flow.water_unit_weight_n_m3)
     if any(m.saturated_density_kg_m3 is not None for m in study.materials):
-        dry = np.array([m.density_kg_m3 for m in study.materials])
-        wet = np.array([m.density_kg_m3 if m.saturated_density_kg_m3 is None else m.saturated_density_kg_m3
-                        for m in study.materials])
-        fields["node_properties"] = {"density_kg_m3": np.where(flow.saturated(), wet[node_material],
-                                                               dry[node_material])}
+        fields["node_properties"] = {"density_kg_m3": densities(study, node_material, flow.saturated())}
     if study.water is not None and study.water.pond_level_m is not None:
         fields.update(pond_level_m=study.water.pond_level_m, pond_x_range_m=scene_pond_range(study))
     return fields

@@ -346,9 +346,7 @@ class Engine:
                 return False
             for record in stored:
                 search.started(record.srf)
-                case.runs[record.srf] = record
-                case.reused_runs += 1
-                search.finished(record.outcome)
+                self._reused(case, record)
         if search.pending:
             return False
         case.n_particles = max((record.n_particles for record in case.runs.values()), default=0)
@@ -360,6 +358,13 @@ class Engine:
         """The case's gravity is known: its search can run."""
         case.started_s = time.perf_counter()
         case.plan_again = True
+
+    @staticmethod
+    def _reused(case: CaseSearch, record: RunRecord) -> None:
+        """A started run of the case found on disk, made by an earlier invocation."""
+        case.runs[record.srf] = record
+        case.reused_runs += 1
+        case.search.finished(record.outcome)
 
     def _finished(self, case: CaseSearch, result: SrfRunResult) -> None:
         record = result.record_since(self.start_unix_s)
@@ -407,9 +412,7 @@ class Engine:
                 key = case.key(srf)
                 stored = stored_run(case.out_dir / run_file_name(srf), key, case.policy)
                 if stored is not None:
-                    case.runs[srf] = stored
-                    case.reused_runs += 1
-                    search.finished(stored.outcome)
+                    self._reused(case, stored)
                     continue
                 self.queue.append(_Task(case, TaskKind.RUN, srf, key))
                 n_pending += 1

@@ -37,11 +37,33 @@ def _array(name: str, values: np.ndarray, components: int, vtk_type: str) -> str
             f'format="ascii">{text}</DataArray>')
 
 
-def vtu_text(xy, triangles, displacement, velocity, stress, pore_pressure, plastic_strain, material, initial_xy) -> str:
-    """The VTU text of a particle state: (n, 2) arrays in m and m/s, stress (n, 4) and pore pressure (n,) in Pa."""
+def _unstructured_grid(xy, triangles, point_attributes: str, point_data: list[str], cell_attributes: str = "",
+                       cell_data: tuple = ()) -> str:
+    """The VTU text of triangles over points (n, 2) in m (z = 0), with their data arrays (``_array``
+    texts) and the PointData / CellData attributes naming the default scalars and vectors."""
     n = xy.shape[0]
     triangles = np.asarray(triangles, dtype=np.int64)
-    zeros = np.zeros(n)
+    cells = [
+        _array("connectivity", triangles, 1, "Int64"),
+        _array("offsets", 3 * np.arange(1, triangles.shape[0] + 1), 1, "Int64"),
+        _array("types", np.full(triangles.shape[0], VTK_TRIANGLE), 1, "UInt8"),
+    ]
+    cell_block = [f"<CellData {cell_attributes}>", *cell_data, "</CellData>"] if cell_data else []
+    return "\n".join([
+        '<?xml version="1.0"?>',
+        '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
+        "<UnstructuredGrid>",
+        f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
+        f"<PointData {point_attributes}>", *point_data, "</PointData>", *cell_block,
+        "<Points>", _array("Points", np.column_stack([xy[:, 0], xy[:, 1], np.zeros(n)]), 3, "Float64"), "</Points>",
+        "<Cells>", *cells, "</Cells>",
+        "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
+    ])
+
+
+def vtu_text(xy, triangles, displacement, velocity, stress, pore_pressure, plastic_strain, material, initial_xy) -> str:
+    """The VTU text of a particle state: (n, 2) arrays in m and m/s, stress (n, 4) and pore pressure (n,) in Pa."""
+    zeros = np.zeros(xy.shape[0])
 
     def vector(pair):
         return np.column_stack([pair[:, 0], pair[:, 1], zeros])
@@ -55,52 +77,22 @@ def vtu_text(xy, triangles, displacement, velocity, stress, pore_pressure, plast
         _array("material", material, 1, "Int64"),
         _array("initial_position", vector(initial_xy), 3, "Float64"),
     ]
-    cells = [
-        _array("connectivity", triangles, 1, "Int64"),
-        _array("offsets", 3 * np.arange(1, triangles.shape[0] + 1), 1, "Int64"),
-        _array("types", np.full(triangles.shape[0], VTK_TRIANGLE), 1, "UInt8"),
-    ]
-    return "\n".join([
-        '<?xml version="1.0"?>',
-        '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
-        "<UnstructuredGrid>",
-        f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
-        '<PointData Scalars="plastic_strain" Vectors="displacement">', *point_data, "</PointData>",
-        "<Points>", _array("Points", vector(xy), 3, "Float64"), "</Points>",
-        "<Cells>", *cells, "</Cells>",
-        "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
-    ])
+    return _unstructured_grid(xy, triangles, 'Scalars="plastic_strain" Vectors="displacement"', point_data)
 
 
 def seepage_vtu_text(ds: xr.Dataset) -> str:
     """The VTU text of a ``seepage.nc``: the particles of the flow's mesh with point data
     ``total_head`` (m), ``pressure_head`` (m), ``pore_pressure`` (Pa) and cell data
     ``darcy_velocity`` (m s-1) and ``relative_permeability``."""
-    x, y = ds["particle_x"].values, ds["particle_y"].values
-    n = x.size
-    triangles = np.asarray(ds["mesh2d_face_nodes"].values, dtype=np.int64)
-    velocity = np.column_stack([ds["darcy_vx"].values, ds["darcy_vy"].values, np.zeros(triangles.shape[0])])
-    cells = [
-        _array("connectivity", triangles, 1, "Int64"),
-        _array("offsets", 3 * np.arange(1, triangles.shape[0] + 1), 1, "Int64"),
-        _array("types", np.full(triangles.shape[0], VTK_TRIANGLE), 1, "UInt8"),
-    ]
-    return "\n".join([
-        '<?xml version="1.0"?>',
-        '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
-        "<UnstructuredGrid>",
-        f'<Piece NumberOfPoints="{n}" NumberOfCells="{triangles.shape[0]}">',
-        '<PointData Scalars="total_head">',
-        _array("total_head", ds["total_head"].values, 1, "Float64"),
-        _array("pressure_head", ds["pressure_head"].values, 1, "Float64"),
-        _array("pore_pressure", ds["pore_pressure"].values, 1, "Float64"),
-        "</PointData>",
-        '<CellData Vectors="darcy_velocity">', _array("darcy_velocity", velocity, 3, "Float64"),
-        _array("relative_permeability", ds["relative_permeability"].values, 1, "Float64"), "</CellData>",
-        "<Points>", _array("Points", np.column_stack([x, y, np.zeros(n)]), 3, "Float64"), "</Points>",
-        "<Cells>", *cells, "</Cells>",
-        "</Piece>", "</UnstructuredGrid>", "</VTKFile>", "",
-    ])
+    xy = np.column_stack([ds["particle_x"].values, ds["particle_y"].values])
+    faces = ds.sizes["face"]
+    velocity = np.column_stack([ds["darcy_vx"].values, ds["darcy_vy"].values, np.zeros(faces)])
+    point_data = [_array(name, ds[name].values, 1, "Float64") for name in ("total_head", "pressure_head",
+                                                                          "pore_pressure")]
+    cell_data = (_array("darcy_velocity", velocity, 3, "Float64"),
+                 _array("relative_permeability", ds["relative_permeability"].values, 1, "Float64"))
+    return _unstructured_grid(xy, ds["mesh2d_face_nodes"].values, 'Scalars="total_head"', point_data,
+                              'Vectors="darcy_velocity"', cell_data)
 
 
 def dataset_to_vtu(ds: xr.Dataset) -> str:

@@ -182,6 +182,7 @@ class ProbabilisticStudy(SweepStudy):
         self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far
         self.waiting: list = []  # realisations of the later batches (pf_interval_width)
         self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known with the cases)
+        self.realisation_of: dict[str, int] = {}  # case id -> realisation number (known with the cases)
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
@@ -207,7 +208,7 @@ class ProbabilisticStudy(SweepStudy):
         result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
         verdict = realisation_verdict(result, table.compute, table.factor)
         tally[verdict] += 1
-        index = int(case_id[len(CASE_PREFIX):])
+        index = self.realisation_of[case_id]
         if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
                 and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
             from workflows.fos.run_store import run_file_name, without_particle_fields
@@ -262,6 +263,7 @@ class ProbabilisticStudy(SweepStudy):
         """Every realisation, or with ``pf_interval_width`` the first batch (module doc)."""
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
         cases = [self._placed(case) for case in super().cases()]
+        self.realisation_of = {case.case_id: case.position[0] for case in self.sweep_cases}
         if self.shared_gravity:  # its one gravity state relaxes on all cores while the cluster starts
             self.placement = dataclasses.replace(self.placement, gravity_in_process=True)
         if self.study.probabilistic.pf_interval_width is None:

@@ -28,6 +28,7 @@ import numpy as np
 
 from spfem_core.mesh import boundary_edges, triangulate
 from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, solve_steady_flow
+from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
 from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
 
@@ -128,7 +129,8 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
     conductivity = conductivity_tensor(k1, k1 * ratio, angle)
 
     n = node_xy_m.shape[0]
-    tol = 1e-3 * float(np.min(node_spacing_m))
+    finest_m = float(np.min(node_spacing_m))
+    tol = TOLERANCE_PER_SPACING * finest_m
     edges = boundary_edges(elem_nodes)
     on_boundary = np.zeros(n, dtype=bool)
     on_boundary[edges.ravel()] = True
@@ -147,10 +149,7 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
         conditions.append(POND)
     for i, entry in enumerate(seepage.boundary):
         where = f"seepage.boundary[{i}]"
-        box = on_boundary.copy()
-        for axis, values in (("x", x), ("y", y)):
-            low, high = getattr(entry, f"{axis}_min_m"), getattr(entry, f"{axis}_max_m")
-            box &= (values >= (-np.inf if low is None else low) - tol) & (values <= (np.inf if high is None else high) + tol)
+        box = on_boundary & entry.holds(node_xy_m, finest_m)
         if not box.any():
             raise StudyError(where, f"the box of {entry.name!r} holds no particle of the domain's boundary")
         index = len(conditions)

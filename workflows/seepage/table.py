@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from workflows.box import Box
 from workflows.fields import Record, StudyError, integer, name_field, number, tables, text
 
 CONDITIONS = ("total_head", "pressure_head", "seepage_face", "inflow", "infiltration", "no_flow")
@@ -19,7 +20,7 @@ NEEDS = {"total_head": "total_head_m", "inflow": "flux_m_s", "infiltration": "fl
 
 
 @dataclass(frozen=True, kw_only=True)
-class SeepageBoundary(Record):
+class SeepageBoundary(Box):
     """A flow condition on the boundary particles inside a box (closed, tolerance h/1000)."""
 
     name: str = name_field("name of the condition")
@@ -29,10 +30,6 @@ class SeepageBoundary(Record):
         "normal to the boundary, positive into the ground), `infiltration` (flux_m_s per horizontal length: "
         "rain), `no_flow`", choices=CONDITIONS,
     )
-    x_min_m: float | None = number("m", "left side of the box; default: unbounded", default=None)
-    x_max_m: float | None = number("m", "right side of the box; default: unbounded", default=None)
-    y_min_m: float | None = number("m", "bottom of the box; default: unbounded", default=None)
-    y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
     total_head_m: float | None = number("m", "*condition = total_head:* the total head h (an elevation)",
                                         default=None)
     pressure_head_m: float | None = number("m", "*condition = pressure_head:* h - y; default 0 (atmospheric)",
@@ -49,10 +46,7 @@ class SeepageBoundary(Record):
         needed = NEEDS.get(self.condition)
         if needed is not None and getattr(self, needed) is None:
             raise StudyError(needed, f"required by condition = {self.condition}")
-        for axis in "xy":
-            low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
-            if low is not None and high is not None and low > high:
-                raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
+        super().check()
 
 
 @dataclass(frozen=True, kw_only=True)

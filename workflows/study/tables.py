@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from spfem_core.geometry import points_in_polygon, relief_m
 from spfem_core.settings import DEFAULT_ALPHA, DEFAULT_CFL, DEFAULT_MIN_ANGLE_DEG, DEFAULT_STABILISATION_BETA
+from workflows.box import Box
 from workflows.fields import (
     Record,
     StudyError,
@@ -168,7 +169,7 @@ class Geometry(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
-class Boundary(Record):
+class Boundary(Box):
     """Prescribed velocity on the particles initially inside a box (closed, tolerance h/1000).
 
     A missing bound leaves the box open on that side; a missing velocity leaves that
@@ -178,10 +179,6 @@ class Boundary(Record):
     """
 
     name: str = name_field("name of the boundary condition")
-    x_min_m: float | None = number("m", "left side of the box; default: unbounded", default=None)
-    x_max_m: float | None = number("m", "right side of the box; default: unbounded", default=None)
-    y_min_m: float | None = number("m", "bottom of the box; default: unbounded", default=None)
-    y_max_m: float | None = number("m", "top of the box; default: unbounded", default=None)
     vx_m_s: float | None = number("m s-1", "prescribed x velocity; default: free", default=None)
     vy_m_s: float | None = number("m s-1", "prescribed y velocity; default: free", default=None)
     slip: str = text(
@@ -199,10 +196,7 @@ class Boundary(Record):
                              "soil slide along the other; give only one of them")
         if self.slip == "soil" and (self.vx_m_s or self.vy_m_s):
             raise StudyError("slip", "a slip support holds its prescribed direction at 0 m s-1")
-        for axis in "xy":
-            low, high = getattr(self, f"{axis}_min_m"), getattr(self, f"{axis}_max_m")
-            if low is not None and high is not None and low > high:
-                raise StudyError(f"{axis}_max_m", f"must be >= {axis}_min_m = {low:g}, got {high:g}")
+        super().check()
 
 
 @dataclass(frozen=True, kw_only=True)
