@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 STUDIES = ("quickstart", "reference_slope", "drawdown", "seismic", "strip_load", "published/acads_1a",
            "published/acads_1c", "published/griffiths_lane_ex4", "published/taylor_phi0",
-           "published/verruijt_slope")
+           "published/verruijt_slope", "seepage_dam", "seepage_perched")
 """Every study of ``studies/`` whose last stage is a strength reduction (or a sweep of one)."""
 
 

@@ -2,6 +2,7 @@
 
     python -m benchmarks.bench_threads                            # 5k, 20k, 80k particles, 3 repeats
     python -m benchmarks.bench_threads --compare ../serial-tree   # and a checkout before the threads
+    python -m benchmarks.bench_threads --sizes 1k 100k            # the one-thread cost, 100k over 1k
 
 Two scenes, built from core calls every version has: the elastic cantilever beam with
 stabilisation (beta = 0.1, as ``bench_core``) and a sand column (Mohr-Coulomb, c = 0,
@@ -26,7 +27,8 @@ from pathlib import Path
 from benchmarks.bench_core import SAND_COLUMN
 
 ROOT = Path(__file__).resolve().parents[1]
-SIZES = {"5k": 5_000, "20k": 20_000, "80k": 80_000}
+SIZES = {"1k": 1_000, "5k": 5_000, "20k": 20_000, "80k": 80_000, "100k": 100_000}
+DEFAULT_SIZES = ("5k", "20k", "80k")
 
 SCENES = SAND_COLUMN + """
 import json, math, time
@@ -71,7 +73,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.bench_threads", description=__doc__.splitlines()[0])
     parser.add_argument("--compare", type=Path, help="another checkout, measured on 1 thread (its serial kernel)")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--sizes", nargs="+", default=list(SIZES), choices=list(SIZES))
+    parser.add_argument("--sizes", nargs="+", default=list(DEFAULT_SIZES), choices=list(SIZES))
     parser.add_argument("--scenes", nargs="+", default=["beam", "column"], choices=["beam", "column"])
     parser.add_argument("--particle-steps", type=float, default=3e7, help="work per measurement (default 3e7)")
     args = parser.parse_args(argv)
@@ -84,6 +86,7 @@ def main(argv=None) -> int:
           + f" {'2/1':>6}" + (f" {'2/other':>8}" if args.compare else "")
           + "   (M particle-steps/s, medians of alternated fresh processes)")
     for scene in args.scenes:
+        one_thread = {}
         for size in args.sizes:
             rates: dict[str, list[float]] = {label: [] for label in configs}
             n = 0
@@ -93,11 +96,16 @@ def main(argv=None) -> int:
                     n = result["n"]
                     rates[label].append(result["rate"])
             medians = {label: statistics.median(values) for label, values in rates.items()}
+            one_thread[n] = medians["1 thread"]
             row = f"{scene:>6} {n:9d}" + "".join(f" {m / 1e6:10.2f}" for m in medians.values())
             row += f" {medians['2 threads'] / medians['1 thread']:6.2f}"
             if args.compare:
                 row += f" {medians['2 threads'] / medians['other']:8.2f}"
             print(row, flush=True)
+        if len(one_thread) > 1:
+            small, large = min(one_thread), max(one_thread)
+            print(f"{scene:>6} one-thread cost per particle-step, {large} over {small} particles: "
+                  f"{one_thread[small] / one_thread[large]:.3f}", flush=True)
     return 0
 
 

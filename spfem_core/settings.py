@@ -36,7 +36,8 @@ class SolverSettings:
     equivalent to one) above ``timestep.max_stable_cfl(beta) = 1 / (1 + beta)`` is refused.
 
     ``stabilisation_beta`` scales the rank-deficiency correction (0 switches it off and
-    its work is skipped).  The correction force is proportional to the incremental
+    its work is skipped); a relaxation of elastic materials runs without it
+    (``Simulation.beta``).  The correction force is proportional to the incremental
     deformation error over one step, so it acts as a bond viscosity eta = beta E dt / 2:
     at fixed beta, halving dt halves the damping it applies to spurious modes.
     """

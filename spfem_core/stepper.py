@@ -159,3 +159,25 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
         if params.tolerance > 0.0 and ratio < params.tolerance and time_now >= loads.ramp_time_s:
             return STATUS_CONVERGED, s + 1  # (not while the loads are still growing)
     return STATUS_DONE, n_steps
+
+
+@kernel
+def unbalanced_force_at_rest(nodes, scratch, mesh, materials, loads, gravity, time_s, unbalanced):
+    """Fill ``unbalanced`` (n, 2) with the force a step would see if the particles were at rest:
+    f_int of the current stress at the current positions + water and surface loads at stage time
+    ``time_s`` + m g (steps 1, 3 and 4 of the module doc, without the bonds, which vanish at rest).
+    One thread: it runs once per relaxation (``elastic_solve``)."""
+    smooth_velocity_gradient(nodes.xy_m, nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
+                             mesh.elem_colour_ptr, mesh.elem_colour_block, scratch.elem_geom, scratch.velocity_gradient,
+                             scratch.area_m2, None)
+    assemble_nodal_force(nodes.xy_m, nodes.velocity_m_s, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa,
+                         nodes.material_row, materials.youngs_modulus_pa, mesh.elem_nodes, scratch.elem_geom,
+                         mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, mesh.edge_nodes,
+                         mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block, 0.0, 0.0, 0.0,
+                         scratch.force_n, None)
+    if loads.active:
+        add_external_forces(nodes.xy_m, nodes.displacement_m, mesh.elem_nodes, scratch.elem_geom, loads, time_s,
+                            scratch.pore_pressure_pa, scratch.external_force_n, scratch.force_n)
+    for k in range(unbalanced.shape[0]):
+        for d in range(2):
+            unbalanced[k, d] = scratch.force_n[k, d] + nodes.mass_kg[k] * gravity[d]

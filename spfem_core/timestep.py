@@ -87,15 +87,17 @@ class TimeStepPolicy:
             )
         return settings.cfl * critical_dt_s
 
-    def relaxation(self, critical_dt_s: float) -> float:
-        """The step of a relaxation: the largest accepted one, max_stable_cfl(beta) dt_crit."""
-        return self.max_cfl * critical_dt_s
+    def relaxation(self, critical_dt_s: float, beta: float) -> float:
+        """The step of a relaxation with stabilisation ``beta``: the largest accepted one,
+        max_stable_cfl(beta) dt_crit."""
+        return max_stable_cfl(beta) * critical_dt_s
 
-    def after_rebuild(self, critical_dt_s: float, relaxing: bool) -> float:
+    def after_rebuild(self, critical_dt_s: float, relaxation_beta: float | None) -> float:
         """The step on a rebuilt mesh: a fixed ``dt_s`` is kept while it is stable, a cfl is
-        applied to the new dt_crit (a relaxation keeps its largest accepted cfl)."""
-        if relaxing:
-            return self.relaxation(critical_dt_s)
+        applied to the new dt_crit (a relaxation, with its ``relaxation_beta``, keeps its largest
+        accepted cfl; None: not a relaxation)."""
+        if relaxation_beta is not None:
+            return self.relaxation(critical_dt_s, relaxation_beta)
         dt_s = self.settings.dt_s
         if dt_s is not None and dt_s <= self.max_cfl * critical_dt_s:
             return float(dt_s)

@@ -226,7 +226,8 @@ class Solver(Record):
         "s", "fixed time step instead of cfl; refused if above the stable step, the critical step / (1 + beta)", default=None, gt=0.0
     )
     stabilisation_beta: float = number(
-        "1", "rank-deficiency stabilisation factor beta; 0 switches it off", default=DEFAULT_STABILISATION_BETA, ge=0.0
+        "1", "rank-deficiency stabilisation factor beta; 0 switches it off (a relaxation of elastic materials, a "
+        "gravity stage, runs without it: the bonds vanish at rest)", default=DEFAULT_STABILISATION_BETA, ge=0.0
     )
     alpha: float = number(
         "1", "alpha-shape factor: triangles with circumradius > alpha h are dropped", default=DEFAULT_ALPHA, ge=1.0,
