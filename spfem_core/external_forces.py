@@ -39,6 +39,7 @@ the step), so minus its sum is a potential that closes the energy budget like gr
 from __future__ import annotations
 
 from spfem_core.jit import inner_kernel
+from spfem_core.smoothing import scaled_gradients
 
 
 @inner_kernel
@@ -71,7 +72,7 @@ def _edge_pressure_integrals(pa, pb, ya, yb, level):
 
 
 @inner_kernel
-def add_external_forces(node_xy, node_disp, elem_nodes, elem_geom, loads, time_s, node_pore_pressure, node_force_ext,
+def add_external_forces(node_xy, node_disp, elem_nodes, loads, time_s, node_pore_pressure, node_force_ext,
                         node_force):
     """Fill ``node_pore_pressure`` (u_k, Pa) and ``node_force_ext`` (the loads' forces, N/m) and add
     the latter to ``node_force`` (module doc); ``loads`` a ``state.ExternalLoads``, ``node_disp`` the
@@ -104,11 +105,13 @@ def add_external_forces(node_xy, node_disp, elem_nodes, elem_geom, loads, time_s
         u_bar = (node_pore_pressure[i] + node_pore_pressure[j] + node_pore_pressure[k]) * third
         if u_bar == 0.0:
             continue
-        scale = u_bar * elem_geom[e, 6]
-        for local in range(3):
-            node = elem_nodes[e, local]
-            node_force_ext[node, 0] += scale * elem_geom[e, local]
-            node_force_ext[node, 1] += scale * elem_geom[e, 3 + local]
+        bi, bj, bk, ci, cj, ck = scaled_gradients(node_xy, i, j, k)
+        node_force_ext[i, 0] += u_bar * bi
+        node_force_ext[i, 1] += u_bar * ci
+        node_force_ext[j, 0] += u_bar * bj
+        node_force_ext[j, 1] += u_bar * cj
+        node_force_ext[k, 0] += u_bar * bk
+        node_force_ext[k, 1] += u_bar * ck
     level = loads.pond_level_m
     if level == level:  # not NaN: water stands on the surface
         edges = loads.boundary_edges

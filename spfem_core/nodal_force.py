@@ -17,24 +17,25 @@ import numpy as np
 from numba import prange
 
 from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.smoothing import scaled_gradients
 from spfem_core.stabilisation import bond_force
 
 
 @kernel
 def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_material_row, mat_youngs, elem_nodes,
-                         elem_geom, elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
+                         elem_block_ptr, elem_colour_ptr, elem_colour_block, edge_nodes, edge_block_ptr,
                          edge_colour_ptr, edge_colour_block, beta, dt, min_bond_sq, node_force, n_threads):
     """Overwrite ``node_force`` with f_int + f_stab (module doc); return the bonds' power (W/m,
     0 when beta = 0).  On threads unless ``n_threads`` is None (``jit.kernel_threads``), else in plain
     loops (same order)."""
     fill_zero(node_force)
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
-        element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
+        element_forces_threaded(node_xy, elem_nodes, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                                 node_force)
     else:
         for slot in range(elem_colour_block.shape[0]):
             block = elem_colour_block[slot]
-            add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
+            add_element_forces(node_xy, elem_nodes, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
                                node_force)
     if beta <= 0.0:
         return 0.0
@@ -58,13 +59,13 @@ def assemble_nodal_force(node_xy, node_v, node_L, node_area, node_stress, node_m
 
 
 @parallel_inner_kernel
-def element_forces_threaded(elem_nodes, elem_geom, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
+def element_forces_threaded(node_xy, elem_nodes, node_stress, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                             node_force):
     """:func:`add_element_forces` of every block, colour after colour, a colour's blocks on threads."""
     for colour in range(elem_colour_ptr.shape[0] - 1):  # blocks of one colour share no node
         for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
             block = elem_colour_block[slot]
-            add_element_forces(elem_nodes, elem_geom, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
+            add_element_forces(node_xy, elem_nodes, node_stress, elem_block_ptr[block], elem_block_ptr[block + 1],
                                node_force)
 
 
@@ -81,8 +82,9 @@ def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material_row, 
 
 
 @inner_kernel
-def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_force):
-    """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1."""
+def add_element_forces(node_xy, elem_nodes, node_stress, start, end, node_force):
+    """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1 (A_e b_I, A_e c_I
+    from the coordinates, ``smoothing.scaled_gradients``)."""
     third = 1.0 / 3.0
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = np.uint64(elem_nodes[e, 0])
@@ -91,13 +93,13 @@ def add_element_forces(elem_nodes, elem_geom, node_stress, start, end, node_forc
         sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
         syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
         sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
-        area = elem_geom[e, 6]
-        for corner in range(3):
-            n = np.uint64(elem_nodes[e, corner])
-            b = elem_geom[e, corner] * area
-            c = elem_geom[e, 3 + corner] * area
-            node_force[n, 0] -= b * sxx + c * sxy
-            node_force[n, 1] -= b * sxy + c * syy
+        bi, bj, bk, ci, cj, ck = scaled_gradients(node_xy, i, j, k)
+        node_force[i, 0] -= bi * sxx + ci * sxy
+        node_force[i, 1] -= bi * sxy + ci * syy
+        node_force[j, 0] -= bj * sxx + cj * sxy
+        node_force[j, 1] -= bj * sxy + cj * syy
+        node_force[k, 0] -= bk * sxx + ck * sxy
+        node_force[k, 1] -= bk * sxy + ck * syy
 
 
 @inner_kernel

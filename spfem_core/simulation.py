@@ -205,18 +205,16 @@ class Simulation:
         self.speed_limit_m_s = float(materials.p_wave_speed_m_s[self.nodes.material_row].max())
 
     def _set_mesh(self, mesh: Mesh):
-        """Use ``mesh`` from now on: element scratch sized for it, cell areas and gradients on it
-        (and its boundary, when ponded water loads it)."""
+        """Use ``mesh`` from now on: cell areas and gradients on it (and its boundary, when ponded
+        water loads it)."""
         self.mesh = mesh
         if self.loads.pond_level_m == self.loads.pond_level_m:  # not NaN: ponded water follows the boundary
             self.loads = self.loads._replace(boundary_edges=boundary_edges(mesh.elem_nodes))
         self.n_orphans = int(mesh.orphan_nodes.size)
-        self.scratch = self.scratch.with_elements(mesh.n_elem)
         self.mesh_arrays = mesh.arrays
         smooth_velocity_gradient(self.nodes.xy_m, self.nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
-                                 mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.elem_geom,
-                                 self.scratch.velocity_gradient, self.scratch.area_m2,
-                                 kernel_threads(self.threads))
+                                 mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.velocity_gradient,
+                                 self.scratch.area_m2, kernel_threads(self.threads))
 
     def _critical_dt(self) -> float:
         """The critical step of the current mesh, positions, inertia and moduli; the last one again

@@ -18,17 +18,30 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.jit import fill_zero, inline_kernel, inner_kernel, kernel, parallel_inner_kernel
+
+
+@inline_kernel
+def scaled_gradients(node_xy, i, j, k):
+    """(A b_i, A b_j, A b_k, A c_i, A c_j, A c_k) of the triangle i, j, k (counter-clockwise): the
+    shape-function gradients times its area, A b_I = (y_J - y_K) / 2 and A c_I = (x_K - x_J) / 2
+    for I, J, K in cyclic order; no division, so an inverted triangle gives finite values."""
+    xi, yi = node_xy[i, 0], node_xy[i, 1]
+    xj, yj = node_xy[j, 0], node_xy[j, 1]
+    xk, yk = node_xy[k, 0], node_xy[k, 1]
+    return (0.5 * (yj - yk), 0.5 * (yk - yi), 0.5 * (yi - yj), 0.5 * (xk - xj), 0.5 * (xi - xk), 0.5 * (xj - xi))
 
 
 @kernel
-def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block, elem_geom,
+def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                              node_L, node_area, n_threads):
-    """Element geometry and the smoothed velocity gradient of every node.
+    """The smoothed velocity gradient of every node.
 
-    Fills ``elem_geom`` (n_elem, ``state.ELEM_GEOM_WIDTH``) with b_I = dN/dx, c_I = dN/dy and
-    A_e from the current coordinates, ``node_area`` with A_k and ``node_L`` with L_k (zero for a
-    particle in no triangle).  The elements run in coloured blocks (``mesh.coloured_blocks``), on
+    Fills ``node_area`` with A_k and ``node_L`` with L_k (zero for a particle in no triangle), from
+    the current coordinates.  The element geometry is not stored: the internal force and the
+    water forces form A_e b_I and A_e c_I again from the coordinates (:func:`scaled_gradients`),
+    cheaper than writing and reading 56 bytes per element per step once the cloud outgrows the
+    core's cache.  The elements run in coloured blocks (``mesh.coloured_blocks``), on
     threads unless ``n_threads`` is None (``jit.kernel_threads``), else in a plain loop.
     Returns (number of elements with signed area <= 0, max over elements of |sym L_e|^2);
     the second bounds how fast any element angle can change: |d theta/dt| <= 2 |sym L_e|.
@@ -40,13 +53,12 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_c
     block_rate_sq = np.zeros(n_block)
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block,
-                               elem_geom, node_L, node_area, block_inverted, block_rate_sq)
+                               node_L, node_area, block_inverted, block_rate_sq)
     else:  # the same blocks in the same order
         for slot in range(n_block):
             block = elem_colour_block[slot]
             block_inverted[block], block_rate_sq[block] = smooth_elements(
-                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
-                node_area)
+                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], node_L, node_area)
     for n in range(node_xy.shape[0]):
         a = node_area[n]
         if a > 0.0:
@@ -63,7 +75,7 @@ def smooth_velocity_gradient(node_xy, node_v, elem_nodes, elem_block_ptr, elem_c
 
 
 @parallel_inner_kernel
-def smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block, elem_geom,
+def smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_colour_ptr, elem_colour_block,
                            node_L, node_area, block_inverted, block_rate_sq):
     """:func:`smooth_elements` of every block, colour after colour, the blocks of a colour on
     threads (kept apart: a function with a parallel loop costs about 3 us a call even when it
@@ -72,14 +84,13 @@ def smooth_blocks_threaded(node_xy, node_v, elem_nodes, elem_block_ptr, elem_col
         for slot in prange(elem_colour_ptr[colour], elem_colour_ptr[colour + 1]):
             block = elem_colour_block[slot]
             block_inverted[block], block_rate_sq[block] = smooth_elements(
-                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], elem_geom, node_L,
-                node_area)
+                node_xy, node_v, elem_nodes, elem_block_ptr[block], elem_block_ptr[block + 1], node_L, node_area)
 
 
 @inner_kernel
-def smooth_elements(node_xy, node_v, elem_nodes, start, end, elem_geom, node_L, node_area):
-    """Geometry of elements start..end-1 and their terms (A_e/3, (A_e/3) L_e) added into their
-    nodes; (elements with signed area <= 0, max |sym L_e|^2) of these elements."""
+def smooth_elements(node_xy, node_v, elem_nodes, start, end, node_L, node_area):
+    """The terms (A_e/3, (A_e/3) L_e) of elements start..end-1 added into their nodes; (elements
+    with signed area <= 0, max |sym L_e|^2) of these elements."""
     n_inverted = 0
     max_rate_sq = 0.0
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
@@ -101,13 +112,6 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, elem_geom, node_L, 
         cj = (xi - xk) * inv
         ck = (xj - xi) * inv
         area = 0.5 * two_area
-        elem_geom[e, 0] = bi
-        elem_geom[e, 1] = bj
-        elem_geom[e, 2] = bk
-        elem_geom[e, 3] = ci
-        elem_geom[e, 4] = cj
-        elem_geom[e, 5] = ck
-        elem_geom[e, 6] = area
         vxi, vyi = node_v[i, 0], node_v[i, 1]
         vxj, vyj = node_v[j, 0], node_v[j, 1]
         vxk, vyk = node_v[k, 0], node_v[k, 1]

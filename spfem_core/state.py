@@ -12,9 +12,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-ELEM_GEOM_WIDTH = 7
-"""Columns of ``StepScratch.elem_geom``: dN/dx of the 3 vertices, dN/dy of the 3 vertices, area (m^2)."""
-
 LEAPFROG_OUT = ("max_speed_sq", "unbalanced_force_sq", "applied_force_sq", "damping_power", "contact_loss",
                 "contacts")
 """Slots of ``StepScratch.leapfrog_out``, filled by ``integration.leapfrog`` every step: the largest
@@ -54,20 +51,15 @@ class StepScratch(NamedTuple):
     area_m2: np.ndarray  # (n,) smoothing-cell area A_k
     force_n: np.ndarray  # (n, 2) f_int + f_stab per metre of thickness
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
-    elem_geom: np.ndarray  # (n_elem, ELEM_GEOM_WIDTH) shape-function gradients and area
     leapfrog_out: np.ndarray  # (LEAPFROG_OUT_WIDTH,) the slots of LEAPFROG_OUT
     pore_pressure_pa: np.ndarray  # (n,) u_k of the last step (compression positive); 0 without water
     external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
 
     @classmethod
     def for_nodes(cls, n: int) -> "StepScratch":
-        """Scratch for ``n`` particles and an empty mesh (``with_elements`` sizes it)."""
+        """Scratch for ``n`` particles."""
         return cls(np.zeros((n, 4)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
-                   np.zeros((0, ELEM_GEOM_WIDTH)), np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
-
-    def with_elements(self, n_elem: int) -> "StepScratch":
-        """The same arrays with an element table for ``n_elem`` triangles."""
-        return self._replace(elem_geom=np.zeros((n_elem, ELEM_GEOM_WIDTH)))
+                   np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
 
 
 class MeshArrays(NamedTuple):

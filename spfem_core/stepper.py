@@ -1,7 +1,7 @@
 """The compiled time loop: many explicit steps per call, no Python per step.
 
 One step (method notes, section 1), all on the current mesh:
-  1. element geometry and smoothed velocity gradients L_k     (smoothing.smooth_velocity_gradient)
+  1. smoothed velocity gradients L_k and cell areas A_k        (smoothing.smooth_velocity_gradient)
   2. Jaumann rotation + constitutive update of every particle (constitutive.update_stress)
   3. internal force f_I = sum_e A_e B_I^e^T sigma_bar_e, and   (nodal_force.assemble_nodal_force)
   4. rank-deficiency bond forces, only when beta > 0, in one pass (stabilisation.bond_force)
@@ -98,7 +98,7 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
     for s in range(n_steps):
         n_inverted, max_rate_sq = smooth_velocity_gradient(
             node_xy, node_v, elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block,
-            scratch.elem_geom, scratch.velocity_gradient, scratch.area_m2, params.n_threads
+            scratch.velocity_gradient, scratch.area_m2, params.n_threads
         )
         if n_inverted > 0:
             return STATUS_INVERTED, s
@@ -109,14 +109,14 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
         )
         stab_power = assemble_nodal_force(
             node_xy, node_v, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa, nodes.material_row,
-            materials.youngs_modulus_pa, elem_nodes, scratch.elem_geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
+            materials.youngs_modulus_pa, elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr,
             mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block,
             beta, dt, 0.25 * params.spacing_m * params.spacing_m, node_force, params.n_threads,
         )
         if use_stabilisation:
             dissipated[DISSIPATED_STABILISATION] -= stab_power * dt
         if loads.active:
-            add_external_forces(node_xy, nodes.displacement_m, elem_nodes, scratch.elem_geom, loads,
+            add_external_forces(node_xy, nodes.displacement_m, elem_nodes, loads,
                                 time_start_s + s * dt, scratch.pore_pressure_pa, scratch.external_force_n, node_force)
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, nodes.inertia_kg, nodes.fixed,
@@ -168,15 +168,15 @@ def unbalanced_force_at_rest(nodes, scratch, mesh, materials, loads, gravity, ti
     ``time_s`` + m g (steps 1, 3 and 4 of the module doc, without the bonds, which vanish at rest).
     One thread: it runs once per relaxation (``elastic_solve``)."""
     smooth_velocity_gradient(nodes.xy_m, nodes.velocity_m_s, mesh.elem_nodes, mesh.elem_block_ptr,
-                             mesh.elem_colour_ptr, mesh.elem_colour_block, scratch.elem_geom, scratch.velocity_gradient,
+                             mesh.elem_colour_ptr, mesh.elem_colour_block, scratch.velocity_gradient,
                              scratch.area_m2, None)
     assemble_nodal_force(nodes.xy_m, nodes.velocity_m_s, scratch.velocity_gradient, scratch.area_m2, nodes.stress_pa,
-                         nodes.material_row, materials.youngs_modulus_pa, mesh.elem_nodes, scratch.elem_geom,
+                         nodes.material_row, materials.youngs_modulus_pa, mesh.elem_nodes,
                          mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, mesh.edge_nodes,
                          mesh.edge_block_ptr, mesh.edge_colour_ptr, mesh.edge_colour_block, 0.0, 0.0, 0.0,
                          scratch.force_n, None)
     if loads.active:
-        add_external_forces(nodes.xy_m, nodes.displacement_m, mesh.elem_nodes, scratch.elem_geom, loads, time_s,
+        add_external_forces(nodes.xy_m, nodes.displacement_m, mesh.elem_nodes, loads, time_s,
                             scratch.pore_pressure_pa, scratch.external_force_n, scratch.force_n)
     for k in range(unbalanced.shape[0]):
         for d in range(2):

@@ -78,7 +78,7 @@ def test_the_fos_is_the_same_from_10_mpa_to_1_gpa_and_soft_soil_without_scaling_
                             RunOptions(workers=2))
         assert abs(outcome.fos - reference.fos) <= tolerance, (modulus, outcome.fos, reference.fos)
         assert outcome.criteria_agree
-        factor = xr.open_dataset(outcome.summary_path).attrs["srf_stiffness_factor"]
+        factor = xr.load_dataset(outcome.summary_path).attrs["srf_stiffness_factor"]
         assert factor == pytest.approx(100e6 / modulus * 0.0026 / ELASTIC_RESPONSE, rel=0.01)
     declared = with_modulus(QUICKSTART, 10e6).replace("fos_tolerance = 0.01", "fos_tolerance = 0.01\nscale_stiffness = false")
     unscaled = run_study(parse_study(declared), tmp_path / "declared", RunOptions(workers=2))

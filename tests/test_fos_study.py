@@ -76,7 +76,7 @@ def test_quickstart_finds_the_fos_within_the_tolerance(quickstart_run):
     assert 1.30 <= outcome.fos <= 1.45
     assert outcome.fos_high - outcome.fos_low <= study.strength_reduction.fos_tolerance + 1e-9
     assert outcome.criteria_agree and not outcome.non_monotone
-    summary = xr.open_dataset(out / "summary.nc")
+    summary = xr.load_dataset(out / "summary.nc")
     assert float(summary["fos"]) == pytest.approx(outcome.fos)
     assert summary["fos"].attrs["fos_low"] == outcome.fos_low and summary["fos"].attrs["fos_high"] == outcome.fos_high
     assert "maximum curvature" in summary["fos"].attrs["criterion"]
@@ -151,7 +151,7 @@ def test_local_workers_are_forked_from_one_preloaded_server_without_dashboard_up
 def test_run_file_holds_the_series_and_the_final_fields(quickstart_run):
     study, out, outcome = quickstart_run
     failed = [r for r in outcome.runs if r.status == "failed"][-1]  # above the FOS: a slide
-    ds = xr.open_dataset(out / run_file_name(failed.srf))
+    ds = xr.load_dataset(out / run_file_name(failed.srf))
     assert ds.attrs["srf"] == failed.srf and ds.attrs["status"] == "failed"
     assert "a mechanism formed and moved" in ds.attrs["status_reason"]
     assert "early_stop" in " ".join(ds.attrs)  # at rest (an arrested slide) or slid past 10% of H
@@ -191,7 +191,7 @@ def test_a_damaged_run_file_is_recomputed(quickstart_run, tmp_path):
     assert again.fos == outcome.fos
     assert any(line.endswith("SRF runs reused from " + str(copy) + " (finished by an earlier invocation)")
                and int(line.split()[0]) == len(again.runs) - 1 for line in messages.lines)
-    assert xr.open_dataset(damaged).attrs["status"] == outcome.runs[1].status
+    assert xr.load_dataset(damaged).attrs["status"] == outcome.runs[1].status
 
 
 def test_keys_change_with_what_shapes_a_state_and_not_with_the_search_settings(quickstart_run):
@@ -251,7 +251,7 @@ def test_runs_on_a_separately_started_dask_cluster(quickstart_run, separate_dask
     study_path.write_text(QUICKSTART)
     run = cli(study_path, "--out", tmp_path / "out", "--scheduler", separate_dask_cluster)
     assert run.returncode == 0, run.stderr
-    summary = xr.open_dataset(tmp_path / "out" / "summary.nc")
+    summary = xr.load_dataset(tmp_path / "out" / "summary.nc")
     assert float(summary["fos"]) == pytest.approx(local.fos)  # the same runs, another cluster
     assert f"FOS = {local.fos:.4g}" in run.stdout
 
@@ -318,7 +318,7 @@ def test_gravity_stage_matches_the_elastic_column(tmp_path):
     write_gravity(study, tmp_path, result)
     stress, plastic = result.state.stress_pa, result.state.plastic_strain
     assert np.all(plastic == 0.0)
-    y0 = xr.open_dataset(tmp_path / "gravity.nc")["particle_y0"].values
+    y0 = xr.load_dataset(tmp_path / "gravity.nc")["particle_y0"].values
     band = (y0 >= 1.0) & (y0 <= 8.0)
     syy_exact = -2000.0 * 10.0 * (10.0 - y0[band])
     np.testing.assert_allclose(stress[band, 1], syy_exact, rtol=0.02)
@@ -343,7 +343,7 @@ def test_a_slope_unstable_as_built_is_reported(tmp_path):
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert outcome.fos < 1.0
     assert "UNSTABLE AS BUILT" in outcome.verdict
-    assert xr.open_dataset(tmp_path / "summary.nc")["fos"].attrs["verdict"] == outcome.verdict
+    assert xr.load_dataset(tmp_path / "summary.nc")["fos"].attrs["verdict"] == outcome.verdict
 
 
 def test_ctrl_c_keeps_finished_runs_and_says_how_to_resume(tmp_path):

@@ -66,7 +66,7 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     keep their verdicts."""
     progress = _Tally()
     first = run_study(parse_study(probabilistic(8)), tmp_path, RunOptions(workers=2), progress=progress)
-    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    ds = xr.load_dataset(tmp_path / "probabilistic.nc")
     expected = Sampler([Marginal("lognormal", 10e3, 3e3)]).monte_carlo(3, range(8))[:, 0]
     np.testing.assert_allclose(ds["cohesion_pa"].values, expected, rtol=1e-12)
     verdicts = ds["verdict"].values
@@ -85,7 +85,7 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     assert len(progress.lines) == 8 and progress.lines[-1] == f"{n_failed} failed, pf {n_failed / 8:.3g}"
     extended = run_study(parse_study(probabilistic(12)), tmp_path, RunOptions(workers=2))
     assert extended.runs_made == 4
-    more = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    more = xr.load_dataset(tmp_path / "probabilistic.nc")
     assert list(more["verdict"].values[:8]) == list(verdicts)
     np.testing.assert_array_equal(more["cohesion_pa"].values[:8], cohesion)
 
@@ -96,10 +96,10 @@ def test_a_sweep_of_probabilistic_studies_gives_each_case_its_own_pf(tmp_path):
     realisations (same seed) fail no more often on the stronger soil; pf.png is drawn."""
     text = probabilistic(4) + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [15, 25]\n'
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
-    ds = xr.open_dataset(tmp_path / "study.nc").load()
+    ds = xr.load_dataset(tmp_path / "study.nc")
     assert list(ds["friction_deg"].values) == [15, 25]
     for friction in (15, 25):
-        case = xr.open_dataset(tmp_path / "cases" / ds["case_folder"].sel(friction_deg=friction).item()
+        case = xr.load_dataset(tmp_path / "cases" / ds["case_folder"].sel(friction_deg=friction).item()
                                / "probabilistic.nc").load()
         assert ds["pf"].sel(friction_deg=friction).item() == pytest.approx(case.attrs["pf"])
         assert case.sizes["realisation"] == 4
@@ -113,7 +113,7 @@ def test_one_worker_and_two_give_the_same_realisations(tmp_path):
     text = probabilistic(4)
     one = run_study(parse_study(text), tmp_path / "one", RunOptions(workers=1))
     two = run_study(parse_study(text), tmp_path / "two", RunOptions(workers=2))
-    a, b = (xr.open_dataset(tmp_path / name / "probabilistic.nc").load() for name in ("one", "two"))
+    a, b = (xr.load_dataset(tmp_path / name / "probabilistic.nc") for name in ("one", "two"))
     np.testing.assert_array_equal(a["cohesion_pa"].values, b["cohesion_pa"].values)
     assert list(a["verdict"].values) == list(b["verdict"].values)
     assert one.pf == two.pf and one.n_failed > 0
@@ -141,7 +141,7 @@ def test_a_target_interval_width_stops_after_the_batch_that_reaches_it(tmp_path,
     monkeypatch.setattr(study_type, "BATCH_REALISATIONS", 3)
     early = run_study(parse_study(probabilistic(9, "pf_interval_width = 0.99")), tmp_path, RunOptions(workers=2))
     assert early.n_realisations == 3 and early.runs_made == 3
-    assert xr.open_dataset(tmp_path / "probabilistic.nc").sizes["realisation"] == 3
+    assert xr.load_dataset(tmp_path / "probabilistic.nc").sizes["realisation"] == 3
     full = run_study(parse_study(probabilistic(9, "pf_interval_width = 0.01")), tmp_path, RunOptions(workers=2))
     assert full.n_realisations == 9 and full.runs_made == 6
 
@@ -162,7 +162,7 @@ def test_realisations_keep_the_particle_state_the_study_asks_for(tmp_path):
     "none" nothing is kept, and the runs are reused; asking for all of them again makes them again."""
     text = probabilistic(4, 'compute = "fos"\nkeep_fields_first = 1')
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
-    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    ds = xr.load_dataset(tmp_path / "probabilistic.nc")
     verdicts = dict(zip(ds["case_folder"].values, ds["verdict"].values))
     assert set(list(verdicts.values())[1:]) == {"stable", "failed"}  # both kinds among those without keep_fields_first
     kept = _fields_by_run(tmp_path)
@@ -206,7 +206,7 @@ def test_a_worker_killed_mid_study_changes_no_realisation(separate_dask_workers,
     _, stderr = process.communicate(timeout=300)
     assert process.returncode == 0, stderr
     run_study(parse_study(probabilistic(40)), tmp_path / "clean", RunOptions(workers=2))
-    killed, clean = (xr.open_dataset(tmp_path / name / "probabilistic.nc").load() for name in ("killed", "clean"))
+    killed, clean = (xr.load_dataset(tmp_path / name / "probabilistic.nc") for name in ("killed", "clean"))
     np.testing.assert_array_equal(killed["cohesion_pa"].values, clean["cohesion_pa"].values)
     assert list(killed["verdict"].values) == list(clean["verdict"].values)
     assert killed.attrs["pf"] == clean.attrs["pf"] and 0 < killed.attrs["n_failed"] < 40

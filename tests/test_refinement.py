@@ -77,7 +77,7 @@ def test_a_sweep_refines_every_case_and_each_case_is_the_refinement_study_it_wou
     text = QUICKSTART + ("\n[refinement]\nspacings_m = [2.0, 1.4142, 1.0]\n\n[sweep]\n[[sweep.axes]]\n"
                          'path = "materials.soil.cohesion_pa"\nvalues = [10e3, 14e3]\n')
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
-    ds = xr.open_dataset(tmp_path / "study.nc")
+    ds = xr.load_dataset(tmp_path / "study.nc")
     assert ds.sizes["cohesion_pa"] == 2 and list(ds["finest_spacing"].values) == [1.0, 1.0]
     assert ds["fos"].values[1] > ds["fos"].values[0]  # stronger soil, higher FOS
     for case in outcome.cases:
@@ -108,7 +108,7 @@ def test_three_levels_of_the_quickstart_extrapolate_and_later_levels_search_near
     x = outcome.extrapolation
     assert x is not None and x.band_low <= outcome.levels[-1].fos <= x.band_high
     assert outcome.verdict.startswith("FOS = ")
-    ds = xr.open_dataset(tmp_path / "refinement.nc")
+    ds = xr.load_dataset(tmp_path / "refinement.nc")
     assert ds.sizes["level"] == 3 and list(ds["spacing"].values) == [2.0, 1.4142, 1.0]
     assert ds.attrs["verdict"] == outcome.verdict
     assert (tmp_path / "convergence.png").is_file()

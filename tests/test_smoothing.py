@@ -28,7 +28,7 @@ def test_linear_velocity_gives_exact_gradient_everywhere(polygon, spacing, jitte
     mesh = triangulate(xy, spacing)
     G = np.array([[0.3, -1.7], [2.1, 0.4]])
     v = np.array([0.5, -0.25]) + xy @ G.T
-    L, area, _ = smoothed_gradient(xy, v, mesh.elem_nodes)
+    L, area = smoothed_gradient(xy, v, mesh.elem_nodes)
     expected = np.broadcast_to(G.reshape(4), L.shape)  # (xx, xy, yx, yy) = row-major G
     assert np.all(area > 0)
     np.testing.assert_allclose(L, expected, rtol=0, atol=1e-10 * np.abs(G).max())
@@ -38,7 +38,7 @@ def test_linear_velocity_gives_exact_gradient_everywhere(polygon, spacing, jitte
 def test_smoothing_cell_areas_sum_to_meshed_area(polygon, spacing):
     xy = particles_in_polygon(polygon, spacing, jitter=0.15, seed=1)
     mesh = triangulate(xy, spacing)
-    _, node_area, _ = smoothed_gradient(xy, np.zeros_like(xy), mesh.elem_nodes)
+    _, node_area = smoothed_gradient(xy, np.zeros_like(xy), mesh.elem_nodes)
     p0, p1, p2 = (xy[mesh.elem_nodes[:, k]] for k in range(3))
     e1, e2 = p1 - p0, p2 - p0
     elem_area = 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
@@ -53,11 +53,10 @@ def test_uniform_stress_gives_boundary_traction_only():
     xy = particles_in_polygon([[0, 0], [width, 0], [width, height], [0, height]], h, jitter=0.2, seed=7)
     mesh = triangulate(xy, h)
     stress = np.tile([-100.0, -40.0, -20.0, 15.0], (len(xy), 1))
-    _, _, geom = smoothed_gradient(xy, np.zeros_like(xy), mesh.elem_nodes)
     force = np.zeros_like(xy)
     n = len(xy)
     power = assemble_nodal_force(xy, np.zeros((n, 2)), np.zeros((n, 4)), np.ones(n), stress, np.zeros(n, dtype=np.int64),
-                                 np.ones(1), mesh.elem_nodes, geom, mesh.elem_block_ptr, mesh.elem_colour_ptr,
+                                 np.ones(1), mesh.elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr,
                                  mesh.elem_colour_block, mesh.edge_nodes, mesh.edge_block_ptr, mesh.edge_colour_ptr,
                                  mesh.edge_colour_block, 0.0, 1e-3, 0.0, force, None)
     assert power == 0.0  # beta = 0: the internal force alone

@@ -148,7 +148,7 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
         with xr.open_dataset(run_file) as run:
             assert ("particle_x" in run) == (run.attrs["status"] == "failed") == bool(run.attrs["particle_fields"])
             assert "max_displacement" in run and run.sizes["time"] > 1
-    ds = xr.open_dataset(tmp_path / "probabilistic.nc").load()
+    ds = xr.load_dataset(tmp_path / "probabilistic.nc")
     assert ds.sizes["realisation"] == 3
     assert len(list(tmp_path.glob("failed_realisation_*.png"))) == min(3, first.n_failed)
     again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))

@@ -180,7 +180,7 @@ def test_toml_text_reads_back_as_the_same_study(name):
 
 def test_study_nc_holds_every_case_over_the_sweep_dimensions(strength_sweep):
     study, out, outcome = strength_sweep
-    ds = xr.open_dataset(out / "study.nc")
+    ds = xr.load_dataset(out / "study.nc")
     assert ds["fos"].dims == ("cohesion_pa", "friction_deg")
     assert ds["cohesion_pa"].attrs["units"] == "Pa" and ds["friction_deg"].attrs["units"] == "degree"
     assert ds["cohesion_pa"].attrs["sweep_path"] == "materials.soil.cohesion_pa"
@@ -189,7 +189,7 @@ def test_study_nc_holds_every_case_over_the_sweep_dimensions(strength_sweep):
     for case in outcome.cases:
         at = dict(cohesion_pa=case.values["cohesion_pa"], friction_deg=case.values["friction_deg"])
         folder = out / "cases" / str(ds["case_folder"].sel(at).values)
-        summary = xr.open_dataset(folder / "summary.nc")
+        summary = xr.load_dataset(folder / "summary.nc")
         assert float(ds["fos"].sel(at)) == float(summary["fos"])  # the case's own answer
         assert float(ds["fos_low"].sel(at)) == summary["fos"].attrs["fos_low"]
         assert (folder / "case.toml").read_text() == case.study.source_text
@@ -205,7 +205,7 @@ def test_cases_that_compute_the_same_thing_are_computed_once(tmp_path):
     study = parse_study(quick + '\n[sweep]\n[[sweep.axes]]\npath = "study.description"\nvalues = ["a", "b"]\n')
     outcome = run_study(study, tmp_path, RunOptions(workers=1))
     assert outcome.n_distinct == 1
-    ds = xr.open_dataset(tmp_path / "study.nc")
+    ds = xr.load_dataset(tmp_path / "study.nc")
     assert list(ds["case_folder"].values) == ["description=a", "description=a"]
     assert ds["fos"][0] == ds["fos"][1] and not (tmp_path / "cases" / "description=b").exists()
 
@@ -265,11 +265,11 @@ def test_killed_sweep_resumes_on_one_worker_with_the_same_study_nc(strength_swee
     rerun = cli(path, "--out", out, "--workers", "1")
     assert rerun.returncode == 0, rerun.stderr
     assert "reused" in rerun.stdout.splitlines()[0]
-    first, again = xr.open_dataset(first_out / "study.nc"), xr.open_dataset(out / "study.nc")
+    first, again = xr.load_dataset(first_out / "study.nc"), xr.load_dataset(out / "study.nc")
     assert again.drop_attrs().identical(first.drop_attrs())
     used = 0
     for case_folder in again["case_folder"].values.flat:
-        summary = xr.open_dataset(out / "cases" / case_folder / "summary.nc")
+        summary = xr.load_dataset(out / "cases" / case_folder / "summary.nc")
         for srf in summary["srf"].values:
             run = out / "cases" / case_folder / f"srf_{srf:.4f}.nc"
             if run in finished:
@@ -285,7 +285,7 @@ def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_das
     path.write_text(SWEEP)
     run = cli(path, "--out", tmp_path / "out", "--scheduler", separate_dask_cluster, "--quiet")
     assert run.returncode == 0, run.stderr
-    local, remote = xr.open_dataset(local_out / "study.nc"), xr.open_dataset(tmp_path / "out" / "study.nc")
+    local, remote = xr.load_dataset(local_out / "study.nc"), xr.load_dataset(tmp_path / "out" / "study.nc")
     assert remote.drop_attrs().identical(local.drop_attrs())
     assert run.stdout.splitlines()[0].split() == ["cohesion_pa", "friction_deg", "FOS", "bracket", "runs", "status"]
 

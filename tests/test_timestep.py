@@ -28,7 +28,7 @@ def lattice() -> np.ndarray:
 
 
 LATTICE = lattice()
-_, LATTICE_CELL_AREA, _ = smoothed_gradient(LATTICE, np.zeros_like(LATTICE), triangulate(LATTICE, H).elem_nodes)
+_, LATTICE_CELL_AREA = smoothed_gradient(LATTICE, np.zeros_like(LATTICE), triangulate(LATTICE, H).elem_nodes)
 MASS_KG = 2000.0 * LATTICE_CELL_AREA  # fixed at the start, as in a run
 MIDDLE = 5 * N + 5
 
@@ -40,7 +40,7 @@ def true_stable_step(xy: np.ndarray, elem_nodes: np.ndarray) -> float:
     for dof in range(2 * n):
         unit = np.zeros((n, 2))
         unit[dof // 2, dof % 2] = 1.0
-        grad, cell_area, _ = smoothed_gradient(xy, unit, elem_nodes)
+        grad, cell_area = smoothed_gradient(xy, unit, elem_nodes)
         strain[:, 0, dof], strain[:, 1, dof], strain[:, 2, dof] = grad[:, 0], grad[:, 3], grad[:, 1] + grad[:, 2]
     stiffness = np.einsum("k,kaj,ab,kbl->jl", cell_area, strain, D, strain)
     scale = 1.0 / np.sqrt(np.repeat(MASS_KG, 2))

@@ -8,22 +8,20 @@ import numpy as np
 from spfem_core.jit import kernel
 from spfem_core.mesh import mesh_from_elements
 from spfem_core.smoothing import smooth_velocity_gradient
-from spfem_core.state import ELEM_GEOM_WIDTH
 
 
 def smoothed_gradient(node_xy_m: np.ndarray, node_values: np.ndarray, elem_nodes: np.ndarray):
     """The time loop's smoothed gradient of a nodal vector field (n, 2) on the triangles
-    ``elem_nodes``: (L (n, 4) as xx, xy, yx, yy; cell areas A_k (n,); element geometry)."""
+    ``elem_nodes``: (L (n, 4) as xx, xy, yx, yy; cell areas A_k (n,))."""
     n = node_xy_m.shape[0]
     mesh = mesh_from_elements(elem_nodes, n)
-    elem_geom = np.zeros((mesh.n_elem, ELEM_GEOM_WIDTH))
     node_L = np.zeros((n, 4))
     node_area = np.zeros(n)
     smooth_velocity_gradient(np.ascontiguousarray(node_xy_m, dtype=np.float64),
                              np.ascontiguousarray(node_values, dtype=np.float64), mesh.elem_nodes,
-                             mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, elem_geom, node_L,
+                             mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block, node_L,
                              node_area, None)
-    return node_L, node_area, elem_geom
+    return node_L, node_area
 
 
 @kernel

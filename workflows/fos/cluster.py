@@ -6,6 +6,7 @@ gravity stage, and closes in a thread while the summary and figures are made.
 
 from __future__ import annotations
 
+import gc
 import importlib
 import logging
 import multiprocessing
@@ -135,6 +136,11 @@ class DaskSession:
     on two cores at once."""
 
     def __init__(self, workers: int, scheduler: str | None, warm_up_worker: bool = False):
+        # HDF5 is not thread-safe: a netCDF file still open in unreachable objects would be closed by
+        # whichever thread next collects garbage, the cluster's among them, while this one reads
+        # the gravity file, and the process crashes (seen with datasets a caller left open).  They
+        # are closed here, in this thread, before any other starts.
+        gc.collect()
         pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="dask-start")
         self._starting = pool.submit(self._start, workers, scheduler, warm_up_worker)
         pool.shutdown(wait=False)
