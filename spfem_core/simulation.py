@@ -65,8 +65,9 @@ MAX_SOLVES = 4
 """At most this many direct solves per relaxation (two reach 2e-7 on the reference slope)."""
 DIRECT_SOLVE_MAX_DOFS = 120_000
 """Larger clouds relax without the direct solve: the sparse LU's fill grows faster than the
-relaxation's steps (the reference slope, one thread: 6,927 particles 0.3 s against 1.2 s of
-steps, 27,120 particles 2.6 s against 12.7 s; ``python -m benchmarks.relaxation_steps``)."""
+relaxation's steps (the reference slope's gravity stage on one thread, solves against damped
+steps: 6,927 particles 0.45 s against 0.80 s, 27,120 particles 3.6 s against 7.5 s;
+``python -m benchmarks.relaxation_steps --spacing 0.3 0.15``)."""
 
 StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
 """Asked between compiled calls with the records so far (time_s, max_displacement_m,
@@ -468,7 +469,7 @@ class Simulation:
         residual the moved geometry leaves is solved again with the same factorisation, until
         the unbalanced-force ratio is below ``SOLVE_MARGIN`` x ``tolerance`` (at most
         ``MAX_SOLVES`` times).  At rest afterwards.  Returns one line: what was done, or why not.
-        On the reference slope at h = 0.3 m the ratio fell 1 -> 2.9e-4 -> 2.0e-7."""
+        On the reference slope at h = 0.3 m the ratio fell 1 -> 2.9e-4 -> 3.1e-7."""
         nodes = self.nodes
         reason = None
         if self.materials.plastic:

@@ -1,0 +1,84 @@
+"""Shortcuts for the quasi-static SRF runs that were measured and not taken (docs/benchmarks.md).
+
+    python -m benchmarks.relaxation_shortcuts tolerance              # h = 0.3 m, SRF 1.2 1.3 1.3667 1.375 1.4
+    python -m benchmarks.relaxation_shortcuts step --spacing 0.5 --srf 1.2 --factors 0.909 1.1 1.3 1.5
+
+Each SRF run of the reference slope (``studies/reference_slope.toml``) starts from the same
+gravity state, on one thread, and prints its steps, end time, largest displacement and whether it
+converged (or diverged):
+
+- ``tolerance``: the stage's convergence tolerance at the default 1e-5 and at 1e-4, the loosest
+  accepted;
+- ``step``: the relaxation's time step at ``--factors`` times the critical-step bound instead of
+  ``timestep.max_stable_cfl(beta)`` (0.909 at beta = 0.1), by replacing the run's
+  ``TimeStepPolicy.relaxation``: a measurement of the stability margin, not an option of the code.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from spfem_core.divergence import DivergenceError
+from workflows.scene import build_scene, monitor_particles
+from workflows.stages.running import begin_stage, new_simulation
+from workflows.study import parse_study
+
+STUDY = Path(__file__).resolve().parents[1] / "studies" / "reference_slope.toml"
+
+
+def study_at(spacing_m: float, tolerance: float | None = None):
+    """The reference slope at ``spacing_m``, its SRF stage at ``tolerance`` (None: the default)."""
+    text = STUDY.read_text().replace("spacing_m = 0.3", f"spacing_m = {spacing_m}")
+    if tolerance is not None:
+        text = text.replace('kind = "strength_reduction"', f'kind = "strength_reduction"\ntolerance = {tolerance}')
+    return parse_study(text)
+
+
+def gravity_state(study, scene):
+    sim = new_simulation(study, scene, threads=1)
+    begin_stage(study, sim, 0)
+    study.stages[0].run(sim, [], next_starts_over=True)
+    return sim.snapshot().stress_state
+
+
+def srf_run(study, scene, state, srf: float, step_factor: float | None = None) -> str:
+    """One run from ``state``; a line of what it did."""
+    sim = new_simulation(study, scene, threads=1)
+    begin_stage(study, sim, len(study.stages) - 1, start_from=state)
+    if step_factor is not None:
+        sim.time_step.relaxation = lambda critical_dt_s, beta: step_factor * critical_dt_s
+    try:
+        run = study.strength_reduction.run_at(sim, srf, study, monitor_particles(study, scene), None)
+    except DivergenceError as error:
+        return f"diverged: {error}"
+    return (f"steps {run.n_steps:6d}  t {run.time_s[-1]:.3f} s  largest u {np.max(run.max_displacement_m):.5f} m  "
+            f"converged {run.converged}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("shortcut", choices=("tolerance", "step"))
+    parser.add_argument("--spacing", type=float, default=0.3, help="particle spacing (m), default 0.3")
+    parser.add_argument("--srf", type=float, nargs="+", default=[1.2, 1.3, 1.3667, 1.375, 1.4])
+    parser.add_argument("--factors", type=float, nargs="+", default=[0.909, 1.1, 1.3, 1.5],
+                        help="step: relaxation steps as fractions of the critical-step bound")
+    args = parser.parse_args()
+    study = study_at(args.spacing)
+    scene = build_scene(study)
+    state = gravity_state(study, scene)
+    if args.shortcut == "tolerance":
+        for tolerance in (1e-5, 1e-4):
+            variant = study_at(args.spacing, tolerance)
+            for srf in args.srf:
+                print(f"tolerance {tolerance:g}  SRF {srf:g}: {srf_run(variant, scene, state, srf)}", flush=True)
+    else:
+        for factor in args.factors:
+            for srf in args.srf:
+                print(f"step {factor:g} x bound  SRF {srf:g}: {srf_run(study, scene, state, srf, factor)}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
