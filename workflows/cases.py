@@ -104,6 +104,7 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
     from workflows.fos.engine import CaseSearch, Engine
     from workflows.fos.summary import conclude_case
     from workflows.fos.task import RunPolicy
+    from workflows.output.figures import import_pyplot_in_background
 
     start_unix_s = time.time()
     searches = [CaseSearch(index, case.study, case.out_dir, label=case.case_id,
@@ -118,6 +119,8 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         if not placement.gravity_in_process:
             warm_up()  # the compiled loop in the disk cache before the first task: compiled once
         engine_start = time.perf_counter()
+        if placement.figures:
+            import_pyplot_in_background()
         for search in Engine(session, searches, progress, start_unix_s, force=options.force).run():
             if own and all(each.concluded for each in searches):
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
