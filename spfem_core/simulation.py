@@ -62,6 +62,10 @@ SOLVE_MARGIN = 0.1
 """``Simulation.solve_elastic`` solves until the unbalanced-force ratio is below this times the
 relaxation's tolerance, so that the damped steps after it have nothing left to do."""
 MAX_SOLVES = 4
+SOLVE_GAIN = 0.1
+"""Each solve must divide the unbalanced-force ratio by at least 1 / this, or the state goes back to
+how it was and the damped steps relax it (a stiffness the supports leave near singular, whose LU
+does not fail outright, would otherwise move the particles by its round-off)."""
 """At most this many direct solves per relaxation (two reach 2e-7 on the reference slope)."""
 DIRECT_SOLVE_MAX_DOFS = 120_000
 """Larger clouds relax without the direct solve: the sparse LU's fill grows faster than the
@@ -468,7 +472,7 @@ class Simulation:
         by the small-strain increment, the particles move by it and take its stress; the
         residual the moved geometry leaves is solved again with the same factorisation, until
         the unbalanced-force ratio is below ``SOLVE_MARGIN`` x ``tolerance`` (at most
-        ``MAX_SOLVES`` times).  At rest afterwards.  Returns one line: what was done, or why not.
+        ``MAX_SOLVES`` times; each must divide it by 1 / ``SOLVE_GAIN``, else the state is put back).  At rest afterwards.  Returns one line: what was done, or why not.
         On the reference slope at h = 0.3 m the ratio fell 1 -> 2.9e-4 -> 3.1e-7."""
         nodes = self.nodes
         reason = None
@@ -493,6 +497,7 @@ class Simulation:
         free = ~nodes.fixed
         weight_sq = float(np.sum((nodes.mass_kg[:, None] * self.gravity_m_s2[None, :])[free] ** 2))
         unbalanced = np.zeros((self.n_particles, 2))
+        before = (nodes.xy_m.copy(), nodes.displacement_m.copy(), nodes.stress_pa.copy())
         try:
             system = ElasticSystem(nodes.xy_m, self.mesh.elem_nodes, self.material_arrays.lame_lambda_pa[row],
                                    self.material_arrays.shear_modulus_pa[row], free)
@@ -501,6 +506,9 @@ class Simulation:
                 unbalanced_force_at_rest(nodes, self.scratch, self.mesh_arrays, self.material_arrays, self.loads,
                                          self.gravity_m_s2, 0.0, unbalanced)
                 ratios.append(math.sqrt(float(np.sum(unbalanced[free] ** 2)) / weight_sq) if weight_sq > 0 else 0.0)
+                if len(ratios) > 1 and not ratios[-1] < SOLVE_GAIN * ratios[-2]:
+                    raise NotSolvable(f"a solve left the unbalanced-force ratio at {ratios[-1]:.3g} from "
+                                      f"{ratios[-2]:.3g}: the stiffness is near singular or the geometry moved too far")
                 if ratios[-1] < SOLVE_MARGIN * tolerance or len(ratios) > MAX_SOLVES:
                     break
                 du, d_stress = system.increment(unbalanced)
@@ -508,6 +516,7 @@ class Simulation:
                 nodes.displacement_m[:] += du
                 nodes.stress_pa[:] += d_stress
         except NotSolvable as error:
+            nodes.xy_m[:], nodes.displacement_m[:], nodes.stress_pa[:] = before  # as it was: the steps relax it
             return f"not applicable ({error})"
         nodes.velocity_m_s[:] = 0.0
         self.critical_dt_s = self._critical_dt()
