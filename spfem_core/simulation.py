@@ -467,7 +467,8 @@ class Simulation:
     def solve_elastic(self, tolerance: float) -> str:
         """Bring the particles to static equilibrium by direct solves (``elastic_solve``), where that
         is the state a relaxation approaches: every material elastic, supports that hold still, no
-        walls, slip supports or load ramp, every particle in a triangle.  The unbalanced force at
+        walls, particles sliding along slip supports (an elastic row holds them fixed) or load ramp,
+        every particle in a triangle.  The unbalanced force at
         rest (weight, water and loads at the current stage time, the current stress) is balanced
         by the small-strain increment, the particles move by it and take its stress; the
         residual the moved geometry leaves is solved again with the same factorisation, until
@@ -480,7 +481,7 @@ class Simulation:
             reason = "a material is not elastic"
         elif self.walls.xy_m.shape[0]:
             reason = "walls"
-        elif np.any(self._slip_side):
+        elif np.any(nodes.slip[:, SLIP_SIDE] != 0.0):  # (an elastic row on a slip support is held fixed)
             reason = "slip supports"
         elif np.any(nodes.fixed_velocity_m_s[nodes.fixed] != 0.0):
             reason = "prescribed motion"
