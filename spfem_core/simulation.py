@@ -62,11 +62,11 @@ SOLVE_MARGIN = 0.1
 """``Simulation.solve_elastic`` solves until the unbalanced-force ratio is below this times the
 relaxation's tolerance, so that the damped steps after it have nothing left to do."""
 MAX_SOLVES = 4
+"""At most this many direct solves per relaxation (two reach 3.1e-7 on the reference slope)."""
 SOLVE_GAIN = 0.1
 """Each solve must divide the unbalanced-force ratio by at least 1 / this, or the state goes back to
 how it was and the damped steps relax it (a stiffness the supports leave near singular, whose LU
 does not fail outright, would otherwise move the particles by its round-off)."""
-"""At most this many direct solves per relaxation (two reach 2e-7 on the reference slope)."""
 DIRECT_SOLVE_MAX_DOFS = 120_000
 """Larger clouds relax without the direct solve: the sparse LU's fill grows faster than the
 relaxation's steps (the reference slope's gravity stage on one thread, solves against damped
@@ -467,14 +467,15 @@ class Simulation:
     def solve_elastic(self, tolerance: float) -> str:
         """Bring the particles to static equilibrium by direct solves (``elastic_solve``), where that
         is the state a relaxation approaches: every material elastic, supports that hold still, no
-        walls, particles sliding along slip supports (an elastic row holds them fixed) or load ramp,
-        every particle in a triangle.  The unbalanced force at
-        rest (weight, water and loads at the current stage time, the current stress) is balanced
-        by the small-strain increment, the particles move by it and take its stress; the
-        residual the moved geometry leaves is solved again with the same factorisation, until
-        the unbalanced-force ratio is below ``SOLVE_MARGIN`` x ``tolerance`` (at most
-        ``MAX_SOLVES`` times; each must divide it by 1 / ``SOLVE_GAIN``, else the state is put back).  At rest afterwards.  Returns one line: what was done, or why not.
-        On the reference slope at h = 0.3 m the ratio fell 1 -> 2.9e-4 -> 3.1e-7."""
+        walls, no particle sliding along a slip support (an elastic row holds them fixed), no load
+        ramp, every particle in a triangle.  The unbalanced force at rest (weight, water and loads
+        at the current stage time, the current stress) is balanced by the small-strain increment,
+        the particles move by it and take its stress; the residual the moved geometry leaves is
+        solved again with the same factorisation, until the unbalanced-force ratio is below
+        ``SOLVE_MARGIN`` x ``tolerance`` (at most ``MAX_SOLVES`` times; each must divide it by
+        1 / ``SOLVE_GAIN``, else the state is put back).  At rest afterwards.  Returns one line:
+        what was done, or why not.  On the reference slope at h = 0.3 m the ratio fell
+        1 -> 2.9e-4 -> 3.1e-7."""
         nodes = self.nodes
         reason = None
         if self.materials.plastic:
@@ -483,7 +484,7 @@ class Simulation:
             reason = "walls"
         elif np.any(nodes.slip[:, SLIP_SIDE] != 0.0):  # (an elastic row on a slip support is held fixed)
             reason = "slip supports"
-        elif np.any(nodes.fixed_velocity_m_s[nodes.fixed] != 0.0):
+        elif self.prescribes_motion:
             reason = "prescribed motion"
         elif self.loads.ramp_time_s > 0.0:
             reason = "a load ramp"
@@ -545,6 +546,13 @@ class Simulation:
         self.critical_dt_s = self._critical_dt()
 
     @property
+    def prescribes_motion(self) -> bool:
+        """Whether a support moves (a nonzero prescribed velocity): it does work the energy budget
+        does not count, and a relaxation's state is not a static solution."""
+        nodes = self.nodes
+        return bool(np.any(nodes.fixed_velocity_m_s[nodes.fixed] != 0.0))
+
+    @property
     def beta(self) -> float:
         """The stabilisation of the steps now: ``stabilisation_beta``, except in a relaxation whose
         materials are all elastic, which runs without the bonds.  They are a viscosity (zero at
@@ -552,7 +560,7 @@ class Simulation:
         and a step costs about a quarter less without them, at a 1 + beta longer step.  A
         relaxation with plasticity keeps them: its end state depends on its path, and without
         the bonds the quasi-static SRF runs of the undrained slope of Griffiths & Lane found
-        an FOS of 1.346 instead of 1.446 (docs/benchmarks.md, "Relaxations")."""
+        an FOS of 1.346 instead of 1.446 (docs/method.md, section 8)."""
         if self._relaxing and not self.materials.plastic:
             return 0.0
         return float(self.settings.stabilisation_beta)
@@ -583,7 +591,7 @@ class Simulation:
         start = _StageStart(self.counters.rebuilds, self.counters.smoothed, self.counters.remesh_wall_s,
                             float(self.loop[LOOP_MESH_CHECKS]))
         # prescribed motion does work the budget does not count
-        energy_watch = None if np.any(self.nodes.fixed_velocity_m_s[self.nodes.fixed] != 0.0) else EnergyWatch(records)
+        energy_watch = None if self.prescribes_motion else EnergyWatch(records)
         stage_time = 0.0
         n_steps = 0
         converged = None if tolerance == 0.0 else False
