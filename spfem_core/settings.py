@@ -49,3 +49,4 @@ class SolverSettings:
     crowded_fraction: float = DEFAULT_CROWDED_FRACTION  # after a rebuild, smooth particles closer than this * h
     threads: int = 0  # threads of the compiled step (0: all numba has, the cores); results do not depend on it
     density_scaling: bool = False  # relaxations of a graded cloud at the coarse particles' step (Simulation.relax)
+    uniform_relaxation_step: bool = True  # relaxations with no cell's step below the median cell's (Simulation.relax)

@@ -56,7 +56,13 @@ from spfem_core.stepper import (
     new_accumulators,
     unbalanced_force_at_rest,
 )
-from spfem_core.timestep import DT_COLLAPSE_FACTOR, TimeStepPolicy, critical_time_step
+from spfem_core.timestep import (
+    DT_COLLAPSE_FACTOR,
+    TimeStepPolicy,
+    cell_frequency_bounds,
+    critical_time_step,
+    equalised_inertia,
+)
 
 SOLVE_MARGIN = 0.1
 """``Simulation.solve_elastic`` solves until the unbalanced-force ratio is below this times the
@@ -373,6 +379,8 @@ class Simulation:
             self._set_mesh(mesh)
             self.counters.rebuilds += 1
             self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
+            if self._relaxing:
+                self._set_inertia()  # the equalised inertia belongs to the mesh
             critical = self._critical_dt()
             self.critical_dt_s = critical
             new_dt = self.time_step.after_rebuild(critical, self.beta if self._relaxing else None)
@@ -449,9 +457,7 @@ class Simulation:
         self._relaxing = True
         self.loads = self.loads._replace(at_initial_positions=bool(water_at_initial_positions))
         solve_note = self.solve_elastic(tolerance) if elastic_solve_first else "off"
-        scaled = self.settings.density_scaling and self.scene.node_spacing_m is not None
-        if scaled:
-            self._set_inertia(scaled=True)
+        self._set_inertia()
         self.dt_s = self.time_step.relaxation(self.critical_dt_s, self.beta)
         try:
             series = self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop,
@@ -460,8 +466,7 @@ class Simulation:
             return series
         finally:
             self._relaxing = False
-            if scaled:
-                self._set_inertia(scaled=False)
+            self._set_inertia()
             self._choose_time_step()
 
     def solve_elastic(self, tolerance: float) -> str:
@@ -526,23 +531,33 @@ class Simulation:
         return (f"{len(ratios) - 1} direct solves in {time.perf_counter() - start:.2f} s, unbalanced-force ratio "
                 f"{trail}")
 
-    def _set_inertia(self, scaled: bool) -> None:
-        """The inertia of the particles from now on, and the critical step on it: the masses, or
-        (``scaled``, a relaxation of a graded cloud) density scaling to the coarsest spacing,
+    def _set_inertia(self) -> None:
+        """The inertia the forces accelerate from now on, and the critical step on it.  Outside a
+        relaxation, the masses m_k.  Only the end state of a relaxation counts, so its inertia is
+        free (the weight stays m_k g), and it is density-scaled:
 
-            m_i,k = m_k (h_max / h_k)^2,
-
-        which gives every particle about the critical step of the coarsest ones (in 2D a cell's
-        stiffness does not depend on its size, its mass goes as h^2).  Only the end state of a
-        relaxation counts, so its inertia is free; the weight stays m_k g.  The fine particles then
-        respond that much more slowly in pseudo-time: a relaxation whose slow part lies in the fine
-        zone (a mechanism, where the cloud is refined) needs as many steps as without scaling
-        and a longer ``max_duration_s`` (docs/method.md, section 2)."""
+        - ``settings.density_scaling`` on a graded cloud: to the coarsest spacing,
+          m_i,k = m_k (h_max / h_k)^2, which gives every particle about the critical step of the
+          coarsest ones (in 2D a cell's stiffness does not depend on its size, its mass goes as
+          h^2).  The fine particles then respond that much more slowly in pseudo-time: a
+          relaxation whose slow part lies in the fine zone (a mechanism, where the cloud is
+          refined) needs as many steps as without scaling and a longer ``max_duration_s``;
+        - ``settings.uniform_relaxation_step``: then no cell's step below the median cell's
+          (``timestep.equalised_inertia``, recomputed on every mesh): the few cells that hold the
+          step down, at the free surface, take more inertia, and the relaxation about half the
+          steps (docs/method.md, section 5)."""
         nodes = self.nodes
-        if scaled:
-            nodes.inertia_kg[:] = nodes.mass_kg * (self.node_spacing_m.max() / self.node_spacing_m) ** 2
-        else:
-            nodes.inertia_kg[:] = nodes.mass_kg
+        nodes.inertia_kg[:] = nodes.mass_kg
+        if self._relaxing and self.settings.density_scaling and self.scene.node_spacing_m is not None:
+            nodes.inertia_kg[:] *= (self.node_spacing_m.max() / self.node_spacing_m) ** 2
+        if self._relaxing and self.settings.uniform_relaxation_step:
+            mesh = self.mesh
+            omega_sq = cell_frequency_bounds(
+                nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, nodes.inertia_kg,
+                nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
+            )
+            nodes.inertia_kg[:] = equalised_inertia(nodes.inertia_kg, omega_sq, mesh.node_node_ptr,
+                                                    mesh.node_node_idx)
         self.critical_dt_s = self._critical_dt()
 
     @property

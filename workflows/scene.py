@@ -209,6 +209,7 @@ def solver_settings(study: Study, threads: int = 0) -> SolverSettings:
     return SolverSettings(
         cfl=cfl, dt_s=solver.dt_s, stabilisation_beta=solver.stabilisation_beta,
         min_angle_deg=solver.remesh_min_angle_deg, threads=threads, density_scaling=solver.density_scaling,
+        uniform_relaxation_step=solver.uniform_relaxation_step,
     )
 
 

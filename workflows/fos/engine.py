@@ -221,14 +221,20 @@ class Engine:
         future.cancel()
 
     # ------------------------------------------------------------------ gravity (step 1)
+    def _stored_state(self, case: CaseSearch):
+        """The gravity state in the case's gravity folder for its key, or None (read once for all the
+        cases that share the folder and key; never with ``force``)."""
+        if self.force:
+            return None
+        slot = (case.gravity_dir, case.gkey)
+        if slot not in self.stored_states:
+            self.stored_states[slot] = stored_gravity(case.study, case.gravity_dir)
+        return self.stored_states[slot]
+
     def _load_stored_gravity(self, case: CaseSearch) -> None:
-        """The case's gravity state from its gravity folder, when its files and key are there (read
-        once for all the cases that share the folder and key)."""
-        if case.gravity is None and not self.force:
-            slot = (case.gravity_dir, case.gkey)
-            if slot not in self.stored_states:
-                self.stored_states[slot] = stored_gravity(case.study, case.gravity_dir)
-            state = self.stored_states[slot]
+        """The case's gravity state from its gravity folder, when its files and key are there."""
+        if case.gravity is None:
+            state = self._stored_state(case)
             if state is not None:
                 case.gravity, case.gravity_reused, case.n_particles = state, True, state.n_particles
 
@@ -268,6 +274,12 @@ class Engine:
         self._load_stored_gravity(case)
         if case.gravity is None:
             donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey), None)
+            if donor is None:  # a case with this key that concluded from its files alone: its gravity files
+                donor = next((c for c in self.cases if c.gkey == case.gkey and c is not case
+                              and self._stored_state(c) is not None), None)
+                if donor is not None:
+                    donor.gravity, donor.gravity_reused = self._stored_state(donor), True
+                    donor.n_particles = donor.gravity.n_particles
             if donor is not None:
                 if case.write_gravity and donor.gravity_dir != case.gravity_dir:
                     copy_gravity(donor.study, donor.gravity_dir, case.study, case.gravity_dir)

@@ -242,7 +242,13 @@ class Solver(Record):
         "with [[geometry.refined]] zones: relaxations (gravity, quasi-static SRF runs) scale the fine particles' "
         "inertia to step at the coarse particles' critical step; the fine zone then responds slower in "
         "pseudo-time (give longer durations); measured no faster where the mechanism is refined "
-        "(docs/method.md, section 2)", default=False,
+        "(docs/method.md, section 5)", default=False,
+    )
+    uniform_relaxation_step: bool = boolean(
+        "relaxations (gravity, quasi-static SRF runs) give the few particles whose cells hold the stable step "
+        "down (at the free surface) more inertia, so that no cell steps below the median cell: about half the "
+        "steps to the same end state (docs/method.md, section 5); false: every particle's inertia is its mass",
+        default=True,
     )
 
     def check(self):
