@@ -68,6 +68,15 @@ def test_python_dash_m_entry_point(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("args, line", [
+    ([], "error: Missing argument 'STUDY.toml'. (spfem-fos --help)"),
+    (["study.toml", "--bogus"], "error: No such option: --bogus"),
+])
+def test_usage_errors_are_one_line_and_exit_2(args, line):
+    run = subprocess.run([sys.executable, "-m", "workflows.cli", *args], capture_output=True, text=True, cwd=REPO)
+    assert run.returncode == 2 and run.stderr.startswith(line) and run.stderr.count("\n") == 1, run.stderr
+
+
 # ---------------------------------------------------------------------------------------
 # With the core
 # ---------------------------------------------------------------------------------------

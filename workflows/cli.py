@@ -10,13 +10,15 @@ stages in order (:mod:`workflows.stages`); a sweep brings its cases together in 
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
-folder that cannot be made: one line on stderr, nothing written), 130 interrupted by Ctrl-C
+folder that cannot be made or that another study holds: one line on stderr, nothing written;
+or an output folder that failed during the run: finished runs kept), 130 interrupted by Ctrl-C
 (SIGINT) and 143 by SIGTERM: finished runs are kept, the cluster is shut down, and the same
 command resumes.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 from pathlib import Path
 from typing import Annotated, Optional
@@ -32,6 +34,8 @@ EXIT_BAD_STUDY = 2
 EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports SIGINT
 EXIT_TERMINATED = 143  # SIGTERM, as a shell reports it
 MAX_WORKERS = 256
+DEFAULT_WORKERS = 2
+MAX_FILE_NAME_BYTES = 255  # NAME_MAX of Linux, macOS and Windows file systems
 
 app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
 
@@ -105,6 +109,10 @@ def _fail(message: str, code: int) -> typer.Exit:
 def check_output_folder(out_dir: Path) -> str | None:
     """Why ``out_dir`` cannot hold results (one line), or None: it exists as something other
     than a folder, or the nearest existing folder above it is not one we may write in."""
+    too_long = [part for part in out_dir.parts if len(part.encode()) > MAX_FILE_NAME_BYTES]
+    if too_long:
+        return (f"the folder name {too_long[0][:40]}... is {len(too_long[0].encode())} bytes long, more than file "
+                f"systems allow ({MAX_FILE_NAME_BYTES})")
     if out_dir.exists() and not out_dir.is_dir():
         return f"{out_dir} exists and is not a folder"
     parent = out_dir
@@ -121,13 +129,14 @@ def check_output_folder(out_dir: Path) -> str | None:
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
+        Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result: the FOS line (a sweep: its table)")] = False,
     force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
     workers: Annotated[
-        int, typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread each)")
-    ] = 2,
+        Optional[int], typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread "
+                                    "each; default 2, at most the cores)", show_default=False)
+    ] = None,
     scheduler: Annotated[
         Optional[str],
         typer.Option("--scheduler", help="address of a running dask scheduler (tcp://host:8786) to run the SRF runs on",
@@ -150,10 +159,24 @@ def main(
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
 
-    if not 1 <= workers <= MAX_WORKERS:
+    if scheduler is not None and not scheduler.strip():
+        raise _fail("error: --scheduler: empty; give a scheduler's address (tcp://host:8786), or leave the option "
+                    "out to run on local workers", EXIT_BAD_STUDY)
+    if scheduler is not None and workers is not None:
+        raise _fail("error: --workers: applies to local workers; with --scheduler the scheduler's workers run the "
+                    "SRF runs (give one of the two)", EXIT_BAD_STUDY)
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
         raise _fail(f"error: --workers: must be in [1, {MAX_WORKERS}], got {workers}", EXIT_BAD_STUDY)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    if workers is not None and workers > cores:
+        typer.echo(f"warning: --workers {workers} on {cores} cores: using {cores} (each worker runs one SRF run on "
+                   "one core; more would only share the cores)", err=True)
+        workers = cores
+    workers = DEFAULT_WORKERS if workers is None else workers
     if max_memory is not None and not max_memory > 0.0:
         raise _fail(f"error: --max-memory: must be > 0 GiB, got {max_memory:g}", EXIT_BAD_STUDY)
+    if out is not None and not out.strip():
+        raise _fail("error: --out: empty; give a folder (without --out: ./<study name>)", EXIT_BAD_STUDY)
     out_dir = Path(out) if out is not None else Path.cwd() / study.name
     problem = check_output_folder(out_dir)
     if problem:
@@ -185,6 +208,10 @@ def main(
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
         raise _fail(f"error: {study_file}: the run diverged: {error}", EXIT_DIVERGED) from None
+    except OSError as error:  # a file or folder that failed under the study (full, read-only, deleted)
+        where = f"{error.filename}: " if error.filename else ""
+        raise _fail(f"error: {study_file}: {where}{error.strerror or error}; the finished runs are kept in {out_dir}; "
+                    "fix the cause and run the same command again to resume", EXIT_BAD_STUDY) from None
     except KeyboardInterrupt as interrupt:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not break the clean-up message
         how = "terminated (SIGTERM)" if isinstance(interrupt, Terminated) else "interrupted"
@@ -195,5 +222,21 @@ def main(
         signal.signal(signal.SIGTERM, previous_sigterm)
 
 
+def run() -> None:
+    """The ``spfem-fos`` command (its console entry point): the app, with a usage error (a missing
+    study file, an unknown option) as one line and exit code 2."""
+    try:
+        code = app(prog_name="spfem-fos", standalone_mode=False)
+    except typer.Abort:  # Ctrl-C while the command line is read
+        raise SystemExit(EXIT_INTERRUPTED) from None
+    except Exception as error:
+        # click's UsageError (typer ships its own copy of click): exit code 2 and a message
+        if getattr(error, "exit_code", None) != 2 or not hasattr(error, "format_message"):
+            raise
+        typer.echo(f"error: {' '.join(error.format_message().split())} (spfem-fos --help)", err=True)
+        raise SystemExit(EXIT_BAD_STUDY) from None
+    raise SystemExit(code or 0)
+
+
 if __name__ == "__main__":
-    app(prog_name="spfem-fos")
+    run()

@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
+from workflows.output.folder_lock import folder_lock
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.sweep import ProbabilisticSweepStudy
 from workflows.progress import Progress
@@ -63,22 +64,22 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
     for warning in kind.warnings():
         progress.message(warning)
     if options.scheduler and study.strength_reduction is not None:
-        from workflows.fos.cluster import connect  # dask: once the study is known to be valid
+        from workflows.fos.cluster import check_scheduler  # dask: once the study is known to be valid
 
-        connect(options.scheduler).close()
+        check_scheduler(options.scheduler)
     cases = kind.cases()
 
     def on_case(case_id, outcome):
         kind.case_concluded(case_id, outcome, progress)
 
-    with _round_session(kind, study, options) as session:
+    with folder_lock(out_dir, study.name, progress.message), _round_session(kind, study, options) as session:
         outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)
         while cases := kind.next_cases(outcomes, progress):
             more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session,
                                            on_case)
             outcomes.update(more)
             timings.add(more_timings)
-    return kind.conclude(outcomes, timings, wall_start)
+        return kind.conclude(outcomes, timings, wall_start)
 
 
 def _round_session(kind: StudyType, study: Study, options: RunOptions):

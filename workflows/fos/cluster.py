@@ -10,6 +10,7 @@ import gc
 import importlib
 import logging
 import multiprocessing
+import signal
 import threading
 import uuid
 from concurrent.futures import ThreadPoolExecutor
@@ -31,17 +32,39 @@ def connect(scheduler: str):
         raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error}") from None
 
 
+SCHEDULER_WORKER_WAIT_S = 30.0
+"""How long a study waits for a worker at ``--scheduler`` before it refuses to start."""
+
+
+def check_scheduler(scheduler: str) -> None:
+    """StudyError (exit 2, nothing written) unless the scheduler at ``scheduler`` answers and has a
+    worker within ``SCHEDULER_WORKER_WAIT_S``."""
+    client = connect(scheduler)
+    try:
+        client.wait_for_workers(1, timeout=SCHEDULER_WORKER_WAIT_S)
+    except (TimeoutError, OSError):
+        raise StudyError("--scheduler", f"{scheduler} has no worker (none joined within "
+                         f"{SCHEDULER_WORKER_WAIT_S:g} s): start one (dask worker {scheduler}) or run without "
+                         "--scheduler") from None
+    finally:
+        client.close()
+
+
 WORKER_MODULES = ("spfem_core.simulation", "workflows.output.stage_file", "workflows.scene", "workflows.fos.task")
 """What an SRF run imports (about 1.1 s of CPU per process on top of ``distributed``)."""
 
 
 def _prepare_local_worker() -> None:
     """On each local worker, ahead of its first task: import :data:`WORKER_MODULES` (already
-    done where the worker was forked from a preloaded server, see :func:`_worker_start_method`).
+    done where the worker was forked from a preloaded server, see :func:`_worker_start_method`),
+    and ignore SIGINT.
     (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but any other
     program on the machine then starved the workers, up to tenfold.)"""
     for name in WORKER_MODULES:
         importlib.import_module(name)
+    # Ctrl-C at a terminal reaches the whole process group: the study's process stops the runs and
+    # shuts the cluster down; a worker interrupted on its own would only print a traceback
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _worker_start_method() -> dict:

@@ -331,12 +331,11 @@ class Engine:
     def _new_search(self, case: CaseSearch) -> None:
         """The case's folder without files another study made, and its search."""
         make_output_folder(case.out_dir)
-        if self.force:
-            for path in case.out_dir.glob("srf_*.nc"):
-                path.unlink()
         removed = remove_stale_runs(case.out_dir, case.key)
         if removed:
             self.progress.message(case.say(f"removed {removed} run files another study made"))
+        if self.force:
+            remove_stale_runs(case.out_dir, lambda srf: "")  # every run file of ours: each has a key
         stage = case.study.strength_reduction
         case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                                 displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,

@@ -2,17 +2,21 @@
 
 Each finished SRF run is written by the study's process to ``OUT/srf_<F>.nc`` (temporary
 name, then rename), as its worker made it: with its key (``workflows.fos.keys``) and its
-record as ``run_<name>`` attributes.  A rerun reuses a file with the same key, removes files
-another study made, and recomputes a damaged one.
+record as ``run_<name>`` attributes.  A rerun reuses a file with the same key, removes run files
+another study made (named ``srf_<F>.nc`` and carrying another ``run_key``), and recomputes a
+damaged one.  Nothing else in the folder is touched: a file named as a run file but without a
+``run_key`` is the user's, and the study refuses to write over it.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Callable
 
 import xarray as xr
 
+from workflows.fields import StudyError
 from workflows.fos.task import (
     FIELDS_POLICY_ATTRIBUTE,
     PARTICLE_FIELDS_ATTRIBUTE,
@@ -28,6 +32,10 @@ SUMMARY_NAME = "summary.nc"
 
 def run_file_name(srf: float) -> str:
     return f"srf_{srf:.4f}.nc"
+
+
+RUN_FILE_NAME = re.compile(r"srf_[0-9]+\.[0-9]{4}\.nc")
+"""The names :func:`run_file_name` gives: the only files :func:`remove_stale_runs` looks at."""
 
 
 def stored_run(path: Path, key: str, policy: RunPolicy = RunPolicy()) -> RunRecord | None:
@@ -57,20 +65,29 @@ def write_run(result: SrfRunResult, path: Path) -> None:
 
 
 def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str]) -> int:
-    """Delete run files that another study made (another slope, strength or core): a file whose
-    ``run_key`` is not ``key_of(its srf)``, and leftover temporary files."""
+    """Delete run files that another study made (another slope, strength or core): a file named as
+    a run file (:data:`RUN_FILE_NAME`) whose ``run_key`` is not ``key_of(its srf)``, a damaged one,
+    and the temporary files of run files a killed process left.  StudyError on ``--out`` for a file
+    named as a run file that is readable but carries no ``run_key``: not ours, and a run would
+    write over it."""
     removed = 0
-    for path in out_dir.glob("srf_*.nc"):
+    for path in sorted(out_dir.glob("srf_*.nc")):
+        if not RUN_FILE_NAME.fullmatch(path.name):
+            continue
         try:
             with interrupts_deferred(), xr.open_dataset(path, engine="netcdf4") as ds:
-                stale = ds.attrs.get("run_key") != key_of(float(ds.attrs["srf"]))
-        except (OSError, ValueError, RuntimeError, KeyError):
-            stale = True
-        if stale:
+                attrs = dict(ds.attrs)
+        except (OSError, ValueError, RuntimeError):
+            attrs = None  # damaged (ours are written whole, then renamed): made again
+        if attrs is not None and "run_key" not in attrs:
+            raise StudyError("--out", f"{path} was not made by spfem-fos (no run_key attribute) and a run of this "
+                             "study writes that name; move it or choose another output folder")
+        if attrs is None or "srf" not in attrs or attrs["run_key"] != key_of(float(attrs["srf"])):
             path.unlink(missing_ok=True)
             removed += 1
-    for path in out_dir.glob("*.nc.tmp"):
-        path.unlink(missing_ok=True)
+    for path in out_dir.glob("srf_*.nc.tmp"):
+        if RUN_FILE_NAME.fullmatch(path.name[: -len(".tmp")]):
+            path.unlink(missing_ok=True)
     return removed
 
 

@@ -94,13 +94,23 @@ def dataset_bytes(ds: xr.Dataset) -> bytes:
 
 def write_bytes(data: bytes, path: str | Path) -> Path:
     """Write ``data`` to ``path`` through ``<path>.tmp`` and a rename; no temp file survives an
-    error, and an interrupt waits until the file is complete (or removed)."""
+    error, and an interrupt waits until the file is complete (or removed).  A folder that cannot
+    take the file (full, read-only, deleted) is a StudyError on ``--out``: what was written before
+    stays, and the same command resumes from it."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     with interrupts_deferred():
         try:
             tmp.write_bytes(data)
             os.replace(tmp, path)
+        except OSError as error:
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:
+                pass
+            raise StudyError("--out", f"cannot write {path}: {error.strerror or error}; the files written before it "
+                             "are kept: make room or fix the folder, then run the same command again to "
+                             "resume") from None
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise

@@ -1,0 +1,110 @@
+"""The output folder is the user's: a study deletes only the run files it made, one study at a time
+writes in a folder (a lock, taken over when its process is gone), and --out and --scheduler misuse
+is one line and exit 2."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from workflows.cli import app
+from workflows.fos.run_store import remove_stale_runs
+from workflows.output.folder_lock import LOCK_NAME, folder_lock
+from workflows.study import StudyError
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = REPO / "studies" / "quickstart.toml"
+
+
+def netcdf(path: Path, **attrs) -> None:
+    ds = xr.Dataset({"max_displacement": ("time", np.zeros(2))})
+    ds.attrs.update(attrs)
+    ds.to_netcdf(path, engine="netcdf4")
+
+
+def test_only_run_files_of_another_study_are_removed(tmp_path):
+    netcdf(tmp_path / "srf_1.1000.nc", srf=1.1, run_key="another study")
+    netcdf(tmp_path / "srf_1.2000.nc", srf=1.2, run_key="mine")
+    netcdf(tmp_path / "srf_field_survey.nc", note="the user's")
+    (tmp_path / "report.nc.tmp").write_text("the user's")
+    (tmp_path / "srf_1.3000.nc.tmp").write_bytes(b"half a run file a killed process left")
+    removed = remove_stale_runs(tmp_path, lambda srf: "mine")
+    assert removed == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report.nc.tmp", "srf_1.2000.nc", "srf_field_survey.nc"]
+
+
+def test_a_file_named_as_a_run_file_without_a_run_key_is_refused_not_overwritten(tmp_path):
+    netcdf(tmp_path / "srf_1.2000.nc", note="the user's")
+    with pytest.raises(StudyError) as error:
+        remove_stale_runs(tmp_path, lambda srf: "mine")
+    assert error.value.field == "--out" and "was not made by spfem-fos" in str(error.value)
+    assert (tmp_path / "srf_1.2000.nc").is_file()
+
+
+def test_a_folder_in_use_is_refused_and_given_back(tmp_path):
+    out = tmp_path / "out"
+    with folder_lock(out, "first"):
+        holder = json.loads((out / LOCK_NAME).read_text())
+        with pytest.raises(StudyError) as error:
+            with folder_lock(out, "second"):
+                pass
+        assert error.value.field == "--out" and "in use by study 'first'" in str(error.value)
+        assert json.loads((out / LOCK_NAME).read_text()) == holder  # still the first's
+    assert not out.exists()  # made for the lock, nothing written: removed again
+
+
+def test_a_stale_lock_is_taken_over(tmp_path):
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    (tmp_path / LOCK_NAME).write_text(json.dumps({"pid": gone.pid, "host": __import__("socket").gethostname(),
+                                                  "study": "killed", "started": "earlier"}))
+    said = []
+    with folder_lock(tmp_path, "next", said.append):
+        assert json.loads((tmp_path / LOCK_NAME).read_text())["study"] == "next"
+    assert said and "left by study 'killed'" in said[0] and "no longer runs" in said[0]
+    assert not (tmp_path / LOCK_NAME).exists() and tmp_path.is_dir()
+
+
+@pytest.mark.parametrize("options, line", [
+    (["--out", ""], "error: --out: empty"),
+    (["--out", "x" * 300], "bytes long, more than file systems allow (255)"),
+    (["--scheduler", ""], "error: --scheduler: empty"),
+    (["--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], "error: --workers: applies to local workers"),
+])
+def test_out_and_scheduler_misuse_is_one_line_and_exit_2(tmp_path, monkeypatch, options, line):
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(app, [str(QUICKSTART), *options])
+    assert result.exit_code == 2 and line in result.stderr and result.stderr.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_two_studies_on_one_folder_one_is_refused(tmp_path):
+    """A second, different study started on the folder of a running one: exit 2 naming the first,
+    and the first finishes as if alone."""
+    other = tmp_path / "other.toml"
+    other.write_text(QUICKSTART.read_text().replace('name = "quickstart"', 'name = "other"'))
+    out = tmp_path / "out"
+    first = subprocess.Popen([sys.executable, "-m", "workflows.cli", str(QUICKSTART), "--out", str(out), "--quiet"],
+                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not (out / LOCK_NAME).exists():
+            assert first.poll() is None and time.monotonic() < deadline, "the first study never took the lock"
+            time.sleep(0.05)
+        second = subprocess.run([sys.executable, "-m", "workflows.cli", str(other), "--out", str(out), "--quiet"],
+                                cwd=REPO, capture_output=True, text=True)
+        assert second.returncode == 2
+        assert "in use by study 'quickstart'" in second.stderr and second.stderr.count("\n") == 1
+        stdout, _ = first.communicate(timeout=300)
+    finally:
+        first.kill()
+    assert first.returncode == 0 and stdout.startswith("FOS = ")
+    assert not (out / LOCK_NAME).exists()
