@@ -156,6 +156,26 @@ def test_search_converges_to_the_jump_within_the_tolerance(f_star):
     assert len(search.outcomes) <= 20
 
 
+@pytest.mark.parametrize("f_star", [1.1234, 1.3712, 1.4567])
+def test_a_sweep_too_coarse_for_a_knee_is_made_denser(f_star):
+    """srf 1 to 3 in steps of 0.5: stable at 1.0, failed at 1.5, two runs where the knee needs three;
+    the sweep is made denser below the failure and the search ends on the jump as a fine one does."""
+    search = SrfSearch(1.0, 3.0, 0.5, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
+    drive(search, lambda f: slope_response(f, f_star), f_star)
+    fos = search.knee()
+    assert fos.fos_low <= f_star < fos.fos_high and fos.fos_high - fos.fos_low <= 0.01
+    assert "within the tolerance" in search.stop_reason
+
+
+def test_verdicts_agree_when_every_run_failed_or_none_did():
+    """No FOS inside the runs by either criterion is agreement, not a warning."""
+    srf = [1.0, 1.1, 1.2]
+    for f_star in (0.5, 9.0):  # every run failed / none did
+        u = slope_response(srf, f_star)
+        fos = pick_fos(srf, u, srf, u, statuses(srf, f_star), FLOOR_M)
+        assert math.isnan(fos.fos) and brackets_agree(fos, status_bracket(srf, statuses(srf, f_star)), 0.01)
+
+
 def test_search_without_a_failure_stops_and_says_so():
     search = SrfSearch(1.0, 1.5, 0.1, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2)
     drive(search, lambda f: slope_response(f, 9.0), 9.0)

@@ -66,6 +66,41 @@ MALFORMED = {
         variant('name = "soil"', 'name = "soil"\nregion_m = [[100.0, 0.0], [110.0, 0.0], [110.0, 5.0]]'), "materials",
         "lie in no material region",
     ),
+    "floor above the default failure displacement": (
+        variant("srf_step = 0.1", "srf_step = 0.1\ndisplacement_floor_m = 1.0"), "stages[1].displacement_floor_m",
+        "< failure_displacement_m = 0.05 m, 0.005 H by default",
+    ),
+    "failure displacement beyond the slope": (
+        variant("srf_step = 0.1", "srf_step = 0.1\nfailure_displacement_m = 1e6"), "stages[1].failure_displacement_m",
+        "no run could fail",
+    ),
+    "run shorter than the slope's response time": (
+        variant("duration_s = 5.0\n", "duration_s = 0.1\n"), "stages[1].duration_s", "shorter than the slope's response time",
+    ),
+    "stage named as a result file": (variant('name = "gravity"', 'name = "summary"'), "stages[0].name", "name of a result file"),
+    "stage named as a run file": (variant('name = "gravity"', 'name = "srf_1.0000"'), "stages[0].name", "name of a result file"),
+    "study name longer than a file name allows": (
+        variant('name = "quickstart"', f'name = "{"a" * 300}"'), "study.name", "at most 64 characters, got 300",
+    ),
+    "material whose region holds no particle": (
+        QUICKSTART.replace("[loads]", '[[materials]]\nname = "lens"\nmodel = "elastic"\ndensity_kg_m3 = 2000.0\n'
+                           'youngs_modulus_pa = 1e8\npoisson_ratio = 0.3\nregion_m = [[100.0, 0.0], [110.0, 0.0], '
+                           '[110.0, 5.0]]\n\n[loads]', 1), "materials[1]", "'lens' holds no particle",
+    ),
+    "no support at all": (
+        QUICKSTART[:QUICKSTART.index("[[boundary]]")] + QUICKSTART[QUICKSTART.index("[solver]"):], "boundary",
+        "free to move in any direction",
+    ),
+    "a stage with no support": (variant("srf_step = 0.1", "srf_step = 0.1\nboundary = []"), "stages[1].boundary",
+                                "free to move in any direction"),
+    "rollers only on the sides": (variant("vy_m_s = 0.0\n", ""), "boundary", "free to move vertically"),
+    "no gravity and no load": (variant("gravity_m_s2 = [0.0, -10.0]", "gravity_m_s2 = [0.0, 0.0]"), "loads.gravity_m_s2",
+                               "nothing loads the slope"),
+    "soil lighter than water": (
+        QUICKSTART.replace("[loads]", "[water]\nphreatic_level_m = 8.0\n\n[loads]", 1).replace(
+            "density_kg_m3 = 2000.0", "density_kg_m3 = 2000.0\nsaturated_density_kg_m3 = 500.0", 1),
+        "materials[0].saturated_density_kg_m3", "the soil would float",
+    ),
     "unknown output option": (QUICKSTART + "\n[output]\nfigure = true\n", "output.figure", "did you mean 'figures'"),
     "collapse metrics on an FOS study": (
         QUICKSTART + '\n[metrics]\nkind = "cohesive_collapse"\nmoved_threshold_m = 0.1\n', "metrics", "do not apply",

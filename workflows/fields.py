@@ -20,9 +20,12 @@ from typing import Any
 
 from spfem_core.geometry import polygon_problem
 
-NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
+MAX_NAME_LENGTH = 64
+NAME_PATTERN = rf"^[A-Za-z0-9][A-Za-z0-9_.-]{{0,{MAX_NAME_LENGTH - 1}}}$"
 """Names of studies, stages, materials, boundaries and monitors: they become folder,
-file and coordinate names, so letters, digits, ``_``, ``.`` and ``-`` only."""
+file and coordinate names, so letters, digits, ``_``, ``.`` and ``-`` only, at most
+``MAX_NAME_LENGTH`` of them (a file name and its suffixes stay far below the 255 bytes file
+systems allow)."""
 
 REQUIRED = dataclasses.MISSING
 
@@ -293,6 +296,8 @@ def check_value(spec: Spec, value):
             raise ValueError(f"must be a string, got {show(value)}")
         if spec.choices and value not in spec.choices:
             raise ValueError(f"must be one of {', '.join(map(show, spec.choices))}, got {show(value)}")
+        if spec.pattern == NAME_PATTERN and len(value) > MAX_NAME_LENGTH:
+            raise ValueError(f"must be at most {MAX_NAME_LENGTH} characters, got {len(value)}")
         if spec.pattern and not re.match(spec.pattern, value):
             raise ValueError(
                 f"must be letters, digits, '_', '.' or '-' (not starting with '_', '.' or '-'), got {show(value)}"

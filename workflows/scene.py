@@ -132,7 +132,44 @@ def build_scene(study: Study) -> Scene:
     held = supports(study, scene)
     scene.node_fixed, scene.node_fixed_velocity_m_s = held.fixed, held.velocity_m_s
     scene.node_slip_length_m, scene.node_slip_side = held.slip_length_m, held.slip_side
+    counts = np.bincount(node_material, minlength=len(study.materials))
+    for i, material in enumerate(study.materials):
+        if counts[i] == 0:
+            raise StudyError(f"materials[{i}]", f"{material.name!r} holds no particle: its region lies outside "
+                             "geometry.polygon_m (or the materials after it cover it); fix or remove it")
+    if not study.walls:
+        for i, stage in enumerate(study.stages):
+            active = supports(study, scene, stage.boundary)
+            # a slip support holds its tangential direction by the soil's friction
+            free = rigid_motion_left(node_xy_m, active.fixed | (active.slip_length_m > 0.0)[:, None])
+            if free:
+                field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
+                raise StudyError(field, f"the supports of stage {stage.name!r} leave the body free to {free}: it "
+                                 "would fall or drift as a whole; fix a base (vx_m_s = vy_m_s = 0) or add rollers")
     return scene
+
+
+def rigid_motion_left(node_xy_m: np.ndarray, fixed: np.ndarray) -> str:
+    """Which rigid motion of the cloud its prescribed directions ``fixed`` (n, 2) leave free ("" for
+    none).  A rigid velocity is v = (a - w y, b + w x): a fixed x at particle k asks a - w y_k = 0,
+    a fixed y asks b + w x_k = 0; the motion is held when these rows have rank 3."""
+    fixed_x, fixed_y = fixed[:, 0], fixed[:, 1]
+    if not fixed_x.any() and not fixed_y.any():
+        return "move in any direction"
+    if not fixed_x.any():
+        return "move horizontally"
+    if not fixed_y.any():
+        return "move vertically"
+    centre = node_xy_m.mean(axis=0)
+    size = max(float(np.ptp(node_xy_m, axis=0).max()), 1e-300)
+    xy = (node_xy_m - centre) / size
+    rows = np.concatenate([
+        np.column_stack([np.ones(fixed_x.sum()), np.zeros(fixed_x.sum()), -xy[fixed_x, 1]]),
+        np.column_stack([np.zeros(fixed_y.sum()), np.ones(fixed_y.sum()), xy[fixed_y, 0]]),
+    ])
+    if np.linalg.matrix_rank(rows.T @ rows, tol=1e-9) < 3:
+        return "rotate"
+    return ""
 
 
 def _boundary_nodes(scene: Scene, boundary) -> np.ndarray:

@@ -41,6 +41,9 @@ import numpy as np
 
 from workflows.fos.verdict import FAILED, STABLE
 
+SRF_GRID = 1e-4
+"""SRF values are rounded to this (``search.sweep_values``, ``refinement_points``)."""
+
 
 @dataclass(frozen=True)
 class KneePick:
@@ -196,11 +199,16 @@ def status_bracket(srf, status) -> StatusBracket:
 
 
 def brackets_agree(knee: FosPick, status: StatusBracket, tolerance: float) -> bool:
-    """True when the FOS bracket and the status bracket overlap (within ``tolerance``)."""
-    if math.isnan(knee.fos) or math.isnan(status.fos_high):
-        return math.isnan(knee.fos) and math.isnan(status.fos_high)
+    """True when the FOS bracket and the status bracket overlap (within ``tolerance`` and the 1e-4 grid
+    of the SRF values), or when neither brackets an FOS inside the runs (no run failed, or every
+    run did: both put the FOS outside [srf_min, srf_max])."""
+    if math.isnan(knee.fos):
+        return math.isnan(status.fos_low)
+    if math.isnan(status.fos_high):
+        return False
+    slack = tolerance + SRF_GRID
     low = status.fos_low if not math.isnan(status.fos_low) else -math.inf
-    return knee.fos_low <= status.fos_high + tolerance and low <= knee.fos_high + tolerance
+    return knee.fos_low <= status.fos_high + slack and low <= knee.fos_high + slack
 
 
 def refinement_points(low: float, high: float, tolerance: float, max_points: int) -> list[float]:

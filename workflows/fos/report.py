@@ -17,7 +17,11 @@ def verdict_line(knee, status, agree, runs, stage) -> str:
         if all(r.status == FAILED for r in runs if r.status != DIVERGED):
             parts.append(f"FOS < {runs[0].srf:g}: every run failed")
         elif all(r.status == STABLE for r in runs if r.status != DIVERGED):
-            parts.append(f"FOS > {runs[-1].srf:g}: no run failed (raise srf_max)")
+            if runs[-1].srf < stage.srf_max - 1e-9:
+                parts.append(f"FOS > {runs[-1].srf:g}: no run failed, and the search stopped at max_runs = "
+                             f"{stage.max_runs} before srf_max = {stage.srf_max:g} (raise max_runs or srf_step)")
+            else:
+                parts.append(f"FOS > {runs[-1].srf:g}: no run failed (raise srf_max)")
         else:
             parts.append(f"no FOS: {knee.reason}")
     else:

@@ -6,7 +6,8 @@ maximum displacement and verdict, and says which SRF values to start next.
 1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max`` in ascending order.  Once a
    run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
-2. **Refinement**: when the sweep is done, the FOS bracket (the steepest rise after the
+2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
+   failure while it has fewer than ``MIN_KNEE_RUNS`` runs up to that failure), the FOS bracket (the steepest rise after the
    knee, see :mod:`workflows.fos.criterion`) is split by at most ``REFINE_SPLIT`` equally
    spaced runs, as many as keep the total at what bisection would need to bring it under
    ``tolerance`` (:func:`~workflows.fos.criterion.refinement_points`); the bracket is picked
@@ -42,6 +43,10 @@ from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 CANCELLED_ABOVE_FAILURE = "cancelled: above the failed SRF {:g}, cannot move the knee"
 """Why a started run was stopped once a run below it had failed."""
+
+MIN_KNEE_RUNS = 3
+"""Runs up to the first failure that the knee needs (``criterion.pick_knee``): a sweep with fewer is
+made denser (step 2)."""
 
 REFINE_SPLIT = 2
 """At most this many runs per refinement round (see ``refinement_points``: never more runs in
@@ -195,6 +200,9 @@ class SrfSearch:
 
         knee = self.knee()
         if math.isnan(knee.fos):
+            denser = self._denser_sweep()
+            if denser:
+                return denser[: max(0, self.max_runs - len(self.outcomes))]
             self.stop_reason = knee.reason
             return []
         room = self.max_runs - len(self.outcomes)
@@ -210,6 +218,24 @@ class SrfSearch:
                     else f"bracket [{knee.fos_low:g}, {knee.fos_high:g}] cannot be split further on the 1e-4 grid"
                 )
             return []
+        return points
+
+    def _denser_sweep(self) -> list[float]:
+        """A sweep too coarse for a knee (fewer than ``MIN_KNEE_RUNS`` runs up to its first failure,
+        e.g. stable at 1.0 and failed at 1.5) is made denser between its last stable run and that
+        failure (step 2's split): the new values join the sweep.  [] when the sweep has enough runs,
+        or no stable run below a failure to split from."""
+        ceiling = self.lowest_failed
+        sweep = sorted(o.srf for o in self.outcomes.values()
+                       if o.srf in self.sweep_set and o.srf <= ceiling and o.status != DIVERGED)
+        stable = [o.srf for o in self.outcomes.values()
+                  if o.srf in self.sweep_set and o.srf < ceiling and o.status == STABLE]
+        if len(sweep) >= MIN_KNEE_RUNS or not stable or not math.isfinite(ceiling):
+            return []
+        points = [f for f in refinement_points(max(stable), ceiling, self.tolerance, REFINE_SPLIT)
+                  if f not in self.outcomes]
+        self.sweep = sorted(set(self.sweep) | set(points))
+        self.sweep_set = set(self.sweep)
         return points
 
     def speculative_values(self, n_free: int) -> list[float]:

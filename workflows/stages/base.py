@@ -26,6 +26,16 @@ ORIGINAL_POSITIONS = "original_positions"
 CONTINUE = "continue"
 
 
+RESERVED_STAGE_NAMES = frozenset({
+    "summary", "study", "run", "seepage", "refinement", "probabilistic", "results", "report", "particle_spacing",
+    "srf_curve", "fos_map", "pf", "pf_convergence", "fos_distribution", "convergence", "sensitivity",
+})
+"""Names of the files a study writes besides its stages' (``summary.nc``, ``results.pvd``, ...): a
+stage of that name would write over one of them (a stage writes ``<name>.nc``, ``.gif``, ``.pvd``)."""
+RESERVED_STAGE_PREFIXES = ("srf_", "fields_", "failed_")
+"""Beginnings of the names of files a study writes per run (``srf_1.2000.nc``, ``fields_srf_1.2000.png``)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class StageBase(Record):
     """Fields shared by every kind of stage."""
@@ -45,6 +55,10 @@ class StageBase(Record):
     )
 
     def check(self):
+        if self.name.lower() in RESERVED_STAGE_NAMES or self.name.lower().startswith(RESERVED_STAGE_PREFIXES):
+            raise StudyError("name", f"{self.name!r} is the name of a result file the study writes; choose another "
+                             f"(not {', '.join(sorted(RESERVED_STAGE_NAMES))}, nor a name starting with "
+                             f"{', '.join(RESERVED_STAGE_PREFIXES)})")
         if self.record_interval_s > self.time_limit_s:
             problem = f"must be <= {self.duration_field} = {self.time_limit_s:g}, got {self.record_interval_s:g}"
             raise StudyError("record_interval_s", problem)

@@ -20,6 +20,7 @@ study text is not run again (``force=True`` runs it anyway).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
@@ -35,7 +36,7 @@ from workflows.output.animation import AnimationRecorder
 from workflows.output.metrics import add_metrics
 from workflows.output.paraview import SnapshotWriter
 from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
-from workflows.output.writing import make_output_folder, write_dataset
+from workflows.output.writing import interrupts_deferred, make_output_folder, write_dataset
 from workflows.progress import Progress
 from workflows.scene import build_scene, monitor_particles, solver_settings, supports
 from workflows.stages.base import CONTINUE, ORIGINAL_POSITIONS
@@ -43,6 +44,9 @@ from workflows.study import Study, StudyError
 
 MAX_STEPS_PER_STAGE = 1e9
 """A stage that would take more explicit steps than this is refused (days of wall time)."""
+MIN_STEPS_PER_STAGE = 10
+"""A stage shorter than this many steps is refused: nothing would move (a duration typed in the wrong
+unit, or a density so large that one step outlasts the stage)."""
 
 MAX_RECORDS_PER_STAGE = 1e7
 """A stage that would record more rows than this is refused (gigabytes of monitor history)."""
@@ -59,6 +63,7 @@ class StudyRun:
     wall_time_s: float = 0.0
     dt_s: float = 0.0
     unconverged_stages: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  # what a stage's result file flags (a runout not at rest)
 
 
 class StageResult(NamedTuple):
@@ -90,6 +95,13 @@ def check_stage_lengths(study: Study, dt_s: float) -> None:
     for i, stage in enumerate(study.stages):
         duration_s = stage.time_limit_s
         steps = duration_s / dt_s if dt_s > 0.0 else math.inf
+        if steps < MIN_STEPS_PER_STAGE:
+            raise StudyError(
+                f"stages[{i}].{stage.duration_field}",
+                f"{duration_s:g} s is {steps:.2g} steps of {dt_s:.3g} s (the stable step of these materials and "
+                f"spacing), fewer than {MIN_STEPS_PER_STAGE}: the stage would not move; make it at least "
+                f"{MIN_STEPS_PER_STAGE * dt_s:.2g} s",
+            )
         if not steps <= MAX_STEPS_PER_STAGE:
             raise StudyError(
                 f"stages[{i}].{stage.duration_field}",
@@ -194,11 +206,19 @@ def run_and_write_stage(study: Study, sim: Simulation, index: int, path: Path, m
     snapshot, recorder = snapshots(study, index, out_dir)
     result = run_stage_result(study, sim, index, monitor_nodes, progress=progress, snapshot=snapshot)
     result.dataset.attrs.update(attrs or {})
-    write_dataset(result.dataset, path)
+    partial = partial_path(path)  # the file takes its name once its animation and figures are drawn:
+    write_dataset(result.dataset, partial)  # a process killed before that leaves no "up to date" result
     if recorder is not None:
         recorder.write()
-    study.stages[index].figures(study, path, out_dir)
+    study.stages[index].figures(study, partial, out_dir)
+    with interrupts_deferred():
+        os.replace(partial, path)
     return result
+
+
+def partial_path(path: Path) -> Path:
+    """Where a stage's result file is written before its animation and figures are drawn."""
+    return Path(path).with_name(Path(path).stem + ".partial.nc")
 
 
 def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None = None, case: str = "",
@@ -224,6 +244,7 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
     make_output_folder(out_dir)
     for path in paths:  # results of another study text must not outlive a failed rerun
         path.unlink(missing_ok=True)
+        partial_path(path).unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
     if study.seepage is not None:  # the flow every stage's pore pressure comes from
         from workflows.seepage.flow import study_flow
@@ -234,7 +255,10 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         progress.message(flow_line(flow))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):
         report = lambda fraction, stage=stage: progress.stage(case, stage.name, stage.kind, fraction)  # noqa: E731
-        series = run_and_write_stage(study, sim, index, path, monitor_nodes, out_dir, progress=report).series
+        result = run_and_write_stage(study, sim, index, path, monitor_nodes, out_dir, progress=report)
+        series = result.series
+        if result.dataset.attrs.get("warning"):
+            outcome.warnings.append(f"warning: stage {stage.name!r}: {result.dataset.attrs['warning']}")
         outcome.n_steps += int(series.n_steps)
         outcome.wall_time_s += float(series.wall_time_s)
         if series.converged is False:

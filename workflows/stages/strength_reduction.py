@@ -58,6 +58,9 @@ FAILURE_FRACTION_OF_HEIGHT = 0.005
 """Default failure displacement as a fraction of the slope height (``workflows.fos.verdict``)."""
 SLIDE_STOP_FRACTION = 0.1
 """With early_stop, a run ends once its largest displacement passes this fraction of the slope height."""
+MAX_FAILURE_FRACTION_OF_HEIGHT = 0.5
+"""Largest accepted failure displacement, a fraction of the slope height: a slide arrests (or the run
+stops it) long before it moves half the slope's height, so a run could never be judged failed."""
 FLOOR_PER_FAILURE = 1000.0
 """Default displacement floor: the failure displacement over this."""
 
@@ -189,12 +192,6 @@ class StrengthReductionStage(StageBase):
             )
         if self.protocol == "ramp" and self.ramp_time_s is not None and self.ramp_time_s >= self.duration_s:
             raise StudyError("ramp_time_s", f"must be < duration_s = {self.duration_s:g}, got {self.ramp_time_s:g}")
-        if (
-            self.failure_displacement_m is not None
-            and self.displacement_floor_m is not None
-            and self.displacement_floor_m >= self.failure_displacement_m
-        ):
-            raise StudyError("displacement_floor_m", "must be < failure_displacement_m")
 
     def check_in_study(self, study, index: int) -> None:
         """The last stage, after a stage that makes the gravity state, in a study with a plastic
@@ -212,6 +209,26 @@ class StrengthReductionStage(StageBase):
             raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
         if study.metrics is not None:
             raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
+        if not any(study.loads.gravity_m_s2) and not study.loads.surface_loads() and study.water is None:
+            raise StudyError("loads.gravity_m_s2", "is zero and no surface load or water acts: nothing loads the "
+                             "slope, so no strength reduction can make it fail; give gravity, e.g. [0.0, -9.81]")
+        height = study.slope_height_m
+        failure, floor = self.failure_m(height), self.floor_m(height)
+        if failure >= MAX_FAILURE_FRACTION_OF_HEIGHT * height:
+            raise StudyError(f"stages[{index}].failure_displacement_m",
+                             f"{failure:g} m is at least {MAX_FAILURE_FRACTION_OF_HEIGHT:g} of the slope height "
+                             f"{height:g} m: a slide arrests before it moves that far, so no run could fail; the "
+                             f"default is {FAILURE_FRACTION_OF_HEIGHT:g} H = {FAILURE_FRACTION_OF_HEIGHT * height:g} m")
+        if floor >= failure:
+            default = "" if self.failure_displacement_m is not None else f", {FAILURE_FRACTION_OF_HEIGHT:g} H by default"
+            raise StudyError(f"stages[{index}].displacement_floor_m",
+                             f"must be < failure_displacement_m = {failure:g} m{default}, got {floor:g}")
+        response_s = self.response_time_s(study)
+        if self.duration_s < response_s:
+            raise StudyError(f"stages[{index}].duration_s",
+                             f"{self.duration_s:g} s is shorter than the slope's response time {response_s:.3g} s "
+                             "(4 H_domain / V_s): no run could come to rest or slide in it; give several response "
+                             f"times, e.g. {10 * response_s:.2g} s")
 
     def check_resolution(self, study) -> None:
         """StudyError on ``geometry.spacing_m`` when the slope height spans fewer than

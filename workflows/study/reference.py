@@ -12,7 +12,7 @@ import argparse
 import json
 import sys
 
-from workflows.fields import NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
+from workflows.fields import MAX_NAME_LENGTH, NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
@@ -104,7 +104,7 @@ def _allowed(spec: Spec) -> str:
     if spec.choices:
         return ", ".join(f"`{c}`" for c in spec.choices)
     if spec.pattern == NAME_PATTERN:
-        return "letters, digits, `_` `.` `-`"
+        return f"letters, digits, `_` `.` `-`, at most {MAX_NAME_LENGTH}"
     if spec.type == "polygon":
         return ">= 3 vertices, simple, area > 0"
     if spec.type == "polyline":

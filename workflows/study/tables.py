@@ -480,6 +480,17 @@ class Study(Record):
                                  "[water] phreatic_line_m or phreatic_level_m, or the material's phreatic_line_m")
             if material.phreatic_line_m is not None and water is not None and water.ru is not None:
                 raise StudyError(f"materials[{i}].phreatic_line_m", "give a piezometric line or [water] ru, not both")
+        g = math.hypot(*self.loads.gravity_m_s2)
+        gamma_w = water.unit_weight_n_m3 if water is not None else 9810.0
+        if (water is not None or self.seepage is not None) and g > 0.0:
+            for i, material in enumerate(self.materials):
+                wet = material.saturated_density_kg_m3 or material.density_kg_m3
+                field = "saturated_density_kg_m3" if material.saturated_density_kg_m3 else "density_kg_m3"
+                if wet * g <= gamma_w:
+                    raise StudyError(f"materials[{i}].{field}", f"{wet:g} kg/m3 is a saturated unit weight of "
+                                     f"{wet * g / 1e3:.3g} kN/m3, no more than the water's ({gamma_w / 1e3:.3g} "
+                                     "kN/m3): the soil would float (negative buoyant weight); saturated soils are "
+                                     "1,600-2,300 kg/m3")
         for where, load in self.loads.surface_loads():
             for field, x in load.abscissae_m().items():
                 if not x_min <= x <= x_max:
