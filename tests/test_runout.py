@@ -137,6 +137,20 @@ def test_a_seismic_trigger_brings_down_the_slope_its_strength_holds(tmp_path):
         assert float(slid["sliding_mass_area_m2"]) > 100.0 and float(slid["runout_m"]) > 5.0
 
 
+def test_a_runout_cut_short_says_its_metrics_are_not_final(tmp_path):
+    """A seismic trigger stopped after 0.5 s, mid-slide: the file flags it (final = 0, a warning that
+    names max_duration_s) and the command prints it; a slope that stays put is final."""
+    moving = _triggered("horizontal_coefficient = 0.4\n").replace("max_duration_s = 3.0", "max_duration_s = 0.5")
+    run = run_study(parse_study(moving), tmp_path / "moving")
+    with xr.open_dataset(run.paths[1]) as slid:
+        assert slid.attrs["final"] == 0 and "still moving at max_duration_s = 0.5 s" in slid.attrs["warning"]
+    assert any("still moving" in line for line in run.warnings)
+    quiet = run_study(parse_study(_triggered("")), tmp_path / "quiet")
+    with xr.open_dataset(quiet.paths[1]) as still:
+        assert still.attrs["final"] == 1 and still.attrs["warning"] == ""
+    assert quiet.warnings == []
+
+
 def test_a_water_trigger_sets_the_pore_pressure_of_the_stage(tmp_path):
     """A dry gravity stage, then a runout stage with the water at 8 m inside and outside the slope:
     the stage's pore pressure is gamma_w (8 - y) below 8 m at the final positions, 0 above."""

@@ -54,7 +54,7 @@ class SingleStudy(StudyType):
 
     def _stages_report(self, outcome, quiet: bool, study_file) -> Report:
         warnings = [f"warning: stage {name!r} reached max_duration_s before converging (converged = 0)"
-                    for name in outcome.unconverged_stages]
+                    for name in outcome.unconverged_stages] + outcome.warnings
         paths = ", ".join(str(path) for path in outcome.paths)
         if outcome.up_to_date:
             return Report([f"{paths}: up to date with {study_file}, not run again (--force runs it)"], warnings)

@@ -164,7 +164,7 @@ def global_attributes(study: Study, stage_index: int, series, final) -> dict:
         n_steps=int(series.n_steps),
         n_remesh=int(series.n_remesh),
         wall_time_s=float(series.wall_time_s),
-        dt_s=float(final.dt_s),
+        dt_s=float(series.dt_s),  # the step the stage took (a relaxation its own, not solver.dt_s)
         critical_dt_s=float(final.critical_dt_s),
     )
     if series.converged is not None:

@@ -131,7 +131,9 @@ STAGE_FILE_ATTRIBUTES = (
     Attribute("stage_<field>", "each setting of the stage, e.g. stage_duration_s"),
     Attribute("n_particles, n_steps, n_remesh", "particles, explicit steps and mesh rebuilds of the stage"),
     Attribute("wall_time_s", "wall time of the stage (s)"),
-    Attribute("dt_s, critical_dt_s", "time step at the end of the stage and the critical step of the last mesh (s)"),
+    Attribute("dt_s, critical_dt_s", "time step the stage took at its end (a relaxation: its own, the largest stable "
+              "one, whatever solver.dt_s says) and the critical step of the last mesh at the particles' masses (s; a "
+              "relaxation's density-scaled inertia steps above it, docs/method.md section 5)"),
     Attribute("converged, unbalanced_force_ratio", "relaxation stages: whether the tolerance was reached, and the "
               "ratio |f_unbalanced| / |m g| at the last step"),
     Attribute("note_<topic>", "what the run skipped or cut short, e.g. note_stabilisation = \"off (beta = 0): bond "

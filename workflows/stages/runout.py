@@ -10,12 +10,14 @@ surface), and a figure shows the final state over the initial outline.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 
+from spfem_core.geometry import downslope_sign
 from workflows.fields import StudyError, number
 from workflows.loads.seismic import OUT_OF_SLOPE, horizontal_sign, with_horizontal
 from workflows.runout.rest import rest_rule
@@ -112,7 +114,7 @@ class RunoutStage(StageBase):
         """The runout metrics of ``workflows.runout.metrics`` (on the particles in the final mesh)."""
         # imported here: the metrics need scipy, which the study reader must not import
         from workflows.output.variables import RUNOUT_METRICS
-        from workflows.runout.metrics import final_surface, runout_summary
+        from workflows.runout.metrics import final_surface, runout_summary, surface_change
 
         meshed = final.meshed
         height = study.slope_height_m
@@ -125,6 +127,20 @@ class RunoutStage(StageBase):
         )
         for key, value in summary.items():
             dataset[key] = RUNOUT_METRICS[key](value)
+        problems = []
+        if math.isnan(summary["time_to_rest_s"]):
+            problems.append(f"the flow was still moving at max_duration_s = {self.max_duration_s:g} s (time_to_rest_s "
+                            "is NaN): the runout and deposit are where it had got to, not final; give a longer "
+                            "max_duration_s")
+        polygon = study.geometry.polygon_m
+        sign = downslope_sign(polygon) or -1.0
+        edge = max(sign * x for x, _ in polygon)  # along the slide
+        _, _, toe, _ = surface_change(polygon, np.zeros(0), np.zeros(0), sign)
+        if summary["runout_m"] >= edge - toe - 2.0 * final.spacing_m:
+            problems.append(f"the deposit reached the end of the domain at x = {sign * edge:g} m: runout_m is a "
+                            "lower bound; extend the domain downslope")
+        dataset.attrs["final"] = int(not problems)
+        dataset.attrs["warning"] = "; ".join(problems)
         x_m, height_m = final_surface(final.xy_m[meshed], final.spacing_m)
         dataset["surface_x"] = RUNOUT_METRICS["surface_x"](x_m)
         dataset["surface_height"] = RUNOUT_METRICS["surface_height"](height_m)
