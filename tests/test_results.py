@@ -37,6 +37,7 @@ class FakeTimeSeries:
     n_steps: int = 500
     n_remesh: int = 2
     wall_time_s: float = 0.25
+    dt_s: float = 1e-4
     converged: bool | None = None
     unbalanced_force_ratio: float = 3e-6
     notes: dict = field(default_factory=lambda: {"stabilisation": "off (beta = 0)", "remesh": "2 rebuilds"})

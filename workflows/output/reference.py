@@ -86,7 +86,7 @@ def page() -> str:
     parts += ["## Runout metrics", "",
               "The file of a `runout` stage also holds these (attribute `metrics_kind` = `runout`; "
               "`workflows/runout/metrics.py` defines each, x measured down the slope).  Attribute `final` is 1 when "
-              "they are final, 0 when the flow was still moving at `max_duration_s` or its deposit reached the end "
+              "they are final, 0 when the flow (a sliding mass) was still moving at `max_duration_s` or its deposit reached the end "
               "of the domain; attribute `warning` then says which (the command prints it too):", "",
               *_variables(RUNOUT_METRICS), ""]
     parts += ["## `summary.nc` of a strength-reduction study", "", *_variables(SUMMARY_FILE), "",

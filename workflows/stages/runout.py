@@ -128,7 +128,8 @@ class RunoutStage(StageBase):
         for key, value in summary.items():
             dataset[key] = RUNOUT_METRICS[key](value)
         problems = []
-        if math.isnan(summary["time_to_rest_s"]):
+        if math.isnan(summary["time_to_rest_s"]) and summary["sliding_mass_area_m2"] > 0.0:  # (a slope that did
+            # not slide never "rests": its kinetic energy is not below a share of a release it never made)
             problems.append(f"the flow was still moving at max_duration_s = {self.max_duration_s:g} s (time_to_rest_s "
                             "is NaN): the runout and deposit are where it had got to, not final; give a longer "
                             "max_duration_s")
