@@ -108,3 +108,24 @@ def test_two_studies_on_one_folder_one_is_refused(tmp_path):
         first.kill()
     assert first.returncode == 0 and stdout.startswith("FOS = ")
     assert not (out / LOCK_NAME).exists()
+
+
+def test_a_folder_that_fills_up_ends_in_one_line_and_the_rerun_resumes(tmp_path):
+    """The study's process may write files of at most 64 KiB (RLIMIT_FSIZE, as a nearly full disk):
+    the first larger file fails in one line, exit 2, no half-written file; the same command without
+    the limit then finishes with the FOS of an unhindered run, reusing the runs already written."""
+    import resource
+
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "workflows.cli", str(QUICKSTART), "--out", str(out), "--quiet"]
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64 * 1024, resource.RLIM_INFINITY))
+
+    full = subprocess.run(command, cwd=REPO, capture_output=True, text=True, preexec_fn=small_files)
+    lines = [line for line in full.stderr.splitlines() if line.strip()]
+    assert full.returncode == 2 and len(lines) == 1, full.stderr
+    assert "File too large" in lines[0] and "run the same command again to resume" in lines[0]
+    assert not list(out.glob("*.tmp")) and not (out / LOCK_NAME).exists()
+    rerun = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
+    assert rerun.returncode == 0 and rerun.stdout.startswith("FOS = 1.388, bracket [1.383, 1.392]"), rerun.stdout
