@@ -57,7 +57,7 @@ WORKER_MODULES = ("spfem_core.simulation", "workflows.output.stage_file", "workf
 def _prepare_local_worker() -> None:
     """On each local worker, ahead of its first task: import :data:`WORKER_MODULES` (already
     done where the worker was forked from a preloaded server, see :func:`_worker_start_method`),
-    and ignore SIGINT.
+    ignore SIGINT, and leave a failed task's traceback to the client.
     (Lowering the workers' priority instead was tried: gravity gained 1-3 s, but any other
     program on the machine then starved the workers, up to tenfold.)"""
     for name in WORKER_MODULES:
@@ -65,6 +65,9 @@ def _prepare_local_worker() -> None:
     # Ctrl-C at a terminal reaches the whole process group: the study's process stops the runs and
     # shuts the cluster down; a worker interrupted on its own would only print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # a task that raises (a diverged case of a sweep) reaches the client as its exception, which the
+    # study reports in one line; the worker's own "Compute Failed" log would print its traceback
+    logging.getLogger("distributed.worker").setLevel(logging.CRITICAL)
 
 
 def _worker_start_method() -> dict:

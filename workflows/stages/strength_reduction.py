@@ -288,9 +288,9 @@ class StrengthReductionStage(StageBase):
     def stiffness_factor(self, table, study) -> float:
         """s = max_k (rho_k |g| H / (2 G_k)) / ELASTIC_RESPONSE over the rows of ``table``
         (a ``MaterialTable``; module doc); 1 without ``scale_stiffness`` or with a softening material."""
-        if not self.scale_stiffness or table.softens():
-            return 1.0
         gravity = float(np.hypot(*study.loads.gravity_m_s2))
+        if not self.scale_stiffness or table.softens() or not gravity > 0.0:  # no weight: no response to scale
+            return 1.0
         response = np.max(table.density_kg_m3 * gravity * study.slope_height_m / (2.0 * table.shear_modulus_pa))
         return float(response) / ELASTIC_RESPONSE
 

@@ -430,6 +430,10 @@ class Study(Record):
             for name in stage.boundary or ():
                 if name not in known:
                     raise StudyError(f"stages[{i}].boundary", f"no [[boundary]] named {name!r} (known: {sorted(known)})")
+            if not self.walls and not [b for b in self.boundary if stage.boundary is None or b.name in stage.boundary]:
+                field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
+                raise StudyError(field, f"stage {stage.name!r} has no support and no wall: the body would fall as a "
+                                 "whole; give a [[boundary]] (a fixed base, vx_m_s = vy_m_s = 0) and name it here")
         self._check_water_and_loads()
         self._check_frames()
         if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
