@@ -6,7 +6,10 @@ Three small valid studies (an elastic block settling under gravity, a coarse slo
 strength-reduction search makes a few short runs, and a sweep of two cases over a slope made
 by ``[geometry.slope]``) are mutated by hypothesis: a value replaced
 by another type, a huge, tiny, negative, zero, NaN or infinite number, a key removed,
-renamed or written twice, bytes corrupted, the text saved as UTF-16 or Latin-1.  Each
+renamed or written twice, bytes corrupted, the text saved as UTF-16 or Latin-1; or a value of
+the right type against the study's own scales (``_semantic``: a vertex 1e-12-1e-3 m from
+another, gravity turned or of 0 to 1e4 m/s2, durations from 1e-9 s, SRF tolerances and failure
+displacements out of scale, a material region or water line off the domain, supports removed).  Each
 mutant is run through the command in this process (``typer.testing.CliRunner``).  It must end
 with exit 0 and complete result files (no ``*.tmp``), or with exit 2, one line on stderr that
 starts with ``error:`` and nothing written, or, for a valid study whose numbers drive the
@@ -184,6 +187,49 @@ def _container(data: dict, path: tuple):
     return node
 
 
+def _semantic(draw, data: dict) -> None:
+    """One mutation within a field's type but against the study's own scales (near-degenerate
+    geometry relative to h, gravity direction, durations and tolerances against the response,
+    regions against the domain, water levels against the ground, supports taken away)."""
+    stages = data.get("stages", [])
+    polygon = data.get("geometry", {}).get("polygon_m")
+    choices = ["gravity", "duration", "supports"]
+    choices += ["vertex", "region"] if polygon else []
+    choices += ["tolerance", "failure"] if any(s.get("kind") == "strength_reduction" for s in stages) else []
+    choice = draw(st.sampled_from(choices))
+    if choice == "gravity":
+        angle = math.radians(draw(st.sampled_from([0.0, 30.0, 90.0, 135.0, 180.0, 270.0])))
+        g = draw(st.sampled_from([0.0, 1e-6, 10.0, 1e4]))
+        data.setdefault("loads", {})["gravity_m_s2"] = [g * math.sin(angle), -g * math.cos(angle)]
+    elif choice == "duration":
+        stage = draw(st.sampled_from(stages))
+        key = "duration_s" if "duration_s" in stage else "max_duration_s"
+        stage[key] = draw(st.sampled_from([1e-9, 1e-4, 1e-3, 0.01, 0.1]))
+    elif choice == "supports":
+        if draw(st.booleans()) or not stages:
+            data.pop("boundary", None)
+        else:
+            draw(st.sampled_from(stages))["boundary"] = []
+    elif choice == "vertex":
+        i = draw(st.integers(0, len(polygon) - 1))
+        offset = draw(st.sampled_from([1e-12, 1e-9, 1e-6, 1e-3]))
+        x, y = polygon[i]
+        polygon.insert(i + 1, [x + offset, y])  # a vertex next to another, or a sliver
+    elif choice == "region":
+        shift = draw(st.sampled_from([0.5, 1e3, -1e3]))
+        data["materials"][-1]["region_m"] = [[x + shift, y] for x, y in polygon]
+        if draw(st.booleans()):
+            data["materials"][-1]["phreatic_line_m"] = [[-1e3, draw(st.sampled_from([-1e3, 1e3, 7.9]))],
+                                                        [1e3, 0.0]]
+    elif choice == "tolerance":
+        stage = next(s for s in stages if s.get("kind") == "strength_reduction")
+        stage["tolerance"] = draw(st.sampled_from([1e-12, 1e-6, 1e-4, 1e-2, 0.5]))
+    else:
+        stage = next(s for s in stages if s.get("kind") == "strength_reduction")
+        stage[draw(st.sampled_from(["failure_displacement_m", "displacement_floor_m"]))] = draw(
+            st.sampled_from([1e-9, 0.04, 1.0, 1e6]))
+
+
 @st.composite
 def mutated_study_file(draw) -> bytes:
     """One mutant of one of the base studies (module doc), as the bytes of a file."""
@@ -191,7 +237,7 @@ def mutated_study_file(draw) -> bytes:
     text = BASES[base]
     data = tomllib.loads(text)
     kind = draw(st.sampled_from(["value", "value", "value", "remove", "rename", "duplicate", "bytes", "encoding",
-                                 "unchanged"]))
+                                 "semantic", "semantic", "unchanged"]))
     path = draw(st.sampled_from(_leaves(data)))
     node, key = _container(data, path), path[-1]
     if kind == "value":
@@ -202,6 +248,9 @@ def mutated_study_file(draw) -> bytes:
         text = to_toml(data)
     elif kind == "rename":
         node[key + draw(st.sampled_from(["_", "s", "x"]))] = node.pop(key)
+        text = to_toml(data)
+    elif kind == "semantic":
+        _semantic(draw, data)
         text = to_toml(data)
     elif kind == "duplicate":
         line = draw(st.sampled_from([row for row in text.splitlines() if " = " in row]))
