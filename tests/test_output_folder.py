@@ -78,6 +78,8 @@ def test_a_stale_lock_is_taken_over(tmp_path):
     (["--out", "x" * 300], "bytes long, more than file systems allow (255)"),
     (["--scheduler", ""], "error: --scheduler: empty"),
     (["--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], "error: --workers: applies to local workers"),
+    (["--scheduler", "tcp://127.0.0.1:1"], "--scheduler: cannot connect to tcp://127.0.0.1:1: Connection refused"),
+    (["--scheduler", "tcp://127.0.0.1:port"], "--scheduler: tcp://127.0.0.1:port: not an address"),
 ])
 def test_out_and_scheduler_misuse_is_one_line_and_exit_2(tmp_path, monkeypatch, options, line):
     monkeypatch.chdir(tmp_path)

@@ -11,10 +11,12 @@ import importlib
 import logging
 import multiprocessing
 import signal
+import socket
 import threading
 import uuid
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
+from urllib.parse import urlsplit
 
 import dask
 from distributed import Client, LocalCluster
@@ -25,7 +27,20 @@ from workflows.study import StudyError
 
 
 def connect(scheduler: str):
-    """A client of the dask scheduler at ``scheduler``; StudyError (exit 2) if it cannot be reached."""
+    """A client of the dask scheduler at ``scheduler``; StudyError (exit 2) if it cannot be reached.
+    A ``tcp://host:port`` that refuses the connection is said at once (dask would retry it for the
+    whole 30 s timeout)."""
+    address = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
+    try:
+        port = address.port
+    except ValueError:
+        raise StudyError("--scheduler", f"{scheduler}: not an address (tcp://host:8786)") from None
+    if address.scheme == "tcp" and address.hostname and port:
+        try:
+            socket.create_connection((address.hostname, port), timeout=10).close()
+        except OSError as error:
+            raise StudyError("--scheduler", f"cannot connect to {scheduler}: {error.strerror or error} (is a dask "
+                             "scheduler running there?)") from None
     try:
         return Client(scheduler, timeout="30s")
     except (OSError, TimeoutError, ValueError) as error:
