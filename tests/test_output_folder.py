@@ -131,3 +131,26 @@ def test_a_folder_that_fills_up_ends_in_one_line_and_the_rerun_resumes(tmp_path)
     assert not list(out.glob("*.tmp")) and not (out / LOCK_NAME).exists()
     rerun = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
     assert rerun.returncode == 0 and rerun.stdout.startswith("FOS = 1.388, bracket [1.383, 1.392]"), rerun.stdout
+
+
+def test_figures_of_an_earlier_run_are_replaced_and_a_users_picture_stays(tmp_path):
+    """A figure of ours that this invocation does not draw again is removed (another FOS bracket, or
+    figures = false); a picture of the user's with a figure's name stays."""
+    from workflows.cases import RunOptions
+    from workflows.output.figures import pyplot, save_figure
+    from workflows.study import parse_study
+    from workflows.study_types import run_study
+
+    out = tmp_path / "out"
+    out.mkdir()
+    plt = pyplot()
+    fig = plt.figure()
+    save_figure(fig, out / "fields_srf_9.9999.png")  # ours, of a run this study does not pick
+    fig.savefig(out / "fields_srf_mine.png")  # the user's
+    plt.close(fig)
+    text = QUICKSTART.read_text()
+    run_study(parse_study(text), out, RunOptions(workers=2))
+    names = {path.name for path in out.glob("*.png")}
+    assert "fields_srf_9.9999.png" not in names and {"fields_srf_mine.png", "srf_curve.png"} <= names
+    run_study(parse_study(text + "\n[output]\nfigures = false\n"), out, RunOptions(workers=2))
+    assert {path.name for path in out.glob("*.png")} == {"fields_srf_mine.png"}

@@ -15,7 +15,12 @@ from workflows.study import Study
 class SingleStudy(StudyType):
     """A study without ``[sweep]`` (module doc)."""
 
-    placement = Placement(gravity_in_process=True, figures=True, quiet_cases=False, keep_going=False)
+    @property
+    def placement(self) -> Placement:
+        """Gravity in this process; figures as ``[output] figures`` says (a single FOS study drew them
+        whatever it said)."""
+        return Placement(gravity_in_process=True, figures=self.study.output.figures, quiet_cases=False,
+                         keep_going=False)
 
     @staticmethod
     def applies_to(study: Study) -> bool:

@@ -20,7 +20,7 @@ import xarray as xr
 
 from spfem_core.geometry import surface_height_m
 from workflows.fos.run_store import run_file_name
-from workflows.output.figures import final_state_figure, pyplot
+from workflows.output.figures import final_state_figure, pyplot, save_figure
 from workflows.study import parse_study
 from workflows.water import draw_water
 
@@ -52,7 +52,7 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     ax.set_ylabel("largest displacement (m)")
     ax.set_title(f"{summary.attrs.get('study_name', '')}: SRF against displacement")
     ax.legend(loc="upper left", fontsize=8)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -84,6 +84,11 @@ def draw_water_and_loads(ax, study) -> None:
     seismic = study.loads.seismic
     if seismic is not None:
         ax.text(0.01, 0.03, seismic.note(), transform=ax.transAxes, fontsize=8, color="tab:red")
+
+
+FIGURE_NAMES = ("srf_curve.png", "fields_srf_*.png", "particle_spacing.png")
+"""The figures :func:`draw_figures` may draw: those of an earlier invocation it did not draw again
+are removed (``output.figures.remove_stale_figures``)."""
 
 
 def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
@@ -124,6 +129,6 @@ def spacing_map(ds: xr.Dataset, path: Path) -> Path:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(f"particle spacing: {h.size} particles, h = {h.min():.3g} to {h.max():.3g} m", fontsize=10)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    save_figure(fig, path, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return path

@@ -15,11 +15,12 @@ import numpy as np
 import xarray as xr
 
 from workflows.fos.criterion import brackets_agree, curvature, first_failed_sweep_srf, status_bracket
-from workflows.fos.figures import draw_figures
+from workflows.fos.figures import FIGURE_NAMES, draw_figures
 from workflows.fos.report import verdict_line
 from workflows.fos.run_store import SUMMARY_NAME
 from workflows.fos.task import RunRecord
 from workflows.fos.verdict import DIVERGED, displacement_floor_m
+from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import provenance
 from workflows.output.variables import SUMMARY_FILE
 from workflows.output.writing import write_dataset
@@ -102,6 +103,8 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
     timings["io"] += time.perf_counter() - io_start
     if figures:
         outcome.figures = draw_figures(out_dir, summary)
+    # an earlier invocation's figures of other runs (or all of them, figures = false) are not this one's
+    remove_stale_figures(out_dir, FIGURE_NAMES, keep={path.name for path in outcome.figures})
     return outcome
 
 

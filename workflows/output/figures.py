@@ -31,6 +31,40 @@ def import_pyplot_in_background() -> None:
     threading.Thread(target=pyplot, name="pyplot-import", daemon=True).start()
 
 
+FIGURE_SOFTWARE = "spfem-fos"
+"""The PNG ``Software`` text of every figure :func:`save_figure` writes: what marks a picture as ours."""
+
+
+def save_figure(fig, path: Path, **options) -> Path:
+    """Save ``fig`` to ``path`` (PNG), marked as ours (:data:`FIGURE_SOFTWARE`), so that a later
+    study may replace or remove it and never touches a picture of the user's."""
+    fig.savefig(path, metadata={"Software": FIGURE_SOFTWARE}, **options)
+    return Path(path)
+
+
+def drawn_by_us(path: Path) -> bool:
+    """Whether the PNG ``path`` carries our mark (:func:`save_figure`)."""
+    from PIL import Image  # pillow (matplotlib's own PNG library): reads the text chunks
+
+    try:
+        with Image.open(path) as image:
+            return image.info.get("Software") == FIGURE_SOFTWARE
+    except (OSError, ValueError):
+        return False
+
+
+def remove_stale_figures(out_dir: Path, patterns: tuple[str, ...], keep: set[str]) -> list[str]:
+    """Remove the figures of an earlier invocation in ``out_dir`` that this one did not draw: names
+    matching ``patterns``, not in ``keep``, and marked as ours (a user's picture stays); their names."""
+    removed = []
+    for pattern in patterns:
+        for path in sorted(Path(out_dir).glob(pattern)):
+            if path.name not in keep and drawn_by_us(path):
+                path.unlink(missing_ok=True)
+                removed.append(path.name)
+    return removed
+
+
 def final_state_figure(result_path: Path, path: Path, title, decorate=None) -> Path:
     """Equivalent plastic strain and displacement on the final particle positions of a result file,
     into ``path``; ``title(ds)`` gives the title from the dataset, ``decorate(ax, ds)`` draws over
@@ -62,6 +96,6 @@ def final_state_figure(result_path: Path, path: Path, title, decorate=None) -> P
             decorate(ax, attrs)
     axes[0].set_title(heading)
     axes[1].set_xlabel("x (m)")
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
