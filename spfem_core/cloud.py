@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from spfem_core.geometry import distance_to_edges_m, polygon_problem, ray_casting_inside
+from spfem_core.geometry import corner_vertices, distance_to_edges_m, polygon_problem, ray_casting_inside
 
 MAX_JITTER = 0.3
 """Interior jitter must be below this fraction of h (keeps particles >= 0.2 h off the edges)."""
@@ -132,8 +132,9 @@ def _level_of(field_m: np.ndarray, levels: np.ndarray) -> np.ndarray:
 
 def _graded_edge_particles(polygon_m: np.ndarray, field) -> np.ndarray:
     """Points on every edge a-b at the local spacing: n = ceil(integral of ds / h(s)) equal steps
-    of that integral (the integral sampled at 1,000 points per edge)."""
+    of that integral (the integral sampled at 1,000 points per edge), on the corners' edges."""
     chunks = []
+    polygon_m = corner_vertices(polygon_m)
     for a, b in zip(polygon_m, np.roll(polygon_m, -1, axis=0)):
         length_m = float(np.hypot(*(b - a)))
         s = np.linspace(0.0, 1.0, 1001)
@@ -182,8 +183,10 @@ def _validated_spacing(spacing_m) -> float:
 
 
 def _edge_particles(polygon_m: np.ndarray, h: float) -> np.ndarray:
-    """Points a + (k/n)(b - a), k = 0..n-1, n = ceil(L/h), on every edge a-b."""
+    """Points a + (k/n)(b - a), k = 0..n-1, n = ceil(L/h), on every edge a-b of the corners
+    (``geometry.corner_vertices``: a vertex in the middle of a straight side adds no particle)."""
     chunks = []
+    polygon_m = corner_vertices(polygon_m)
     for a, b in zip(polygon_m, np.roll(polygon_m, -1, axis=0)):
         length_m = float(np.hypot(*(b - a)))
         n_seg = max(1, int(np.ceil(length_m / h - 1e-9)))  # 2.0 / 0.02 = 100.00000000000001

@@ -96,6 +96,26 @@ def first_self_intersection(polygon) -> tuple[int, int] | None:
     return None
 
 
+def corner_vertices(polygon) -> np.ndarray:
+    """The vertices without those that lie on the straight line between their neighbours, within
+    ``ON_EDGE_REL_TOL`` of the size: the same polygon, each straight side one edge."""
+    xy = vertices_m(polygon)
+    tol = ON_EDGE_REL_TOL * size_m(xy)
+    keep = list(range(xy.shape[0]))
+    changed = True
+    while changed and len(keep) > 3:
+        changed = False
+        for k in range(len(keep)):
+            a, b, c = xy[keep[k - 1]], xy[keep[k]], xy[keep[(k + 1) % len(keep)]]
+            ac = c - a
+            between = 0.0 < (b - a) @ ac < ac @ ac
+            if between and abs(ac[0] * (b - a)[1] - ac[1] * (b - a)[0]) <= tol * np.hypot(*ac):
+                del keep[k]
+                changed = True
+                break
+    return xy[keep]
+
+
 def polygon_problem(polygon) -> str | None:
     """Why the vertices are no simple polygon of non-zero area (one phrase), or None.
 

@@ -121,9 +121,26 @@ def boundary_edges(elem_nodes: np.ndarray) -> np.ndarray:
 
 
 def delaunay_triangles(node_xy_m: np.ndarray) -> np.ndarray:
-    """All Delaunay triangles (n_tri, 3) int64 of the points, any orientation, unfiltered."""
-    triangulation = Delaunay(node_xy_m, qhull_options=QHULL_OPTIONS)
+    """All Delaunay triangles (n_tri, 3) int64 of the points, any orientation, unfiltered.
+
+    Qhull sees the points from :func:`local_origin`: its precision tests scale with the largest
+    coordinate, and a section drawn in survey coordinates (x ~ 1e7 m at h = 1 m) otherwise loses
+    a third of its triangles."""
+    origin = local_origin(node_xy_m)
+    local = node_xy_m - origin if np.any(origin) else node_xy_m
+    triangulation = Delaunay(local, qhull_options=QHULL_OPTIONS)
     return triangulation.simplices.astype(np.int64)
+
+
+def local_origin(node_xy_m: np.ndarray) -> np.ndarray:
+    """(2,) an origin near the points from which their coordinates are exact: per axis, the
+    integer part of the coordinate nearest zero when all have one sign, else 0.
+
+    x - o is exact: o is an integer of the same sign as x with |o| <= |x|, so x - o is a multiple
+    of the spacing of floats at x (at most 1 below 2^52) and no larger than x.  Points around
+    the origin keep o = 0, and with it their triangulation to the bit."""
+    low, high = node_xy_m.min(axis=0), node_xy_m.max(axis=0)
+    return np.where(low > 0.0, np.trunc(low), np.where(high < 0.0, np.trunc(high), 0.0))
 
 
 def mesh_from_elements(elem_nodes: np.ndarray, n_nodes: int) -> Mesh:

@@ -73,6 +73,19 @@ def test_orientation_and_closed_ring_do_not_matter():
         assert distance_m.max() < 1e-12
 
 
+@pytest.mark.parametrize("extra", [(30.0, 10.0), (37.25, 6.375), (27.3, 0.0)])
+def test_a_vertex_in_the_middle_of_a_straight_side_adds_no_particle(extra):
+    """A redundant vertex used to split its side in two, one particle more (and the FOS moved by a
+    bracket); the cloud is now that of the polygon without it, particle for particle."""
+    reference = particles_in_polygon(SLOPE, 1.0)
+    on_side = [np.isclose(np.hypot(*(p - a)) + np.hypot(*(b - p)), np.hypot(*(b - a)), rtol=1e-12)
+               for a, b, p in zip(SLOPE, np.roll(SLOPE, -1, axis=0), [np.array(extra)] * len(SLOPE))]
+    side = on_side.index(True)
+    polygon = np.insert(SLOPE, side + 1, extra, axis=0)
+    np.testing.assert_array_equal(particles_in_polygon(polygon, 1.0), reference)
+    np.testing.assert_array_equal(particles_in_polygon(np.roll(polygon, -(side + 1), axis=0), 1.0), reference)
+
+
 def test_neighbours_are_close_in_memory():
     node_xy_m = particles_in_polygon(SLOPE, 0.5)
     pairs = cKDTree(node_xy_m).query_pairs(1.01 * 0.5, output_type="ndarray")

@@ -23,6 +23,17 @@ def variant(old: str, new: str) -> str:
     return QUICKSTART.replace(old, new)
 
 
+def shifted(offset_x_m: float) -> str:
+    """The quickstart moved by ``offset_x_m`` along x: its polygon, supports and monitors."""
+    text = QUICKSTART
+    for x in ("60.0", "40.0", "20.0"):
+        text = text.replace(f"[{x},", f"[{offset_x_m + float(x)!r},")
+    text = text.replace("[0.0, 0.0]", f"[{offset_x_m!r}, 0.0]").replace("[0.0, 15.0]", f"[{offset_x_m!r}, 15.0]")
+    text = text.replace("x_max_m = 0.0", f"x_max_m = {offset_x_m!r}")
+    text = text.replace("x_min_m = 60.0", f"x_min_m = {offset_x_m + 60.0!r}")
+    return text.replace("x_m = 20.0", f"x_m = {offset_x_m + 20.0!r}").replace("x_m = 40.0", f"x_m = {offset_x_m + 40.0!r}")
+
+
 MALFORMED = {
     "srf_max below srf_min": (variant("srf_max = 2.0", "srf_max = 0.9"), "stages[1].srf_max", "must be >= srf_min = 1"),
     "srf_step wider than the range": (variant("srf_step = 0.1", "srf_step = 1.5"), "stages[1].srf_step", "<= srf_max - srf_min"),
@@ -107,6 +118,18 @@ MALFORMED = {
     "collapse metrics on an FOS study": (
         QUICKSTART + '\n[metrics]\nkind = "cohesive_collapse"\nmoved_threshold_m = 0.1\n', "metrics", "do not apply",
     ),
+    "coordinates too far from the origin for the spacing": (
+        shifted(1e10), "geometry.polygon_m", "double precision resolves only 1.9e-06 m at coordinates of 1e+10 m",
+    ),
+    "a wall through the soil": (
+        variant("[solver]", '[[walls]]\nname = "cut"\nstart_m = [10.0, 20.0]\nend_m = [10.0, -5.0]\n\n[solver]'),
+        "walls[0]", "lie behind 'cut'",
+    ),
+    "a floor drawn the wrong way under the soil": (
+        variant("[solver]", '[[walls]]\nname = "floor"\nstart_m = [70.0, 0.0]\nend_m = [-10.0, 0.0]\n\n[solver]'),
+        "walls[0]", "swap start_m and end_m",
+    ),
+    "every particle held": (variant("y_max_m = 0.0", "y_max_m = 100.0"), "boundary", "nothing is free to deform"),
 }
 
 

@@ -108,6 +108,19 @@ def test_slope_alpha_shape_recovers_the_concave_boundary(h, jitter):
     assert_csr_consistent(mesh)
 
 
+@pytest.mark.parametrize("offset_m", [(1e7, 0.0), (-3e6, 2e6), (5e8, -5e8)])
+def test_survey_coordinates_mesh_like_the_section_at_the_origin(offset_m):
+    """Qhull's precision tests scale with the coordinates: at 1e7 m (h = 1 m) it used to drop a
+    third of the triangles.  From an exact local origin the far cloud meshes like the near one."""
+    h = 1.0
+    node_xy_m = particles_in_polygon(SLOPE, h)
+    far_xy_m = node_xy_m + np.array(offset_m)
+    near, far = triangulate(node_xy_m, h), triangulate(far_xy_m, h)
+    assert far.elem_nodes.shape == near.elem_nodes.shape
+    assert len(far.orphan_nodes) == 0
+    assert signed_area_m2(far_xy_m - np.array(offset_m), far.elem_nodes).sum() == pytest.approx(SLOPE_AREA_M2, rel=1e-9)
+
+
 def test_alpha_filter_separates_detached_blocks_and_reports_orphans():
     h = 0.1
     left = particles_in_polygon([(0, 0), (1, 0), (1, 1), (0, 1)], h)

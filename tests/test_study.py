@@ -214,6 +214,26 @@ def test_malformed_study_names_the_field(case):
     assert fragment in message, message
 
 
+GRANULAR = (REPO / "studies" / "collapse_granular.toml").read_text()
+
+
+@pytest.mark.parametrize("change, field, fragment", [
+    (("[[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]]", "[[0.0, 0.0], [0.4, 0.0], [0.4, 0.1], [0.0, 0.1]]"),
+     "metrics.kind", "a 0.2 x 0.1 m column; this domain is 0.4 x 0.1 m"),
+    (("[[0.0, 0.0], [0.2, 0.0], [0.2, 0.1], [0.0, 0.1]]", "[[0.5, 0.0], [0.7, 0.0], [0.7, 0.1], [0.5, 0.1]]"),
+     "metrics", "a wall at x = 0 and a base at y = 0; the domain starts at x = 0.5 m"),
+    (("[metrics]", '[[stages]]\nname = "settle"\nkind = "relaxation"\nmax_duration_s = 1.0\nrecord_interval_s = 0.01\n\n[metrics]'),
+     "metrics", "the last stage 'settle' is a relaxation stage"),
+])
+def test_collapse_metrics_refuse_what_they_cannot_measure(change, field, fragment):
+    """The metrics assume a collapse (a dynamic last stage) from a wall at x = 0 on a base at y = 0;
+    ``granular_collapse`` compares with the experiment's 0.2 x 0.1 m column."""
+    assert parse_study(GRANULAR).metrics.kind == "granular_collapse"
+    with pytest.raises(StudyError) as error:
+        parse_study(GRANULAR.replace(*change))
+    assert str(error.value).startswith(field + ": ") and fragment in str(error.value), str(error.value)
+
+
 def test_error_message_is_field_colon_problem():
     assert study_error(variant("spacing_m = 0.02", "spacing_m = -0.1")) == "geometry.spacing_m: must be > 0, got -0.1"
 

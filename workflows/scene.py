@@ -124,7 +124,13 @@ def build_scene(study: Study) -> Scene:
         node_load_n=surface_load_forces(study, node_xy_m, node_spacing_m),
         **water_fields,
     )
-    for wall in study.walls:
+    for i, wall in enumerate(study.walls):
+        behind = particles_behind_wall(node_xy_m, wall.start_m, wall.end_m, WALL_GAP_TOLERANCE * scene.spacing_m)
+        if behind.size:
+            x_m, y_m = node_xy_m[behind[0]]
+            raise StudyError(f"walls[{i}]", f"{behind.size} particles lie behind {wall.name!r} (the first at "
+                             f"({x_m:g}, {y_m:g}) m): the material must lie on the wall's left going from start_m "
+                             "to end_m, so a wall may run along the soil, not through it (or swap start_m and end_m)")
         scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)
     for i, boundary in enumerate(study.boundary):
         if _boundary_nodes(scene, boundary).size == 0:
@@ -137,16 +143,37 @@ def build_scene(study: Study) -> Scene:
         if counts[i] == 0:
             raise StudyError(f"materials[{i}]", f"{material.name!r} holds no particle: its region lies outside "
                              "geometry.polygon_m (or the materials after it cover it); fix or remove it")
-    if not study.walls:
-        for i, stage in enumerate(study.stages):
-            active = supports(study, scene, stage.boundary)
-            # a slip support holds its tangential direction by the soil's friction
-            free = rigid_motion_left(node_xy_m, active.fixed | (active.slip_length_m > 0.0)[:, None])
-            if free:
-                field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
-                raise StudyError(field, f"the supports of stage {stage.name!r} leave the body free to {free}: it "
-                                 "would fall or drift as a whole; fix a base (vx_m_s = vy_m_s = 0) or add rollers")
+    for i, stage in enumerate(study.stages):
+        active = supports(study, scene, stage.boundary)
+        field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
+        if active.fixed.all():
+            raise StudyError(field, f"the supports of stage {stage.name!r} prescribe both velocities of every "
+                             "particle: nothing is free to deform; make the boxes hold the base and sides only")
+        # a slip support holds its tangential direction by the soil's friction
+        free = "" if study.walls else rigid_motion_left(node_xy_m, active.fixed | (active.slip_length_m > 0.0)[:, None])
+        if free:
+            raise StudyError(field, f"the supports of stage {stage.name!r} leave the body free to {free}: it "
+                             "would fall or drift as a whole; fix a base (vx_m_s = vy_m_s = 0) or add rollers")
     return scene
+
+
+WALL_GAP_TOLERANCE = 1e-3
+"""A particle lies behind a wall when its gap is below -WALL_GAP_TOLERANCE h (one on the wall is
+in front)."""
+
+
+def particles_behind_wall(node_xy_m: np.ndarray, start_m, end_m, tolerance_m: float) -> np.ndarray:
+    """Indices of the particles within the wall's span (0 <= s <= 1) on its right, gap g < -tolerance,
+    with s = (x - p1).t / L and g = (x - p1).n, n = (-(y2 - y1), x2 - x1) / L pointing into the
+    material (``spfem_core.contact``)."""
+    p1, p2 = np.asarray(start_m, dtype=float), np.asarray(end_m, dtype=float)
+    length_m = float(np.hypot(*(p2 - p1)))
+    tangent = (p2 - p1) / length_m
+    normal = np.array([-tangent[1], tangent[0]])
+    offset = node_xy_m - p1
+    s = offset @ tangent / length_m
+    gap_m = offset @ normal
+    return np.flatnonzero((s >= 0.0) & (s <= 1.0) & (gap_m < -tolerance_m))
 
 
 def rigid_motion_left(node_xy_m: np.ndarray, fixed: np.ndarray) -> str:

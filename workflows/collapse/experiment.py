@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+GRANULAR_COLUMN_M = (0.2, 0.1)
+"""(length, height) of the experiment's column, m."""
+
 GRANULAR_SURFACE_XY_M = np.array(
     [
         [0.00012, 0.09923],

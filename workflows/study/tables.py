@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from spfem_core.geometry import points_in_polygon, relief_m
 from spfem_core.settings import DEFAULT_ALPHA, DEFAULT_CFL, DEFAULT_MIN_ANGLE_DEG, DEFAULT_STABILISATION_BETA
 from workflows.box import Box
+from workflows.collapse.experiment import GRANULAR_COLUMN_M
 from workflows.fields import (
     Record,
     StudyError,
@@ -162,10 +163,28 @@ class Geometry(Record):
         if self.spacing_m > 0.5 * extent:
             raise StudyError("spacing_m", f"{self.spacing_m:g} m is more than half the domain's smaller extent "
                              f"({extent:g} m): too few particles across it")
+        reach_m = max(abs(v) for vertex in self.polygon_m for v in vertex)
+        resolution_m = math.ulp(reach_m)
+        if resolution_m > POSITION_RESOLUTION * self.finest_spacing_m:
+            corner = (math.floor(min(xs)), math.floor(min(ys)))
+            rounding = (f"double precision resolves only {resolution_m:.2g} m at coordinates of {reach_m:.3g} m, more "
+                        f"than {POSITION_RESOLUTION:g} of the spacing {self.finest_spacing_m:g} m: the particles' small "
+                        "motions would be lost to rounding")
+            if corner == (0, 0):
+                raise StudyError("spacing_m", f"{rounding}; make the spacing coarser")
+            raise StudyError("polygon_m", f"{rounding}; draw the section in local coordinates (subtract {corner[0]} "
+                             f"from every x and {corner[1]} from every y)")
         for i, zone in enumerate(self.refined):
             if zone.spacing_m > self.spacing_m:
                 raise StudyError(f"refined[{i}].spacing_m", f"{zone.spacing_m:g} m is coarser than geometry.spacing_m "
                                  f"= {self.spacing_m:g} m: a zone refines")
+
+
+POSITION_RESOLUTION = 1e-8
+"""The spacing of floats at the farthest coordinate (``math.ulp``) is at most this fraction of the
+finest particle spacing h, so that rounding the positions hides no motion that counts (the
+displacement floor of a run is 5e-6 of the slope height).  Survey coordinates of 1e7 m pass
+from h = 0.19 m."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -280,6 +299,25 @@ class Metrics(Record):
     plastic_strain_threshold: float = number(
         "1", "equivalent plastic strain above which a particle counts in the plastic zone", default=0.01, gt=0.0
     )
+
+    def check_in_study(self, study) -> None:
+        """The metrics read a collapse: the last stage dynamic, a wall at x = 0 and a base at y = 0
+        (``workflows.collapse.metrics``); ``granular_collapse`` compares with the experiment's column."""
+        last = study.stages[-1]
+        if last.kind != "dynamic":
+            raise StudyError("metrics", f"collapse metrics read the final state of a dynamic stage; the last stage "
+                             f"{last.name!r} is a {last.kind} stage")
+        xs, ys = zip(*study.geometry.polygon_m)
+        tolerance_m = 1e-3 * study.geometry.spacing_m
+        if abs(min(xs)) > tolerance_m or abs(min(ys)) > tolerance_m:
+            raise StudyError("metrics", f"collapse metrics measure from a wall at x = 0 and a base at y = 0; the "
+                             f"domain starts at x = {min(xs):g} m, y = {min(ys):g} m")
+        size_m = (max(xs) - min(xs), max(ys) - min(ys))
+        if self.kind == "granular_collapse" and not all(
+                abs(a - b) <= tolerance_m for a, b in zip(size_m, GRANULAR_COLUMN_M)):
+            raise StudyError("metrics.kind", "granular_collapse compares the deposit with the Bui et al. (2008) "
+                             f"experiment, a {GRANULAR_COLUMN_M[0]:g} x {GRANULAR_COLUMN_M[1]:g} m column; this "
+                             f"domain is {size_m[0]:g} x {size_m[1]:g} m")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -436,6 +474,8 @@ class Study(Record):
                                  "whole; give a [[boundary]] (a fixed base, vx_m_s = vy_m_s = 0) and name it here")
         self._check_water_and_loads()
         self._check_frames()
+        if self.metrics is not None:
+            self.metrics.check_in_study(self)
         if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
             raise StudyError("geometry.refined", "refined zones apply to gravity and strength-reduction studies; "
                              "runout and collapse metrics assume one spacing (not yet)")
