@@ -192,3 +192,26 @@ def test_inputs_that_used_to_crash_exit_2_with_one_line(case, tmp_path):
     assert expected in result.stderr, result.stderr
     assert result.exception is None or isinstance(result.exception, SystemExit)
     assert not out.is_dir()  # nothing written
+
+
+def test_quiet_still_prints_warnings_on_stderr(capfd):
+    """--quiet keeps stdout to the result; a warning (a thin layer, water over dry ground) still
+    reaches stderr, the other messages do not (the quiet console used to swallow both).  Messages
+    wait for the work to start: a study refused when its scene is built prints its error alone."""
+    from rich.console import Console
+
+    from workflows.cli import BarsProgress
+
+    warning = "warning: water.phreatic_level_m: the water stands 3 m above the ground surface"
+    for completed in (True, False):
+        progress = BarsProgress(Console(stderr=True, quiet=True), quiet=True, sweep=False)
+        progress.message("gravity state reused from gravity.nc")
+        progress.message(warning)
+        assert capfd.readouterr() == ("", "")
+        progress.stop(completed=completed)
+        assert capfd.readouterr() == ("", warning + "\n" if completed else "")
+    progress = BarsProgress(Console(stderr=True, quiet=True), quiet=True, sweep=False)
+    progress.message(warning)
+    progress.stage("", "gravity", "relaxation", 0.5)  # the work starts: held messages go out
+    assert capfd.readouterr().err == warning + "\n"
+    progress.stop()

@@ -107,6 +107,18 @@ def test_a_bad_sweep_is_one_line_exit_2_and_nothing_written(name, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_a_case_whose_scene_fails_is_named_before_the_field(tmp_path):
+    """A value that only the scene refuses (a support box left empty) names the case first: the
+    field it names is the case's, not the study file's."""
+    path = tmp_path / "bad.toml"
+    path.write_text(with_sweep(SWEEP, '[sweep]\n[[sweep.axes]]\npath = "boundary.base.y_max_m"\nvalues = [-10.0]\n'))
+    run = cli(path, "--out", tmp_path / "out")
+    assert run.returncode == 2, run.stderr
+    last = run.stderr.splitlines()[-1]  # after the progress bar of the cases started
+    assert last == f"error: {path}: sweep: the case y_max_m=-10: boundary[0]: the box of 'base' holds no particle", last
+    assert "Traceback" not in run.stderr
+
+
 def test_zip_of_unequal_axes_is_refused_and_a_stage_study_may_be_swept():
     unequal = ('[sweep]\ncombination = "zip"\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [1e3, 2e3]\n'
                '[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [20.0]\n')

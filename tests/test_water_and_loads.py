@@ -23,6 +23,7 @@ from workflows.cli import app
 from workflows.scene import build_scene
 from workflows.study import parse_study
 from workflows.study_types import run_study
+from workflows.water import water_above_ground_warnings
 
 REPO = Path(__file__).resolve().parents[1]
 GAMMA_W = 9810.0
@@ -293,6 +294,27 @@ def test_seismic_sweep_falls_with_kh_to_one_at_the_critical_coefficient(tmp_path
         fos = ds["fos"].values
     assert np.all(np.diff(fos) < 0.0)
     assert kh[-1] == SEISMIC_KC and abs(fos[-1] - 1.0) < 0.05
+
+
+@pytest.mark.parametrize("water, field, height_m", [
+    ("phreatic_level_m = 100.0", "phreatic_level_m", 95.0),  # over the toe at y = 5 m
+    ("phreatic_level_m = 8.0", "phreatic_level_m", 3.0),
+    ("phreatic_line_m = [[0.0, 14.0], [40.0, 14.0], [60.0, 5.5]]", "phreatic_line_m", 9.0),
+    ("phreatic_level_m = 100.0\npond_level_m = 100.0", None, None),  # a lake over the slope
+    ("phreatic_level_m = 5.8", None, None),  # within a particle spacing of the toe
+    ("phreatic_line_m = [[0.0, 14.0], [40.0, 5.5], [60.0, 5.5]]", None, None),
+])
+def test_water_above_the_ground_without_a_pond_is_named(water, field, height_m):
+    """A piezometric line over unponded ground (more than a spacing above it) gets one warning naming
+    the field and how high the water stands (sampled on 512 abscissae: within 0.2 m here)."""
+    text = (REPO / "studies" / "quickstart.toml").read_text().replace("[loads]", f"[water]\n{water}\n\n[loads]")
+    warnings = water_above_ground_warnings(parse_study(text))
+    if field is None:
+        assert warnings == []
+        return
+    assert len(warnings) == 1 and warnings[0].startswith(f"warning: water.{field}: the water stands "), warnings
+    stands_m = float(warnings[0].split("stands ")[1].split(" m above")[0])
+    assert stands_m == pytest.approx(height_m, abs=0.2)
 
 
 def test_ru_pore_pressure_is_ru_times_the_overburden():

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 from spfem_core.divergence import DivergenceError
 from workflows.progress import OnlyWarnings, Progress
-from workflows.study import Study
+from workflows.study import Study, StudyError
 
 if TYPE_CHECKING:
     from workflows.fos.task import RunPolicy  # (imports dask: only when FOS cases run)
@@ -80,6 +80,11 @@ class CaseTimings:
         self.cases_elapsed += other.cases_elapsed
         self.gravity_worker += other.gravity_worker
         self.srf_runs_worker += other.srf_runs_worker
+
+
+def case_error(case_id: str, error: StudyError) -> StudyError:
+    """The StudyError of one case of a sweep, the case named before the field it names."""
+    return StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}")
 
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
@@ -148,6 +153,10 @@ def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Pro
         try:
             outcomes[case.case_id] = run_stages(case.study, case.out_dir, progress=progress, case=case.case_id,
                                                 force=options.force, max_memory_bytes=options.max_memory_bytes)
+        except StudyError as error:
+            if not case.case_id:
+                raise
+            raise case_error(case.case_id, error) from None
         except DivergenceError as error:
             if not placement.keep_going:
                 raise
@@ -184,10 +193,12 @@ class StudyType:
         """StudyError for a study that cannot run (before anything is written); none by default."""
 
     def warnings(self) -> list[str]:
-        """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``)."""
+        """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``),
+        water above the ground with no pond (``workflows.water``)."""
         from workflows.layers import thin_layer_warnings
+        from workflows.water import water_above_ground_warnings
 
-        return thin_layer_warnings(self.study)
+        return thin_layer_warnings(self.study) + water_above_ground_warnings(self.study)
 
     def cases(self) -> list[Case]:
         """The cases to compute (their folders made where the type needs them)."""

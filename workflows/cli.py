@@ -64,11 +64,13 @@ class BarsProgress:
         self.prefix = ""  # a sweep's case, before the stage
         self.counts = ""
         self.summary = ""  # a running tally of the cases concluded (tally)
+        self.held: list[str] = []  # messages before the work starts (message)
 
     def _bar(self, key: str, description: str, total: float) -> int:
         if key not in self.bars:
             if not self.bars:
                 self.display.start()
+                self._print_held()
             self.bars[key] = self.display.add_task(description, total=total)
         return self.bars[key]
 
@@ -93,12 +95,33 @@ class BarsProgress:
             self.display.update(self.bars["runs"], description=f"cases {self.counts}{self.summary}, SRF runs")
 
     def message(self, text):
-        if text.startswith("warning") or ": warning" in text or not self.quiet:
+        """A line of news; with --quiet only warnings.  Held until the work starts, so that a study
+        refused while its scene is built prints its one error line and nothing else."""
+        if self.quiet and not (text.startswith("warning") or ": warning" in text):
+            return
+        if self.bars:
+            self._print(text)
+        else:
+            self.held.append(text)
+
+    def _print(self, text):
+        if self.quiet:  # the quiet console prints nothing
+            typer.echo(text, err=True)
+        else:
             self.display.console.print(text, highlight=False, markup=False)
 
-    def stop(self):
+    def _print_held(self):
+        for text in self.held:
+            self._print(text)
+        self.held = []
+
+    def stop(self, completed: bool = True):
+        """The display ends; the messages still held are printed when the study ``completed``."""
         if self.bars:
             self.display.stop()
+        if completed:
+            self._print_held()
+        self.held = []
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -197,8 +220,10 @@ def main(
     try:
         try:
             outcome = run_study(study, out_dir, options, progress, kind)
-        finally:
-            progress.stop()
+        except BaseException:
+            progress.stop(completed=False)
+            raise
+        progress.stop()
         report = kind.report(outcome, quiet, study_file)
         for line in report.warnings:
             typer.echo(line, err=True)

@@ -215,3 +215,41 @@ def draw_water(ax, study, x_m: np.ndarray, ground_m: np.ndarray) -> None:
         x_min, x_max = water.pond_x_range_m
         wet = (ground_m < water.pond_level_m) & (x_m >= x_min) & (x_m <= x_max)
         ax.plot(x_m, np.where(wet, water.pond_level_m, np.nan), "-", color="tab:blue", lw=1.5)
+
+
+SURFACE_SAMPLES = 512
+"""Abscissae across the domain at which a piezometric line is compared with the ground surface."""
+
+
+def water_above_ground_warnings(study) -> list[str]:
+    """A warning per piezometric line that stands more than one particle spacing above the ground
+    surface y_s(x) where no pond covers it: the surface there would carry a pore pressure
+    gamma_w (y_w - y_s) that no water above holds, a tensile effective stress (ponded water is
+    ``pond_level_m``)."""
+    polygon = np.array(study.geometry.polygon_m)
+    x = np.linspace(polygon[:, 0].min(), polygon[:, 0].max(), SURFACE_SAMPLES)
+    ground_m = surface_height_m(polygon, x)
+    water = study.water
+    ponded = np.zeros(x.size, dtype=bool)
+    if water is not None and water.pond_level_m is not None:
+        low, high = water.pond_x_range_m
+        ponded = (x >= low) & (x <= high) & (ground_m <= water.pond_level_m)
+    named = []
+    if water is not None and water.phreatic_line is not None:
+        field = "phreatic_level_m" if water.phreatic_level_m is not None else "phreatic_line_m"
+        named.append((f"water.{field}", np.array(water.phreatic_line), water.pond_level_m))
+    named += [(f"materials[{i}].phreatic_line_m", np.array(m.phreatic_line_m), None)
+              for i, m in enumerate(study.materials) if m.phreatic_line_m is not None]
+    warnings = []
+    for field, line, pond_m in named:
+        level_m = np.interp(x, line[:, 0], line[:, 1])
+        held = ponded & (level_m <= (np.inf if pond_m is None else pond_m))
+        excess_m = np.where(held, -np.inf, np.nan_to_num(level_m - ground_m, nan=-np.inf))
+        k = int(np.argmax(excess_m))
+        if excess_m[k] > study.geometry.spacing_m:
+            warnings.append(
+                f"warning: {field}: the water stands {excess_m[k]:.3g} m above the ground surface at x = {x[k]:.4g} m "
+                "with no pond there: the ground there carries a pore pressure no water above it holds (its effective "
+                "stress turns tensile); "
+                "give water.pond_level_m for water standing on the ground, or draw the line at or below it")
+    return warnings

@@ -51,6 +51,7 @@ from distributed import Event, wait
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.snapshot import StressState
+from workflows.cases import case_error
 from workflows.fos.gravity import (
     GravityResult,
     copy_gravity,
@@ -69,7 +70,7 @@ from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
 from workflows.scene import build_scene
 from workflows.stages.running import new_simulation
-from workflows.study import Study
+from workflows.study import Study, StudyError
 
 
 @dataclass
@@ -311,6 +312,10 @@ class Engine:
         waiting = self.gravity_waiting.pop(case.gkey)
         try:
             result = future.result()
+        except StudyError as error:  # the scene of a sweep's case
+            if not case.label:
+                raise
+            raise case_error(case.label, error) from None
         except DivergenceError as error:  # a diverged gravity stage ends these cases only
             for each in waiting:
                 each.error = error

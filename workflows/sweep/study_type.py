@@ -25,7 +25,7 @@ import numpy as np
 import xarray as xr
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.stage_file import result_paths
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
@@ -103,7 +103,7 @@ class SweepStudy(StudyType):
                 try:
                     case.study.strength_reduction.check_resolution(case.study)
                 except StudyError as error:
-                    raise StudyError("sweep", f"the case {case.case_id.replace('__', ', ')}: {error}") from None
+                    raise case_error(case.case_id, error) from None
         largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
         processes = (options.workers if not options.scheduler else 1) if self.fos else 1
         check_memory(largest.study, processes=processes, limit_bytes=options.max_memory_bytes)
