@@ -38,6 +38,21 @@ LENS_OUTSIDE = edit("[loads]", '[[materials]]\nname = "lens"\nmodel = "elastic"\
                     'youngs_modulus_pa = 1e8\npoisson_ratio = 0.3\nregion_m = [[100.0, 0.0], [110.0, 0.0], '
                     '[110.0, 5.0]]\n\n[loads]')
 
+
+
+def shifted(offset_x_m: float) -> str:
+    """The quickstart moved by ``offset_x_m`` along x: its polygon, supports and monitors."""
+    text = QUICKSTART
+    for x in ("60.0", "40.0", "20.0"):
+        text = text.replace(f"[{x},", f"[{offset_x_m + float(x)!r},")
+    text = text.replace("[0.0, 0.0]", f"[{offset_x_m!r}, 0.0]").replace("[0.0, 15.0]", f"[{offset_x_m!r}, 15.0]")
+    text = text.replace("x_max_m = 0.0", f"x_max_m = {offset_x_m!r}").replace("x_min_m = 60.0", f"x_min_m = {offset_x_m + 60!r}")
+    return text.replace("x_m = 20.0", f"x_m = {offset_x_m + 20.0!r}").replace("x_m = 40.0", f"x_m = {offset_x_m + 40.0!r}")
+
+
+WALL_CUT = edit("[solver]", '[[walls]]\nname = "cut"\nstart_m = [10.0, 20.0]\nend_m = [10.0, -5.0]\n\n[solver]')
+SWEEP_EMPTY_BOX = QUICKSTART + '\n[sweep]\n[[sweep.axes]]\npath = "boundary.base.y_max_m"\nvalues = [-10.0]\n'
+
 CASES = [
     # (label, study text, extra command-line arguments, user files put in --out first)
     ("SRF tolerance = 1e-2", edit("fos_tolerance = 0.01", "fos_tolerance = 0.01\ntolerance = 1e-2"), [], []),
@@ -63,6 +78,14 @@ CASES = [
     ("--workers 64 on this machine", QUICKSTART, ["--workers", "64"], []),
     ("--scheduler \"\"", QUICKSTART, ["--scheduler", ""], []),
     ("--scheduler with --workers", QUICKSTART, ["--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], []),
+    ("the quickstart moved by 1e7 m (survey coordinates)", shifted(1e7), [], []),
+    ("the quickstart moved by 1e10 m", shifted(1e10), [], []),
+    ("a wall through the soil", WALL_CUT, [], []),
+    ("supports holding every particle", edit("y_max_m = 0.0", "y_max_m = 100.0"), [], []),
+    ("a redundant vertex mid-face", edit("[40.0, 5.0], [20.0, 15.0]", "[40.0, 5.0], [37.25, 6.375], [20.0, 15.0]"),
+     [], []),
+    ("phreatic level 100 m, no pond", edit("[loads]", "[water]\nphreatic_level_m = 100.0\n\n[loads]"), [], []),
+    ("a swept value that empties a support box", SWEEP_EMPTY_BOX, [], []),
     ("no study file argument", None, [], []),
     ("an unknown option", QUICKSTART, ["--bogus"], []),
 ]
