@@ -2,6 +2,7 @@
 
     python -m benchmarks.relaxation_shortcuts tolerance              # h = 0.3 m, SRF 1.2 1.3 1.3667 1.375 1.4
     python -m benchmarks.relaxation_shortcuts step --spacing 0.5 --srf 1.2 --factors 0.909 1.1 1.3 1.5
+    python -m benchmarks.relaxation_shortcuts warm_start --spacing 0.5 --srf 1.2 1.3 1.3333 1.3667
 
 Each SRF run of the reference slope (``studies/reference_slope.toml``) starts from the same
 gravity state, on one thread, and prints its steps, end time, largest displacement and whether it
@@ -11,7 +12,11 @@ converged (or diverged):
   accepted;
 - ``step``: the relaxation's time step at ``--factors`` times the critical-step bound instead of
   ``timestep.max_stable_cfl(beta)`` (0.909 at beta = 0.1), by replacing the run's
-  ``TimeStepPolicy.relaxation``: a measurement of the stability margin, not an option of the code.
+  ``TimeStepPolicy.relaxation``: a measurement of the stability margin, not an option of the code;
+- ``warm_start``: each SRF after the first from the gravity state (as the study runs it) and from
+  the stress and plastic strain the run at the SRF before it ended with (a StressState, the
+  particles back at their initial positions): steps, and the largest displacement, the warm
+  run's added to the one it started from.
 """
 
 from __future__ import annotations
@@ -46,6 +51,12 @@ def gravity_state(study, scene):
 
 def srf_run(study, scene, state, srf: float, step_factor: float | None = None) -> str:
     """One run from ``state``; a line of what it did."""
+    return run_and_state(study, scene, state, srf, step_factor)[0]
+
+
+def run_and_state(study, scene, state, srf: float, step_factor: float | None = None, u_before_m: float = 0.0):
+    """(a line of what one run from ``state`` did, its final StressState or None when it diverged,
+    its largest displacement plus ``u_before_m``)."""
     sim = new_simulation(study, scene, threads=1)
     begin_stage(study, sim, len(study.stages) - 1, start_from=state)
     if step_factor is not None:
@@ -53,14 +64,15 @@ def srf_run(study, scene, state, srf: float, step_factor: float | None = None) -
     try:
         run = study.strength_reduction.run_at(sim, srf, study, monitor_particles(study, scene), None)
     except DivergenceError as error:
-        return f"diverged: {error}"
-    return (f"steps {run.n_steps:6d}  t {run.time_s[-1]:.3f} s  largest u {np.max(run.max_displacement_m):.5f} m  "
-            f"converged {run.converged}")
+        return f"diverged: {error}", None, np.nan
+    u_m = float(np.max(run.max_displacement_m)) + u_before_m
+    return (f"steps {run.n_steps:6d}  t {run.time_s[-1]:.3f} s  largest u {u_m:.5f} m  converged {run.converged}",
+            sim.snapshot().stress_state, u_m)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("shortcut", choices=("tolerance", "step"))
+    parser.add_argument("shortcut", choices=("tolerance", "step", "warm_start"))
     parser.add_argument("--spacing", type=float, default=0.3, help="particle spacing (m), default 0.3")
     parser.add_argument("--srf", type=float, nargs="+", default=[1.2, 1.3, 1.3667, 1.375, 1.4])
     parser.add_argument("--factors", type=float, nargs="+", default=[0.909, 1.1, 1.3, 1.5],
@@ -74,6 +86,15 @@ def main() -> None:
             variant = study_at(args.spacing, tolerance)
             for srf in args.srf:
                 print(f"tolerance {tolerance:g}  SRF {srf:g}: {srf_run(variant, scene, state, srf)}", flush=True)
+    elif args.shortcut == "warm_start":
+        values = sorted(args.srf)
+        _, before, u_before_m = run_and_state(study, scene, state, values[0])
+        for srf in values[1:]:
+            cold, cold_state, u_cold_m = run_and_state(study, scene, state, srf)
+            warm = run_and_state(study, scene, before, srf, u_before_m=u_before_m)[0]
+            print(f"SRF {srf:g} from gravity:   {cold}", flush=True)
+            print(f"SRF {srf:g} from the last:  {warm}", flush=True)
+            before, u_before_m = cold_state, u_cold_m
     else:
         for factor in args.factors:
             for srf in args.srf:
