@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -217,6 +218,27 @@ def test_keys_change_with_what_shapes_a_state_and_not_with_the_search_settings(q
     assert gravity_key(finer) == gravity_key(study)
     assert run_key(finer, 1.2) == run_key(study, 1.2)
     assert run_key(study, 1.2) != run_key(study, 1.3)
+
+
+def test_a_renamed_study_reuses_every_run_and_a_changed_one_recomputes(quickstart_run, tmp_path):
+    """The study's name and description change no number: a renamed study in the folder of the
+    quickstart reuses its gravity state and every run.  A change of a number (the density) makes
+    new keys: gravity and every run are computed again."""
+    study, out, outcome = quickstart_run
+    folder = tmp_path / "out"
+    shutil.copytree(out, folder)
+    renamed = parse_study(QUICKSTART.replace('name = "quickstart"', 'name = "quickstart_renamed"')
+                          .replace('description = "', 'description = "renamed: '))
+    assert gravity_key(renamed) == gravity_key(study) and run_key(renamed, 1.2) == run_key(study, 1.2)
+    messages = Messages()
+    again = run_study(renamed, folder, RunOptions(workers=1), messages)
+    assert again.fos == outcome.fos and again.gravity_reused, messages.lines
+    assert all(math.isnan(r.started_s) for r in again.runs)  # no run was made by this invocation
+    assert not any("removed" in line for line in messages.lines), messages.lines
+    heavier = parse_study(renamed.source_text.replace("density_kg_m3 = 2000.0", "density_kg_m3 = 2010.0"))
+    assert gravity_key(heavier) != gravity_key(study)
+    changed = run_study(heavier, folder, RunOptions(workers=1), messages)
+    assert not changed.gravity_reused and not any(math.isnan(r.started_s) for r in changed.runs)
 
 
 def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):

@@ -2,7 +2,8 @@
 
 A gravity file carries ``gravity_key``, a hash over everything that shapes the gravity state
 (geometry, materials, loads, water, supports, solver, the stages before the strength reduction, and
-the core's sources; not the materials' strength when every stage before the strength
+the core's sources; not the ``[study]`` table, whose name and description change no number, so a
+renamed study reuses its files; not the materials' strength when every stage before the strength
 reduction is elastic, so that a sweep over strength, or the realisations of random strengths,
 relax gravity once; not the seismic load when it acts in the runs only); a run file carries
 ``run_key``, a hash over the gravity key, what the run does (the seismic load and the random field
@@ -51,9 +52,8 @@ def _remembered(function):
 def gravity_key(study: Study) -> str:
     """Hash of everything that shapes the gravity state (module doc); equal studies, equal keys."""
     raw = dataclasses.asdict(study)
-    for key in ("source_text", "output", "metrics"):
+    for key in ("source_text", "study", "output", "metrics"):  # what changes no number of the state
         raw.pop(key, None)
-    raw["study"].pop("description", None)
     raw["stages"] = raw["stages"][:-1]
     seismic = study.loads.seismic
     if seismic is not None and not seismic.in_gravity:
