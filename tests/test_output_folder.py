@@ -5,6 +5,7 @@ is one line and exit 2."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -18,6 +19,7 @@ from typer.testing import CliRunner
 from workflows.cli import app
 from workflows.fos.run_store import remove_stale_runs
 from workflows.output.folder_lock import LOCK_NAME, folder_lock
+from workflows.output.writing import share_file, write_bytes
 from workflows.study import StudyError
 
 REPO = Path(__file__).resolve().parents[1]
@@ -154,3 +156,27 @@ def test_figures_of_an_earlier_run_are_replaced_and_a_users_picture_stays(tmp_pa
     assert "fields_srf_9.9999.png" not in names and {"fields_srf_mine.png", "srf_curve.png"} <= names
     run_study(parse_study(text + "\n[output]\nfigures = false\n"), out, RunOptions(workers=2))
     assert {path.name for path in out.glob("*.png")} == {"fields_srf_mine.png"}
+
+
+def test_a_shared_file_is_a_hard_link_or_a_copy_and_never_half_written(tmp_path, monkeypatch):
+    """share_file links (one file on disk) or, without hard links, copies; a temporary file a killed
+    process left linked to the source is replaced, not written through (which would change the source)."""
+    source = tmp_path / "a" / "gravity.nc"
+    source.parent.mkdir()
+    source.write_bytes(b"gravity state")
+    target = tmp_path / "b" / "gravity.nc"
+    target.parent.mkdir()
+    os.link(source, target.with_name("gravity.nc.tmp"))  # left by a killed process
+    write_bytes(b"another state", target)
+    assert source.read_bytes() == b"gravity state" and target.read_bytes() == b"another state"
+    share_file(source, target)
+    assert target.samefile(source) and not list(target.parent.glob("*.tmp"))
+
+    def no_links(*args):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "link", no_links)
+    copy = tmp_path / "c" / "gravity.nc"
+    copy.parent.mkdir()
+    share_file(source, copy)
+    assert copy.read_bytes() == b"gravity state" and not copy.samefile(source)

@@ -227,12 +227,14 @@ def test_a_changed_value_recomputes_only_its_case(tmp_path):
     axis = '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [{}]\n'
     first = run_study(parse_study(quick + axis.format("8e3, 10e3")), tmp_path, RunOptions(workers=1))
     assert first.runs_reused == 0 and first.gravity_computed == 1
+    gravity = tmp_path / "cases" / "cohesion_pa=8000" / "gravity.nc"
+    assert gravity.samefile(tmp_path / "cases" / "cohesion_pa=10000" / "gravity.nc")  # one file on disk
     kept = {p: p.stat().st_mtime_ns for p in (tmp_path / "cases" / "cohesion_pa=8000").glob("srf_*.nc")}
     second = run_study(parse_study(quick + axis.format("8e3, 12e3")), tmp_path, RunOptions(workers=1))
     assert second.runs_reused == first.results["cohesion_pa=8000"].n_runs
     assert second.runs_made == second.results["cohesion_pa=12000"].n_runs
     assert second.gravity_computed == 0  # the new case takes the gravity files of the case it shares them with
-    assert (tmp_path / "cases" / "cohesion_pa=12000" / "gravity.nc").is_file()
+    assert (tmp_path / "cases" / "cohesion_pa=12000" / "gravity.nc").samefile(gravity)
     assert all(p.stat().st_mtime_ns == t for p, t in kept.items())
     assert second.results["cohesion_pa=8000"] == first.results["cohesion_pa=8000"]
 

@@ -11,7 +11,8 @@ workers busy with all of them at once, with no barrier between cases:
    in this process before the cluster is needed, for a case placed so (a single study: its
    gravity runs on all cores while the cluster starts), else as a gravity task on a worker, whose
    files the client writes when it returns; cases with the same gravity key (a sweep over
-   strength with an elastic gravity stage) share one;
+   strength with an elastic gravity stage) share one, and its files: written once, hard-linked
+   into the other cases' folders (``fos.gravity.share_gravity``);
 2. every case with a gravity state asks its search for the next SRF values; each is reused
    from disk when a file with its key exists, else queued.  With several cases running, a case
    releases fewer sweep values at once (the search's ``n_parallel``), as the other cases keep
@@ -54,9 +55,9 @@ from spfem_core.snapshot import StressState
 from workflows.cases import case_error
 from workflows.fos.gravity import (
     GravityResult,
-    copy_gravity,
     gravity_paths,
     run_gravity,
+    share_gravity,
     stored_gravity,
     why_not_reused,
     write_gravity,
@@ -174,6 +175,7 @@ class Engine:
         self.just_concluded: list[CaseSearch] = []  # handed back at the end of the pass
         self.n_submitted = 0
         self.stored_states: dict = {}  # (gravity folder, gravity key) -> the StressState on disk, or None
+        self.gravity_written: dict[str, Path] = {}  # gravity key -> the folder this invocation wrote its files in
         self.scattered: dict = {}  # gravity key -> the future of that gravity state on every worker
         self.flows: dict = {}  # the inputs of a steady flow (seepage.flow.flow_inputs) -> its future on every worker
 
@@ -266,7 +268,7 @@ class Engine:
 
     def _start(self, case: CaseSearch) -> None:
         """The case concluded from its runs on disk, or its gravity: from its gravity folder, from
-        another case with the same gravity key (its files copied where the case keeps its own), or a
+        another case with the same gravity key (its files shared where the case keeps its own), or a
         gravity task (shared by the cases with its key)."""
         if case.search is None:
             self._new_search(case)
@@ -283,7 +285,7 @@ class Engine:
                     donor.n_particles = donor.gravity.n_particles
             if donor is not None:
                 if case.write_gravity and donor.gravity_dir != case.gravity_dir:
-                    copy_gravity(donor.study, donor.gravity_dir, case.study, case.gravity_dir)
+                    share_gravity(case.study, donor.gravity_dir, case.gravity_dir)
                 case.gravity, case.gravity_reused, case.n_particles = donor.gravity, True, donor.n_particles
         if case.gravity is None:
             waiting = self.gravity_waiting.get(case.gkey)
@@ -447,8 +449,13 @@ class Engine:
 
     def _write(self, case: CaseSearch) -> None:
         start = time.perf_counter()
-        if case.unwritten_gravity is not None:
-            write_gravity(case.study, case.gravity_dir, case.unwritten_gravity)
+        if case.unwritten_gravity is not None:  # written once per key, shared by the other cases' folders
+            written_in = self.gravity_written.get(case.gkey)
+            if written_in is None or written_in == case.gravity_dir:
+                write_gravity(case.study, case.gravity_dir, case.unwritten_gravity)
+                self.gravity_written[case.gkey] = case.gravity_dir
+            else:
+                share_gravity(case.study, written_in, case.gravity_dir)
             case.unwritten_gravity = None
         for result in case.unwritten:  # the workers are busy with the next runs meanwhile
             write_run(result, case.out_dir / run_file_name(result.srf))

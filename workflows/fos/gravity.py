@@ -22,7 +22,7 @@ import xarray as xr
 from spfem_core.snapshot import StressState
 from workflows.fos.keys import gravity_key
 from workflows.output.stage_file import provenance, stress_state
-from workflows.output.writing import interrupts_deferred, make_output_folder, write_dataset
+from workflows.output.writing import interrupts_deferred, make_output_folder, share_file, write_dataset
 from workflows.progress import Progress
 from workflows.scene import build_scene, monitor_particles
 from workflows.stages.running import new_simulation, run_stage_result, snapshots
@@ -119,7 +119,7 @@ def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
 
 def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
     """Write the datasets of a gravity run to the case's folder, with the case's own study text
-    (cases with one gravity key share one run)."""
+    (the other cases with its key share these files: :func:`share_gravity`)."""
     make_output_folder(out_dir)
     for dataset, path in zip(result.datasets, gravity_paths(study, out_dir)):
         write_dataset(dataset.assign_attrs(provenance(study)), path)
@@ -129,16 +129,17 @@ def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
         write_seepage(study, seepage_dataset(study, result.flow), out_dir)
 
 
-def copy_gravity(donor_study: Study, donor_dir: Path, study: Study, out_dir: Path) -> None:
-    """Write the gravity files of ``donor_dir`` (a study with the same gravity key) to ``out_dir``,
-    with ``study``'s own text."""
-    make_output_folder(out_dir)
-    for source, target in zip(gravity_paths(donor_study, donor_dir), gravity_paths(study, out_dir)):
-        with interrupts_deferred(), xr.open_dataset(source, engine="netcdf4") as ds:
-            dataset = ds.load()
-        write_dataset(dataset.assign_attrs(provenance(study)), target)
-    if study.seepage is not None:  # the flow the shared gravity state was relaxed with
-        from workflows.seepage.flow import study_flow
-        from workflows.seepage.results import seepage_dataset, write_seepage
+def share_gravity(study: Study, source_dir: Path, out_dir: Path) -> None:
+    """Put the gravity files of ``source_dir`` (a case with the same gravity key) in ``out_dir`` as
+    hard links to them (``output.writing.share_file``): a sweep's cases that share a gravity state
+    share one file on disk, each folder still holding its own ``gravity.nc``.  The files name the
+    study of the case that computed them; the key they carry is this case's too."""
+    from workflows.seepage.results import FIGURE_NAME, FILE_NAME
 
-        write_seepage(study, seepage_dataset(study, study_flow(study)), out_dir)
+    make_output_folder(out_dir)
+    names = [path.name for path in gravity_paths(study, source_dir)]
+    if study.seepage is not None:  # the flow the shared gravity state was relaxed with
+        names += [FILE_NAME, FIGURE_NAME] if study.output.figures else [FILE_NAME]
+    for name in names:
+        if (source_dir / name).is_file():
+            share_file(source_dir / name, out_dir / name)

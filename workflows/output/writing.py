@@ -9,6 +9,7 @@ nothing, and a rerun resumes from the finished ones.
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import threading
 from contextlib import contextmanager
@@ -97,11 +98,35 @@ def write_bytes(data: bytes, path: str | Path) -> Path:
     error, and an interrupt waits until the file is complete (or removed).  A folder that cannot
     take the file (full, read-only, deleted) is a StudyError on ``--out``: what was written before
     stays, and the same command resumes from it."""
+    return _through_temporary(path, lambda tmp: tmp.write_bytes(data))
+
+
+def share_file(source: str | Path, path: str | Path) -> Path:
+    """Put the finished file ``source`` at ``path`` as a hard link to it (one copy on disk), or as
+    a copy where the file system has no hard links, through ``<path>.tmp`` and a rename as
+    :func:`write_bytes`.  Our files are only ever replaced by a rename, never rewritten in place, so
+    a later write of either name leaves the other as it was."""
+    source, path = Path(source), Path(path)
+    if path.is_file() and path.samefile(source):
+        return path
+
+    def put(tmp: Path) -> None:
+        try:
+            os.link(source, tmp)
+        except OSError:  # no hard links here (FAT, some network file systems)
+            shutil.copyfile(source, tmp)
+
+    return _through_temporary(path, put)
+
+
+def _through_temporary(path: str | Path, make) -> Path:
+    """``make(tmp)`` makes ``<path>.tmp``, which is then renamed to ``path`` (:func:`write_bytes`)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     with interrupts_deferred():
         try:
-            tmp.write_bytes(data)
+            tmp.unlink(missing_ok=True)  # one a killed process left: a link cannot replace it
+            make(tmp)
             os.replace(tmp, path)
         except OSError as error:
             try:
