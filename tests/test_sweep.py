@@ -239,6 +239,49 @@ def test_a_changed_value_recomputes_only_its_case(tmp_path):
     assert second.results["cohesion_pa=8000"] == first.results["cohesion_pa=8000"]
 
 
+def test_a_changed_sweep_removes_what_the_earlier_one_made_and_nothing_of_the_users(tmp_path):
+    """Rerun with one axis fewer, then with figures = false: the case folders and design charts
+    of the earlier invocations go, each time said in one line; a picture, a file and a folder of the
+    user's stay (a stale case folder holding a file of the user's is kept, emptied of ours)."""
+    from workflows.output.figures import pyplot
+    from workflows.study_types import study_type
+
+    quick = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0")
+    cohesion = '[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [8e3, 10e3]\n'
+    friction = '[[sweep.axes]]\npath = "materials.soil.friction_deg"\nvalues = [15.0, 20.0]\n'
+
+    def run(text: str) -> list[str]:
+        kind = study_type(parse_study(text), tmp_path)
+        outcome = run_study(kind.study, tmp_path, RunOptions(workers=1), kind=kind)
+        return [line for line in kind.report(outcome, False, None).lines if line.startswith(("removed", "kept"))]
+
+    assert run(quick + "\n[sweep]\n" + cohesion + friction) == []
+    assert {p.name for p in tmp_path.glob("*.png")} == {"fos_cohesion_pa.png", "fos_friction_deg.png", "fos_map.png"}
+    plt = pyplot()
+    fig = plt.figure()
+    fig.savefig(tmp_path / "fos_mine.png")  # the user's, named as a design chart
+    plt.close(fig)
+    (tmp_path / "cases" / "cohesion_pa=8000__friction_deg=15" / "notes.txt").write_text("mine")
+    (tmp_path / "cases" / "mine").mkdir()
+    (tmp_path / "cases" / "mine" / "summary.nc").write_bytes(b"not a netCDF file")
+
+    [line] = run(quick + "\n[sweep]\n" + cohesion)
+    assert line.startswith("removed what an earlier invocation made: 3 case folders no longer in the sweep"), line
+    assert "figures not drawn again (fos_friction_deg.png, fos_map.png)" in line
+    assert line.endswith("kept cases/cohesion_pa=8000__friction_deg=15/: no longer in the sweep, but holding files "
+                         "not known as made by spfem-fos"), line
+    assert {p.name for p in (tmp_path / "cases").iterdir()} == {"cohesion_pa=8000", "cohesion_pa=10000",
+                                                                "cohesion_pa=8000__friction_deg=15", "mine"}
+    assert [p.name for p in (tmp_path / "cases" / "cohesion_pa=8000__friction_deg=15").iterdir()] == ["notes.txt"]
+    assert (tmp_path / "cases" / "mine" / "summary.nc").is_file()
+    assert {p.name for p in tmp_path.glob("*.png")} == {"fos_cohesion_pa.png", "fos_mine.png"}
+
+    [line] = run(quick + "\n[output]\nfigures = false\n\n[sweep]\n" + cohesion)
+    assert line.startswith("removed what an earlier invocation made: figures not drawn again (fos_cohesion_pa.png)")
+    assert {p.name for p in tmp_path.glob("*.png")} == {"fos_mine.png"}
+    assert (tmp_path / "study.nc").is_file()
+
+
 def test_fos_is_proportional_to_cu_for_phi_0(tmp_path):
     """phi = 0, fixed geometry: F = cu / (N gamma H), so F / cu is one number (verification.stability_chart)."""
     ratios = stability_chart.fos_per_cu(tmp_path, workers=2)

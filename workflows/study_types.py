@@ -67,19 +67,20 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
         from workflows.fos.cluster import check_scheduler  # dask: once the study is known to be valid
 
         check_scheduler(options.scheduler)
-    cases = kind.cases()
 
     def on_case(case_id, outcome):
         kind.case_concluded(case_id, outcome, progress)
 
-    with folder_lock(out_dir, study.name, progress.message), _round_session(kind, study, options) as session:
-        outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)
-        while cases := kind.next_cases(outcomes, progress):
-            more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session,
-                                           on_case)
-            outcomes.update(more)
-            timings.add(more_timings)
-        return kind.conclude(outcomes, timings, wall_start)
+    with folder_lock(out_dir, study.name, progress.message):
+        cases = kind.cases()  # it writes, and may remove what an earlier invocation made: with the lock held
+        with _round_session(kind, study, options) as session:
+            outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)
+            while cases := kind.next_cases(outcomes, progress):
+                more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session,
+                                               on_case)
+                outcomes.update(more)
+                timings.add(more_timings)
+            return kind.conclude(outcomes, timings, wall_start)
 
 
 def _round_session(kind: StudyType, study: Study, options: RunOptions):

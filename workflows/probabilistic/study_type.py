@@ -313,4 +313,4 @@ class ProbabilisticStudy(SweepStudy):
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
                        f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
-                       + "".join(f", {path.name}" for path in outcome.figures)])
+                       + "".join(f", {path.name}" for path in outcome.figures), *self.removed])

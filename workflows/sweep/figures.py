@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from workflows.output.figures import pyplot
+from workflows.output.figures import pyplot, save_figure
 from workflows.sweep.results import ABOVE, BELOW, FOUND
 
 
@@ -162,7 +162,7 @@ def _per_axis(out_dir: Path, ds: xr.Dataset, draw, prefix: str) -> list[Path]:
         fig.subplots_adjust(left=0.11, right=0.97, bottom=0.12, top=0.91)
         draw(ds, axis, ax)
         paths.append(out_dir / f"{prefix}_{axis}.png")
-        fig.savefig(paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
     return paths
 
@@ -176,7 +176,7 @@ def draw_sweep_figures(out_dir: Path, ds: xr.Dataset) -> list[Path]:
         fig.subplots_adjust(left=0.13, right=0.97, bottom=0.11, top=0.92)
         fos_map(ds, ax)
         paths.append(out_dir / "fos_map.png")
-        fig.savefig(paths[-1], dpi=110)
+        save_figure(fig, paths[-1], dpi=110)
         plt.close(fig)
     return paths
 

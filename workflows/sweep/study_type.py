@@ -13,6 +13,9 @@
 3. ``OUT/study.nc`` and the design charts are written last (``sweep.results``, ``sweep.figures``):
    a sweep that stopped early leaves no ``study.nc`` (the one of an earlier invocation is removed
    at the start), and the same command resumes it.
+4. What an earlier invocation made and this one does not is removed (``sweep.stale``): the case
+   folders of cases the sweep no longer has, at the start, and the design charts it did not draw,
+   at the end; the report says so in one line.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import xarray as xr
 from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
 from workflows.memory_guard import check_memory, estimated_particles
+from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import result_paths
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study, StudyError
@@ -47,6 +51,7 @@ from workflows.sweep.results import (
     stage_sweep_dataset,
     study_dataset,
 )
+from workflows.sweep.stale import SWEEP_FIGURE_NAMES, remove_stale_cases, removed_line
 
 
 @dataclass
@@ -82,6 +87,8 @@ class SweepStudy(StudyType):
     """A study with ``[sweep]`` (module doc)."""
 
     placement = Placement(gravity_in_process=False, figures=False, quiet_cases=True, keep_going=True)
+    stale_cases: tuple[list[str], list[str]] = ([], [])  # case folders of an earlier invocation: (removed, kept)
+    stale_figures: list[str] = []  # design charts of an earlier invocation removed
 
     @staticmethod
     def applies_to(study: Study) -> bool:
@@ -122,6 +129,7 @@ class SweepStudy(StudyType):
             for case in self.sweep_cases:
                 self.same_as[case.case_id] = first_of.setdefault(case_key(case.study), case).case_id
             distinct = list(first_of.values())
+        self.stale_cases = remove_stale_cases(self.out_dir / CASES_FOLDER, keep={case.case_id for case in distinct})
         cases = []
         for case in distinct:
             folder = self.out_dir / CASES_FOLDER / case.case_id
@@ -152,6 +160,7 @@ class SweepStudy(StudyType):
             from workflows.sweep.figures import draw_sweep_figures  # matplotlib only when drawing
 
             figures = draw_sweep_figures(self.out_dir, dataset)
+        self._remove_stale_figures(figures)
         runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
                 for record in outcome.runs]
         runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
@@ -179,8 +188,19 @@ class SweepStudy(StudyType):
             from workflows.sweep.figures import draw_runout_sweep  # matplotlib only when drawing
 
             figures = draw_runout_sweep(self.out_dir, dataset)
+        self._remove_stale_figures(figures)
         return StageSweepOutcome(self.out_dir, study_path, self.sweep_cases, results, runout_stage_names(self.study),
                                  {"total": time.perf_counter() - wall_start}, figures)
+
+    def _remove_stale_figures(self, drawn: list[Path]) -> None:
+        """The design charts of an earlier invocation not drawn now removed (module doc, step 4)."""
+        self.stale_figures = remove_stale_figures(self.out_dir, SWEEP_FIGURE_NAMES, keep={path.name for path in drawn})
+
+    @property
+    def removed(self) -> list[str]:
+        """The line saying what was removed (module doc, step 4), or none."""
+        line = removed_line(*self.stale_cases, self.stale_figures)
+        return [line] if line else []
 
     def report(self, outcome, quiet: bool, study_file) -> Report:
         from workflows.sweep.report import stage_table_lines, table_lines
@@ -194,7 +214,7 @@ class SweepStudy(StudyType):
             header = (f"{self.study.name}: {len(outcome.cases)} cases, {ran} run, {len(outcome.cases) - ran} up to "
                       f"date, wall time {outcome.timings_s['total']:.1f} s")
             table = stage_table_lines(outcome)
-            return Report(table if quiet else [header, *table, wrote], warnings)
+            return Report(table if quiet else [header, *table, wrote, *self.removed], warnings)
         table = table_lines(outcome.cases, outcome.results)
         if quiet:
             return Report(table)
@@ -203,7 +223,7 @@ class SweepStudy(StudyType):
                 if outcome.n_distinct < len(outcome.cases) else "")
         header = (f"{self.study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
                   f"wall time {outcome.timings_s['total']:.1f} s")
-        return Report([header, *table, wrote])
+        return Report([header, *table, wrote, *self.removed])
 
 
 def _read_case(study: Study, folder: Path, ran: bool) -> StageCaseResult:
