@@ -20,10 +20,14 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from workflows.output.figures import pyplot
+from workflows.output.figures import pyplot, save_figure
 from workflows.probabilistic.reliability import failure_probability
 
 FAILED_FIGURES = 3
+
+FIGURE_NAMES = ("pf_convergence.png", "failed_*.png", "fos_distribution.png", "sensitivity.png")
+"""The figures :func:`draw_probabilistic_figures` may draw: those of an earlier invocation it did not
+draw again are removed (``output.figures.remove_stale_figures``)."""
 
 
 def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None) -> list[Path]:
@@ -61,7 +65,7 @@ def pf_convergence(path: Path, ds: xr.Dataset) -> Path:
                  f"{ds.attrs['pf_high']:.3g}]")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -78,7 +82,7 @@ def fos_distribution(path: Path, ds: xr.Dataset) -> Path:
     for ax in (hist, cdf):
         ax.axvline(factor, color="tab:red", linestyle="--")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -91,7 +95,7 @@ def sensitivity(path: Path, ds: xr.Dataset) -> Path:
     ax.axvline(0.0, color="black", linewidth=0.8)
     ax.set(xlabel="rank correlation with the FOS", xlim=(-1, 1), title="sensitivity of the FOS")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -120,7 +124,7 @@ def draw_pf_sweep(out_dir: Path, ds: xr.Dataset) -> Path:
         ax.legend()
     fig.tight_layout()
     path = out_dir / "pf.png"
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -161,6 +165,6 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
     axes[-1].set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
     axes[0].set_title(f"{folder.name}: failed at SRF {srf:g}")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path

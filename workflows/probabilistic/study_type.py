@@ -37,6 +37,7 @@ import numpy as np
 
 from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseTimings, Report
+from workflows.output.figures import remove_stale_figures
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_sweep_path
 from workflows.study.toml_text import to_toml
@@ -253,10 +254,11 @@ class ProbabilisticStudy(SweepStudy):
                                     else outcome.runs) for case in self.sweep_cases}
         dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs)
         write_dataset(dataset, result.result_path)
-        if self.study.output.figures:
-            from workflows.probabilistic.figures import draw_probabilistic_figures  # matplotlib only when drawing
+        from workflows.probabilistic.figures import FIGURE_NAMES, draw_probabilistic_figures  # (matplotlib: on use)
 
+        if self.study.output.figures:
             result.figures = draw_probabilistic_figures(self.out_dir, dataset, self.study)
+        self.stale_figures = remove_stale_figures(self.out_dir, FIGURE_NAMES, keep={path.name for path in result.figures})
         return result
 
     def cases(self):

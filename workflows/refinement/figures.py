@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from workflows.output.figures import pyplot
+from workflows.output.figures import pyplot, save_figure
 
 
 def draw_convergence(out_dir: Path, ds: xr.Dataset) -> list[Path]:
@@ -40,6 +40,6 @@ def draw_convergence(out_dir: Path, ds: xr.Dataset) -> list[Path]:
     ax.set_title(f"{ds.attrs['study_name']}: FOS against particle spacing", fontsize=10)
     ax.legend(fontsize=8)
     path = Path(out_dir) / "convergence.png"
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return [path]

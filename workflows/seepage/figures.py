@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from workflows.output.figures import pyplot
+from workflows.output.figures import pyplot, save_figure
 
 ARROWS = 400
 """About this many flow arrows, on the triangles a regular sampling picks."""
@@ -52,6 +52,6 @@ def draw_seepage(ds: xr.Dataset, path: Path) -> Path:
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)",
            title=f"{ds.attrs['study_name']}: steady seepage, {ds.attrs['outflow_m2_s']:.3g} m2/s per metre "
                  f"({ds.attrs['iterations']} iterations)")
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
