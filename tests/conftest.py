@@ -66,8 +66,16 @@ def separate_dask_cluster(tmp_path):
 def separate_dask_workers(tmp_path):
     """As :func:`separate_dask_cluster`, yielding (the scheduler's address, the two worker processes,
     each the leader of its own process group)."""
-    with _separate_cluster(tmp_path) as cluster:
-        yield cluster
+    with _separate_cluster(tmp_path) as (address, processes):
+        yield address, processes[1:]
+
+
+@pytest.fixture
+def separate_dask_processes(tmp_path):
+    """As :func:`separate_dask_workers`, yielding (the scheduler's address, the scheduler's process,
+    the two worker processes)."""
+    with _separate_cluster(tmp_path) as (address, processes):
+        yield address, processes[0], processes[1:]
 
 
 @contextlib.contextmanager
@@ -90,7 +98,7 @@ def _separate_cluster(tmp_path):
                 [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
             ))
-        yield address, processes[1:]
+        yield address, processes
     finally:
         for process in processes:
             with contextlib.suppress(ProcessLookupError):

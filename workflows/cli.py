@@ -233,7 +233,7 @@ def main(
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:
         raise _fail(f"error: {study_file}: the run diverged: {error}", EXIT_DIVERGED) from None
-    except OSError as error:  # a file or folder that failed under the study (full, read-only, deleted)
+    except OSError as error:  # a failing file or folder (full, read-only, deleted), a lost cluster (ClusterLost)
         where = f"{error.filename}: " if error.filename else ""
         raise _fail(f"error: {study_file}: {where}{error.strerror or error}; the finished runs are kept in {out_dir}; "
                     "fix the cause and run the same command again to resume", EXIT_BAD_STUDY) from None

@@ -13,13 +13,15 @@ import multiprocessing
 import signal
 import socket
 import threading
+import time
 import uuid
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import CancelledError, ThreadPoolExecutor
 from contextlib import contextmanager
 from urllib.parse import urlsplit
 
 import dask
-from distributed import Client, LocalCluster
+from distributed import Client, KilledWorker, LocalCluster
+from distributed.comm import CommClosedError
 from distributed.utils import get_mp_context
 
 from spfem_core.warmup import warm_up
@@ -48,7 +50,17 @@ def connect(scheduler: str):
 
 
 SCHEDULER_WORKER_WAIT_S = 30.0
-"""How long a study waits for a worker at ``--scheduler`` before it refuses to start."""
+"""How long a study waits for a worker at ``--scheduler`` before it refuses to start, and, once
+running, how long it waits for a worker to come back when every one is gone."""
+
+WORKER_CHECK_S = 1.0
+"""While runs are waited for, the client asks the scheduler this often whether it has a worker."""
+
+
+class ClusterLost(ConnectionError):
+    """The cluster can no longer run the study: its scheduler or every worker is gone.  The
+    finished runs are on disk; the command says so as for any OSError under a study (exit 2)
+    and the same command resumes once the cluster is back."""
 
 
 def check_scheduler(scheduler: str) -> None:
@@ -159,10 +171,18 @@ def start_client(workers: int, scheduler: str | None):
 
 
 def close_client(client, cluster) -> None:
-    """Bounded, so that an interrupted study still exits."""
-    client.close(timeout=10)
-    if cluster is not None:
-        cluster.close(timeout=10)
+    """Bounded, so that an interrupted study still exits.  The client's own log is silenced
+    meanwhile: after a lost scheduler it logs the reconnection it gives up as an error with its
+    traceback, where the study says what happened in one line."""
+    client_log = logging.getLogger("distributed.client")
+    level = client_log.level
+    client_log.setLevel(logging.CRITICAL)
+    try:
+        client.close(timeout=10)
+        if cluster is not None:
+            cluster.close(timeout=10)
+    finally:
+        client_log.setLevel(level)
 
 
 class DaskSession:
@@ -187,6 +207,9 @@ class DaskSession:
         pool.shutdown(wait=False)
         self._closing: threading.Thread | None = None
         self._warming = None  # the warm-up task's future, kept: dask cancels a task nobody holds
+        self.scheduler = scheduler
+        self._next_worker_check = 0.0
+        self._without_workers_since: float | None = None
 
     def _start(self, workers: int, scheduler: str | None, warm_up_worker: bool):
         client, cluster = start_client(workers, scheduler)
@@ -197,6 +220,32 @@ class DaskSession:
     def client(self):
         """The client, once started (a start error is raised here)."""
         return self._starting.result()[0]
+
+    def where(self) -> str:
+        """How messages name the cluster."""
+        return f"the scheduler at {self.scheduler}" if self.scheduler else "the local cluster"
+
+    def check_workers(self) -> None:
+        """ClusterLost once the cluster has had no worker for ``SCHEDULER_WORKER_WAIT_S``: dask would
+        wait for one forever (asks the scheduler at most every ``WORKER_CHECK_S``)."""
+        now = time.monotonic()
+        if now < self._next_worker_check:
+            return
+        self._next_worker_check = now + WORKER_CHECK_S
+        if self.client().nthreads():
+            self._without_workers_since = None
+        elif self._without_workers_since is None:
+            self._without_workers_since = now
+        elif now - self._without_workers_since >= SCHEDULER_WORKER_WAIT_S:
+            hint = f": start one (dask worker {self.scheduler})" if self.scheduler else ""
+            raise ClusterLost(f"the workers of {self.where()} were lost (none for {SCHEDULER_WORKER_WAIT_S:g} s){hint}")
+
+    def lost(self, error: BaseException) -> ClusterLost:
+        """What dask raised when the scheduler, or a run's every worker, died, said in a line."""
+        if isinstance(error, KilledWorker):
+            return ClusterLost(f"the workers of {self.where()} died running {error.args[0]} (dask tried "
+                               f"{error.args[2] + 1} of them)")
+        return ClusterLost(f"lost the connection to {self.where()} (did it stop?)")
 
     def close(self, wait: bool) -> None:
         """Start closing (once); with ``wait``, wait for it (bounded)."""
@@ -216,10 +265,13 @@ class DaskSession:
 
 @contextmanager
 def dask_session(workers: int, scheduler: str | None, warm_up_worker: bool = False):
-    """A :class:`DaskSession`, closed on the way out whatever happened meanwhile."""
+    """A :class:`DaskSession`, closed on the way out whatever happened meanwhile; the scheduler or
+    the workers lost on the way: ClusterLost."""
     session = DaskSession(workers, scheduler, warm_up_worker)
     try:
         yield session
+    except (CancelledError, CommClosedError, KilledWorker) as error:  # CancelledError: the futures of a lost scheduler
+        raise session.lost(error) from None
     finally:
         session.close(wait=True)
 

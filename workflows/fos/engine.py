@@ -497,7 +497,8 @@ class Engine:
 
     def _wait(self) -> list:
         """The tasks that finished, once one has; [] as soon as a running run is known to fail
-        (module doc, step 6), so that the loop plans again."""
+        (module doc, step 6), so that the loop plans again.  A cluster left without workers ends
+        the study (``DaskSession.check_workers``): dask would wait for one forever."""
         while True:
             try:
                 finished, _ = wait(list(self.tasks), timeout=SIGNAL_POLL_S, return_when="FIRST_COMPLETED")
@@ -505,6 +506,7 @@ class Engine:
             except TimeoutError:
                 if self._failures_signalled():
                     return []
+                self.session.check_workers()
 
     def _dispatch(self) -> None:
         """Submit queued runs to free workers, earlier cases and lower SRF first (step 3); a
