@@ -60,3 +60,20 @@ def test_a_cluster_left_without_workers_ends_the_study(separate_dask_workers, tm
         run_study(parse_study(SLOWER_QUICKSTART), out, RunOptions(scheduler=address))
     killer.join(timeout=1)
     assert len(list(out.glob("srf_*.nc"))) >= 2 and not list(out.glob("*.tmp"))
+
+
+def test_sigterm_to_the_process_group_ends_without_a_leaked_semaphore_warning(tmp_path):
+    """``kill -TERM -PGID`` reaches the local workers and their forkserver too.  Before: exit 143 and
+    "resource_tracker: There appear to be 2 leaked semaphore objects" (numba's process lock in each
+    worker killed by the signal)."""
+    process, out, log = start_study(tmp_path, "log")
+    try:
+        wait_for_run_files(process, out, log, 2)
+        os.killpg(process.pid, signal.SIGTERM)
+        assert process.wait(timeout=120) == 143
+    finally:
+        kill_group(process)
+    lines = [line for line in log.read_text().splitlines() if "━" not in line]
+    assert lines == [f"terminated (SIGTERM): the finished SRF runs are kept in {out}; run the same command again to "
+                     "resume"], lines
+    _rerun_reuses(tmp_path / "quickstart.toml", out, 2, "--workers", "2")

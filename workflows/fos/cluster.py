@@ -10,6 +10,7 @@ import gc
 import importlib
 import logging
 import multiprocessing
+import multiprocessing.forkserver
 import signal
 import socket
 import threading
@@ -17,6 +18,7 @@ import time
 import uuid
 from concurrent.futures import CancelledError, ThreadPoolExecutor
 from contextlib import contextmanager
+from multiprocessing import resource_tracker
 from urllib.parse import urlsplit
 
 import dask
@@ -92,6 +94,12 @@ def _prepare_local_worker() -> None:
     # Ctrl-C at a terminal reaches the whole process group: the study's process stops the runs and
     # shuts the cluster down; a worker interrupted on its own would only print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # numba's threads take a process lock, a named semaphore registered with multiprocessing's
+    # resource tracker, when this process's start method has "fork" in its name (forkserver does).
+    # A worker stopped abruptly (its nanny kills one still compiling at shutdown) leaves it to the
+    # tracker, which prints "leaked semaphore objects" as the study exits.  A worker starts no
+    # process of its own: under spawn numba takes no lock.
+    multiprocessing.set_start_method("spawn", force=True)
     # a task that raises (a diverged case of a sweep) reaches the client as its exception, which the
     # study reports in one line; the worker's own "Compute Failed" log would print its traceback
     logging.getLogger("distributed.worker").setLevel(logging.CRITICAL)
@@ -113,7 +121,25 @@ def _worker_start_method() -> dict:
     with dask.config.set(settings):
         context = get_mp_context()  # distributed sets its own preload list here, once per process
     context.set_forkserver_preload(["distributed", *WORKER_MODULES])
+    _start_forkserver()
     return settings
+
+
+def _start_forkserver() -> None:
+    """Start the forkserver with SIGINT and SIGTERM blocked, as it and the workers it forks keep them.
+
+    A signal to the study's process group (Ctrl-C at a terminal, ``kill -TERM -PGID``) is for
+    the study's process, which stops the runs and shuts the cluster down.  A forkserver still
+    importing its preloads died of Ctrl-C with a traceback (and the nannies logged that their
+    workers failed to start); a worker killed by SIGTERM left its resources to the tracker's
+    warning.  The resource tracker starts first: starting it unblocks both signals in the calling
+    thread (it blocks them around its own start the same way)."""
+    resource_tracker.ensure_running()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        multiprocessing.forkserver.ensure_running()
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 LOCAL_CLUSTER_CONFIG = {
