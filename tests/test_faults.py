@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
 
 import pytest
-from test_fos_study import SLOWER_QUICKSTART, cli, kill_group, start_study, wait_for_run_files
+from test_fos_study import REPO, SLOWER_QUICKSTART, cli, kill_group, start_study, wait_for_run_files
 
 from workflows.cases import RunOptions
 from workflows.fos import cluster
@@ -60,6 +62,42 @@ def test_a_cluster_left_without_workers_ends_the_study(separate_dask_workers, tm
         run_study(parse_study(SLOWER_QUICKSTART), out, RunOptions(scheduler=address))
     killer.join(timeout=1)
     assert len(list(out.glob("srf_*.nc"))) >= 2 and not list(out.glob("*.tmp"))
+
+
+CTRL_C_IN_A_CALLBACK = """
+import gc, signal, sys, time
+import workflows.study_types
+
+def ctrl_c_in_a_callback(phase, info):  # as a Ctrl-C that lands while numba's llvmlite callbacks run
+    gc.callbacks.remove(ctrl_c_in_a_callback)
+    signal.raise_signal(signal.SIGINT)
+
+def study_cut_short(*args, **kwargs):
+    gc.callbacks.append(ctrl_c_in_a_callback)
+    gc.collect()
+    for _ in range(100):  # the study goes on, as numba did
+        time.sleep(0.05)
+    raise RuntimeError("no compiled object yet")  # what numba then said of the callback it lost
+
+workflows.study_types.run_study = study_cut_short
+from workflows.cli import run
+sys.argv = ["spfem-fos", sys.argv[1], "--out", sys.argv[2]]
+run()
+"""
+
+
+def test_ctrl_c_inside_a_callback_still_interrupts_in_one_line(tmp_path):
+    """A KeyboardInterrupt raised in a callback of C code cannot leave it.  Before: "Exception
+    ignored in ..." with its traceback, then the study ran on (or numba's RuntimeError, exit 1)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # as at a terminal (module doc of test_fos_study)
+    try:
+        done = subprocess.run([sys.executable, "-c", CTRL_C_IN_A_CALLBACK, REPO / "studies" / "quickstart.toml",
+                               tmp_path / "out"], capture_output=True, text=True, cwd=REPO, timeout=120)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.splitlines() == [f"interrupted: the finished SRF runs are kept in {tmp_path / 'out'}; run the "
+                                        "same command again to resume"], done.stderr
 
 
 def test_sigterm_to_the_process_group_ends_without_a_leaked_semaphore_warning(tmp_path):

@@ -18,8 +18,11 @@ command resumes.
 
 from __future__ import annotations
 
+import _thread
 import os
 import signal
+import sys
+import threading
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -47,6 +50,33 @@ class Terminated(KeyboardInterrupt):
 
 def _raise_terminated(signum, frame):
     raise Terminated
+
+
+RESEND_AFTER_S = 0.05
+"""How long after a callback swallowed a signal it is sent again (the callback is over then)."""
+
+
+class SignalsInCallbacks:
+    """``sys.unraisablehook`` while a study runs.  Ctrl-C or SIGTERM raised while Python code runs
+    as a callback of C code (numba compiling through llvmlite, a garbage-collector callback of
+    dask's) cannot leave it: Python printed "Exception ignored in ...", numba then failed on the
+    object code the callback never stored, or the study ran on to the end.  The signal is sent
+    again from a thread instead, to land in the main thread once the callback is over (after
+    ``RESEND_AFTER_S``); whatever else the callbacks it cut short fail with afterwards is not
+    printed either (the study is ending)."""
+
+    def __init__(self):
+        self.cut_short: signal.Signals | None = None  # the signal that cut a callback short
+        self.previous = sys.unraisablehook
+
+    def __call__(self, unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            self.cut_short = signal.SIGTERM if isinstance(unraisable.exc_value, Terminated) else signal.SIGINT
+            resend = threading.Timer(RESEND_AFTER_S, _thread.interrupt_main, (self.cut_short,))
+            resend.daemon = True
+            resend.start()
+        elif self.cut_short is None:
+            self.previous(unraisable)
 
 
 class BarsProgress:
@@ -217,6 +247,7 @@ def main(
     progress = BarsProgress(Console(stderr=True, quiet=quiet), quiet,
                            sweep=study.sweep is not None or study.probabilistic is not None)
     previous_sigterm = signal.signal(signal.SIGTERM, _raise_terminated)
+    sys.unraisablehook = signals_in_callbacks = SignalsInCallbacks()
     try:
         try:
             outcome = run_study(study, out_dir, options, progress, kind)
@@ -237,14 +268,23 @@ def main(
         where = f"{error.filename}: " if error.filename else ""
         raise _fail(f"error: {study_file}: {where}{error.strerror or error}; the finished runs are kept in {out_dir}; "
                     "fix the cause and run the same command again to resume", EXIT_BAD_STUDY) from None
-    except KeyboardInterrupt as interrupt:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not break the clean-up message
-        how = "terminated (SIGTERM)" if isinstance(interrupt, Terminated) else "interrupted"
+    except (KeyboardInterrupt, Exception) as interrupt:
+        if not isinstance(interrupt, KeyboardInterrupt) and signals_in_callbacks.cut_short is None:
+            raise
+        terminated = isinstance(interrupt, Terminated) or signals_in_callbacks.cut_short == signal.SIGTERM
+        # what a signal cut short in a callback made fail is the interruption too; a second signal
+        # (or the one sent again) must not break the clean-up message
+        previous_sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        how = "terminated (SIGTERM)" if terminated else "interrupted"
         kept = "the finished SRF runs are kept" if study.strength_reduction is not None else "finished stages are kept"
-        raise _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
-                    EXIT_TERMINATED if isinstance(interrupt, Terminated) else EXIT_INTERRUPTED) from None
+        error = _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
+                      EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
+        signal.signal(signal.SIGINT, previous_sigint)
+        raise error from None
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
+        sys.unraisablehook = signals_in_callbacks.previous
 
 
 def run() -> None:
