@@ -11,7 +11,7 @@ stages in order (:mod:`workflows.stages`); a sweep brings its cases together in 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
 folder that cannot be made or that another study holds: one line on stderr, nothing written;
-or an output folder that failed during the run: finished runs kept), 130 interrupted by Ctrl-C
+or an output folder that failed, or a cluster lost, during the run: finished runs kept), 130 interrupted by Ctrl-C
 (SIGINT) and 143 by SIGTERM: finished runs are kept, the cluster is shut down, and the same
 command resumes.
 """
