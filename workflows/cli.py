@@ -178,6 +178,20 @@ def check_output_folder(out_dir: Path) -> str | None:
     return None
 
 
+def _read(study_file: Path):
+    """The checked study of ``study_file``; a missing, unreadable or invalid file exits 2 with one line."""
+    try:
+        return load_study(study_file)
+    except FileNotFoundError:
+        raise _fail(f"error: {study_file}: no such file", EXIT_BAD_STUDY) from None
+    except IsADirectoryError:
+        raise _fail(f"error: {study_file}: is a folder, not a study file", EXIT_BAD_STUDY) from None
+    except OSError as error:
+        raise _fail(f"error: {study_file}: cannot read: {error.strerror or error}", EXIT_BAD_STUDY) from None
+    except StudyError as error:
+        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+
+
 @app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).")
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
@@ -201,17 +215,7 @@ def main(
                      "this (default: what the machine has available)", show_default=False),
     ] = None,
 ) -> None:
-    try:
-        study = load_study(study_file)
-    except FileNotFoundError:
-        raise _fail(f"error: {study_file}: no such file", EXIT_BAD_STUDY) from None
-    except IsADirectoryError:
-        raise _fail(f"error: {study_file}: is a folder, not a study file", EXIT_BAD_STUDY) from None
-    except OSError as error:
-        raise _fail(f"error: {study_file}: cannot read: {error.strerror or error}", EXIT_BAD_STUDY) from None
-    except StudyError as error:
-        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
-
+    study = _read(study_file)
     if scheduler is not None and not scheduler.strip():
         raise _fail("error: --scheduler: empty; give a scheduler's address (tcp://host:8786), or leave the option "
                     "out to run on local workers", EXIT_BAD_STUDY)
@@ -287,18 +291,60 @@ def main(
         sys.unraisablehook = signals_in_callbacks.previous
 
 
-def run() -> None:
-    """The ``spfem-fos`` command (its console entry point): the app, with a usage error (a missing
-    study file, an unknown option) as one line and exit code 2."""
+check_app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
+
+
+@check_app.command(help="Check the study file STUDY.toml without running it: its scene is built, the section "
+                   "drawn to OUT/section.png, and the particles, memory and run time estimated.")
+def check(
+    study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to check", show_default=False)],
+    out: Annotated[
+        Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
+    ] = None,
+    workers: Annotated[
+        int, typer.Option("--workers", "-w", min=1, max=MAX_WORKERS, help="local workers the study would run on")
+    ] = DEFAULT_WORKERS,
+) -> None:
+    study = _read(study_file)
+    if out is not None and not out.strip():
+        raise _fail("error: --out: empty; give a folder (without --out: ./<study name>)", EXIT_BAD_STUDY)
+    out_dir = Path(out) if out is not None else Path.cwd() / study.name
+    problem = check_output_folder(out_dir)
+    if problem:
+        raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
+    from workflows.check import check_study
+    from workflows.memory_guard import check_memory
+
     try:
-        code = app(prog_name="spfem-fos", standalone_mode=False)
+        check_memory(study, processes=1)
+        result = check_study(study, out_dir, workers)
+    except StudyError as error:
+        raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
+    except OSError as error:
+        raise _fail(f"error: --out: {error.filename or out_dir}: {error.strerror or error}", EXIT_BAD_STUDY) from None
+    for line in result.lines():
+        typer.echo(line)
+
+
+def run() -> None:
+    """The ``spfem-fos`` command (its console entry point): the app, or with ``check`` first the
+    check of a study (:func:`check`), with a usage error (a missing study file, an unknown option)
+    as one line and exit code 2."""
+    arguments = sys.argv[1:]
+    checking = arguments[:1] == ["check"]
+    try:
+        if checking:
+            code = check_app(args=arguments[1:], prog_name="spfem-fos check", standalone_mode=False)
+        else:
+            code = app(prog_name="spfem-fos", standalone_mode=False)
     except typer.Abort:  # Ctrl-C while the command line is read
         raise SystemExit(EXIT_INTERRUPTED) from None
     except Exception as error:
         # click's UsageError (typer ships its own copy of click): exit code 2 and a message
         if getattr(error, "exit_code", None) != 2 or not hasattr(error, "format_message"):
             raise
-        typer.echo(f"error: {' '.join(error.format_message().split())} (spfem-fos --help)", err=True)
+        hint = "spfem-fos check --help" if checking else "spfem-fos --help"
+        typer.echo(f"error: {' '.join(error.format_message().split())} ({hint})", err=True)
         raise SystemExit(EXIT_BAD_STUDY) from None
     raise SystemExit(code or 0)
 

@@ -261,12 +261,12 @@ class StrengthReductionStage(StageBase):
         return self.failure_m(slope_height_m) / FLOOR_PER_FAILURE
 
     @staticmethod
-    def response_time_s(study) -> float:
+    def response_time_s(study, stiffness_factor: float = 1.0) -> float:
         """T = 4 H_domain / V_s, the fundamental period of a soil layer as thick as the domain on a rigid
-        base, with the shear-wave speed V_s = sqrt(G / rho) of the softest material: the time a
-        disturbance takes to cross the slope and come back, twice."""
+        base, with the shear-wave speed V_s = sqrt(s G / rho) of the softest material (moduli times
+        ``stiffness_factor`` s): the time a disturbance takes to cross the slope and come back, twice."""
         ys = [y for _, y in study.geometry.polygon_m]
-        speed = min(math.sqrt(m.youngs_modulus_pa / (2.0 * (1.0 + m.poisson_ratio)) / m.density_kg_m3)
+        speed = min(math.sqrt(stiffness_factor * m.youngs_modulus_pa / (2.0 * (1.0 + m.poisson_ratio)) / m.density_kg_m3)
                     for m in study.materials)
         return 4.0 * (max(ys) - min(ys)) / speed
 

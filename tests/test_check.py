@@ -1,0 +1,93 @@
+"""``spfem-fos check``: a study looked at without running it (workflows.check)."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from workflows.check import (
+    RUN_OVERHEAD_S,
+    STARTUP_S,
+    TYPICAL_FAILED_RUNS,
+    TYPICAL_STABLE_RUNS,
+    run_time_estimate,
+)
+from workflows.output.figures import drawn_by_us
+from workflows.scene import build_scene
+from workflows.study import load_study, parse_study
+
+REPO = Path(__file__).resolve().parents[1]
+QUICKSTART = REPO / "studies" / "quickstart.toml"
+
+
+def spfem_fos(*args, cwd=REPO):
+    """The command as a user runs it, this tree's sources first (from any folder)."""
+    return subprocess.run([sys.executable, "-m", "workflows.cli", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env=dict(os.environ, PYTHONPATH=str(REPO)))
+
+
+def test_check_draws_the_section_and_counts_without_running(tmp_path):
+    done = spfem_fos("check", QUICKSTART, "--out", tmp_path / "out")
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    n = build_scene(load_study(QUICKSTART)).n_particles
+    assert lines[0].startswith(f"{n} particles; about ")
+    assert lines[1].startswith("SRF runs: time step about ") and lines[2].startswith("the study: about ")
+    assert lines[-1] == f"wrote {tmp_path / 'out' / 'section.png'}"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["section.png"]  # no run, no lock left
+    assert drawn_by_us(tmp_path / "out" / "section.png")
+
+
+@pytest.mark.parametrize("args, line", [
+    (["check", "missing.toml"], "error: missing.toml: no such file"),
+    (["check", QUICKSTART, "--bogus"], "error: No such option: --bogus"),
+    (["check"], "error: Missing argument 'STUDY.toml'."),
+])
+def test_check_usage_and_file_errors_are_one_line_exit_2(args, line, tmp_path):
+    done = spfem_fos(*args, cwd=tmp_path)
+    assert done.returncode == 2 and done.stderr.startswith(line) and done.stderr.count("\n") == 1, done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
+    """A study whose scene is refused (a wall through the soil) is refused by check as by a run."""
+    text = QUICKSTART.read_text().replace(
+        "[solver]", '[[walls]]\nname = "cut"\nstart_m = [10.0, 20.0]\nend_m = [10.0, -5.0]\n\n[solver]', 1)
+    study = tmp_path / "study.toml"
+    study.write_text(text)
+    done = spfem_fos("check", study, "--out", tmp_path / "out")
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith(f"error: {study}: walls[0]: ") and done.stderr.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_estimate_follows_its_model():
+    """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a sweep of k cases costs k times
+    the runs of one."""
+    study = load_study(QUICKSTART)
+    scene = build_scene(study)
+    estimate = run_time_estimate(study, scene, workers=2)
+    stage = study.strength_reduction
+    factor = stage.stiffness_factor(scene.materials, study)
+    soil = study.materials[0]
+    e_pa, nu, rho = factor * soil.youngs_modulus_pa, soil.poisson_ratio, soil.density_kg_m3
+    assert estimate.time_step_s == pytest.approx(1.0 / math.sqrt(e_pa * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho))
+    assert estimate.response_time_s == pytest.approx(4.0 * 15.0 / math.sqrt(e_pa / (2 * (1 + nu)) / rho))
+    assert RUN_OVERHEAD_S < estimate.stable_run_s < estimate.failed_run_s
+    runs_s = TYPICAL_STABLE_RUNS * estimate.stable_run_s + TYPICAL_FAILED_RUNS * estimate.failed_run_s
+    assert estimate.study_s == pytest.approx(STARTUP_S + runs_s / 2)
+    swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
+                        'values = [8e3, 10e3, 12e3]\n')
+    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + 3 * runs_s / 2)
+
+
+def test_a_study_without_strength_reduction_has_no_run_estimate(tmp_path):
+    done = spfem_fos("check", REPO / "studies" / "cantilever_beam.toml", "--out", tmp_path / "out")
+    assert done.returncode == 0, done.stderr
+    assert "SRF runs" not in done.stdout and done.stdout.splitlines()[-1].endswith("section.png")

@@ -1,0 +1,217 @@
+"""``spfem-fos check STUDY.toml``: a study looked at before it runs.
+
+The study is read and checked as a run reads it (a refusal is the same one line, exit code 2),
+its scene is built (particles, materials, supports, water, loads: the scene's own refusals too),
+and without a step run:
+
+- ``OUT/section.png``: the section as the run will see it: particles coloured by material, the
+  particles a support holds (x, y or both), walls, water (piezometric lines dashed, ponded water
+  solid), surface loads (arrows), monitors and refined zones;
+- the particle count and the memory of one simulation (``memory_guard.BYTES_PER_PARTICLE``);
+- for a strength-reduction study, an estimate of the time of one SRF run and of the study.
+
+**Run-time estimate.**  A quasi-static SRF run is a damped relaxation: its pseudo-time is a few
+response times T = 4 H_domain / V_s of the slope (``StrengthReductionStage.response_time_s``, with
+the moduli the runs use, ``stiffness_factor``), whatever the spacing, and its step is about the
+time a P wave takes to cross the finest spacing, dt ~ h_min / V_p (equalised inertia,
+``spfem_core.timestep``).  So
+
+    steps = K T / dt,   run time = RUN_OVERHEAD_S + steps (STEP_OVERHEAD_S + N SECONDS_PER_PARTICLE_STEP),
+
+with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RESPONSE_TIMES`` for
+one that slides (at most ``duration_s``).  A study makes about ``TYPICAL_STABLE_RUNS`` stable and
+``TYPICAL_FAILED_RUNS`` failed runs, shared by the workers, after the start-up (Python, the
+cluster, the gravity stage and the figures: ``STARTUP_S``).  The constants were measured on the
+reference slope on the machine the benchmarks ran on (docs/benchmarks.md, "Run-time estimate",
+with the command that compares the estimate with the measured time of every shipped study).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from workflows.memory_guard import BYTES_PER_PARTICLE
+from workflows.study import Study
+
+STABLE_RESPONSE_TIMES = 3.0
+"""Pseudo-time of a run that comes to rest, in response times (module doc)."""
+
+FAILED_RESPONSE_TIMES = 12.0
+"""Pseudo-time of a run that slides, in response times."""
+
+SECONDS_PER_PARTICLE_STEP = 76e-9
+"""One thread's time per particle and step of a plastic relaxation step."""
+
+STEP_OVERHEAD_S = 24e-6
+"""One thread's time per step besides the particles' (records, the stop rule)."""
+
+RUN_OVERHEAD_S = 0.05
+"""A run's time besides its steps: the scene and first mesh on the worker, its file, the transfer."""
+
+TYPICAL_STABLE_RUNS = 6
+TYPICAL_FAILED_RUNS = 3
+"""Runs of a typical strength-reduction study (the shipped ones make 8 to 12)."""
+
+STARTUP_S = 4.0
+"""Seconds of a study besides its SRF runs: Python, the cluster, the gravity stage, the figures."""
+
+
+@dataclass(frozen=True)
+class RunTimeEstimate:
+    """What one SRF run and the study are expected to take (module doc)."""
+
+    time_step_s: float  # dt ~ h_min / V_p
+    response_time_s: float  # T = 4 H_domain / V_s with the runs' moduli
+    stable_run_s: float
+    failed_run_s: float
+    cases: int | None  # factors of safety the study computes (None: a refinement study)
+    workers: int
+    study_s: float  # NaN: not estimated (a refinement study)
+
+
+def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | None:
+    """The estimate of the module doc for a strength-reduction study (None for another) of ``scene``."""
+    stage = study.strength_reduction
+    if stage is None:
+        return None
+    n_particles = scene.n_particles
+    factor = stage.stiffness_factor(scene.materials, study)
+    time_step_s = study.geometry.finest_spacing_m / max(_p_wave_speed(m, factor) for m in study.materials)
+    response_s = stage.response_time_s(study, factor)
+    step_s = STEP_OVERHEAD_S + n_particles * SECONDS_PER_PARTICLE_STEP
+
+    def run_s(response_times: float) -> float:
+        return RUN_OVERHEAD_S + min(response_times * response_s, stage.duration_s) / time_step_s * step_s
+
+    stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
+    cases = case_count(study)
+    runs_s = TYPICAL_STABLE_RUNS * stable_s + TYPICAL_FAILED_RUNS * failed_s
+    study_s = math.nan if cases is None else STARTUP_S + cases * runs_s / max(workers, 1)
+    return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s)
+
+
+def case_count(study: Study) -> int | None:
+    """The factors of safety a study computes: one, a sweep's cases, the realisations; None for a
+    refinement study (its levels differ in spacing: each is estimated by its own study file)."""
+    if study.refinement is not None:
+        return None
+    if study.probabilistic is not None:
+        return study.probabilistic.realisations
+    if study.sweep is not None:
+        from workflows.study.reading import sweep_cases
+
+        return len(sweep_cases(study))
+    return 1
+
+
+def _p_wave_speed(material, factor: float) -> float:
+    """V_p = sqrt(M / rho), M = E (1 - nu) / ((1 + nu)(1 - 2 nu)), of a material with E times ``factor``."""
+    e_pa, nu = material.youngs_modulus_pa * factor, material.poisson_ratio
+    return math.sqrt(e_pa * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu)) / material.density_kg_m3)
+
+
+@dataclass(frozen=True)
+class StudyCheck:
+    """What ``spfem-fos check`` found."""
+
+    n_particles: int
+    memory_bytes: float  # one simulation's peak
+    processes: int  # simulations held at once (the client and each local worker)
+    estimate: RunTimeEstimate | None
+    section_png: Path
+
+    def lines(self) -> list[str]:
+        """What the command prints."""
+        gib = self.memory_bytes / 1024.0**3
+        lines = [f"{self.n_particles} particles; about {gib:.2g} GiB per simulation"
+                 + (f", {gib * self.processes:.2g} GiB for the {self.processes} processes of the study"
+                    if self.processes > 1 else "")]
+        if self.estimate is not None:
+            e = self.estimate
+            lines.append(f"SRF runs: time step about {e.time_step_s:.3g} s, response time {e.response_time_s:.3g} s; "
+                         f"a run about {_seconds(e.stable_run_s)} (at rest) to {_seconds(e.failed_run_s)} (sliding) "
+                         "on one core")
+            if e.cases is not None:
+                cases = "" if e.cases == 1 else f"{e.cases} cases x "
+                lines.append(f"the study: about {_seconds(e.study_s)} ({cases}{TYPICAL_STABLE_RUNS + TYPICAL_FAILED_RUNS} "
+                             f"runs, as a typical study makes, on {e.workers} worker{'s' * (e.workers > 1)})")
+        lines.append(f"wrote {self.section_png}")
+        return lines
+
+
+def _seconds(value_s: float) -> str:
+    return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
+
+
+def check_study(study: Study, out_dir: Path, workers: int) -> StudyCheck:
+    """Build the scene of ``study`` (its refusals as StudyError), draw the section into ``out_dir`` and
+    estimate the run (module doc)."""
+    from workflows.output.writing import make_output_folder
+    from workflows.scene import build_scene
+
+    scene = build_scene(study)
+    make_output_folder(out_dir)
+    path = draw_section(study, scene, out_dir / SECTION_FIGURE)
+    processes = 1 + workers if study.strength_reduction is not None else 1
+    return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, processes,
+                      run_time_estimate(study, scene, workers), path)
+
+
+SECTION_FIGURE = "section.png"
+"""The picture ``spfem-fos check`` draws in the output folder."""
+
+
+def draw_section(study: Study, scene, path: Path) -> Path:
+    """The section of the module doc into ``path``."""
+    from workflows.fos.figures import draw_water_and_loads
+    from workflows.output.figures import pyplot, save_figure
+    from workflows.scene import supports
+
+    plt = pyplot()
+    xy = scene.node_xy_m
+    polygon = np.array(study.geometry.polygon_m)
+    span = np.ptp(polygon, axis=0)
+    width_in = 8.0
+    axes_in = min(max(1.1 * 0.9 * width_in * span[1] / max(span[0], 1e-30), 1.5), 7.0)  # equal axes, 5% margins
+    height_in = axes_in + 1.3
+    fig, ax = plt.subplots(figsize=(width_in, height_in))
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.9 / height_in, top=1.0 - 0.4 / height_in)
+    marker = max(0.3, min(8.0, 2.0e4 / max(scene.n_particles, 1)))
+    colours = plt.get_cmap("tab10")
+    for i, material in enumerate(study.materials):
+        mine = scene.node_material == i
+        ax.scatter(xy[mine, 0], xy[mine, 1], s=marker, color=colours(i % 10), lw=0, label=material.name)
+    ring = np.vstack([polygon, polygon[:1]])
+    ax.plot(ring[:, 0], ring[:, 1], "-", color="0.3", lw=0.8)
+    held = supports(study, scene).fixed
+    for pick, symbol, label in ((held[:, 0] & held[:, 1], "s", "held in x and y"),
+                                (held[:, 0] & ~held[:, 1], ">", "held in x"),
+                                (~held[:, 0] & held[:, 1], "^", "held in y")):
+        if pick.any():
+            ax.scatter(xy[pick, 0], xy[pick, 1], s=4 * marker + 4, marker=symbol, facecolor="none",
+                       edgecolor="black", lw=0.5, label=label)
+    for wall in study.walls:
+        (x1, y1), (x2, y2) = wall.start_m, wall.end_m
+        ax.plot([x1, x2], [y1, y2], "-", color="saddlebrown", lw=2.5)
+        ax.annotate(wall.name, ((x1 + x2) / 2, (y1 + y2) / 2), fontsize=8, color="saddlebrown")
+    for zone in study.geometry.refined:
+        zone_ring = np.vstack([zone.region_m, zone.region_m[:1]])
+        ax.plot(zone_ring[:, 0], zone_ring[:, 1], ":", color="tab:purple", lw=1.2)
+    draw_water_and_loads(ax, study)
+    for monitor in study.monitors:
+        ax.plot(monitor.x_m, monitor.y_m, "x", color="tab:red", ms=7, mew=1.5)
+        ax.annotate(monitor.name, (monitor.x_m, monitor.y_m), xytext=(4, 4), textcoords="offset points",
+                    fontsize=8, color="tab:red")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"{study.name}: {scene.n_particles} particles at h = {study.geometry.spacing_m:g} m")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=6, fontsize=7, frameon=False,
+              markerscale=max(1.0, 6.0 / marker))
+    save_figure(fig, path, dpi=120, bbox_inches="tight", pad_inches=0.15)  # equal axes leave no gap
+    plt.close(fig)
+    return path
