@@ -164,16 +164,15 @@ class Geometry(Record):
             raise StudyError("spacing_m", f"{self.spacing_m:g} m is more than half the domain's smaller extent "
                              f"({extent:g} m): too few particles across it")
         reach_m = max(abs(v) for vertex in self.polygon_m for v in vertex)
-        resolution_m = math.ulp(reach_m)
-        if resolution_m > POSITION_RESOLUTION * self.finest_spacing_m:
-            corner = (math.floor(min(xs)), math.floor(min(ys)))
-            rounding = (f"double precision resolves only {resolution_m:.2g} m at coordinates of {reach_m:.3g} m, more "
-                        f"than {POSITION_RESOLUTION:g} of the spacing {self.finest_spacing_m:g} m: the particles' small "
-                        "motions would be lost to rounding")
-            if corner == (0, 0):
-                raise StudyError("spacing_m", f"{rounding}; make the spacing coarser")
-            raise StudyError("polygon_m", f"{rounding}; draw the section in local coordinates (subtract {corner[0]} "
-                             f"from every x and {corner[1]} from every y)")
+        corner = (math.floor(min(xs)), math.floor(min(ys)))
+        local_reach_m = max(max(xs) - corner[0], max(ys) - corner[1])
+        limit_m = POSITION_RESOLUTION * self.finest_spacing_m
+        if math.ulp(reach_m) > limit_m and not math.ulp(local_reach_m) > limit_m:  # the offset, not the spacing
+            raise StudyError("polygon_m", f"double precision resolves only {math.ulp(reach_m):.2g} m at coordinates "
+                             f"of {reach_m:.3g} m, more than {POSITION_RESOLUTION:g} of the spacing "
+                             f"{self.finest_spacing_m:g} m: the particles' small motions would be lost to rounding; "
+                             f"draw the section in local coordinates (subtract {corner[0]} from every x and "
+                             f"{corner[1]} from every y)")
         for i, zone in enumerate(self.refined):
             if zone.spacing_m > self.spacing_m:
                 raise StudyError(f"refined[{i}].spacing_m", f"{zone.spacing_m:g} m is coarser than geometry.spacing_m "
@@ -184,7 +183,8 @@ POSITION_RESOLUTION = 1e-8
 """The spacing of floats at the farthest coordinate (``math.ulp``) is at most this fraction of the
 finest particle spacing h, so that rounding the positions hides no motion that counts (the
 displacement floor of a run is 5e-6 of the slope height).  Survey coordinates of 1e7 m pass
-from h = 0.19 m."""
+from h = 0.19 m.  (A spacing too fine for the section's own size is the particle count's to
+refuse: ``workflows.memory_guard``.)"""
 
 
 @dataclass(frozen=True, kw_only=True)
