@@ -7,8 +7,9 @@ first line it printed, in this tree and (``--compare``) another.
 Each case is the quickstart study (``studies/quickstart.toml``) with one change, or a misuse of
 the command line, run in a fresh process (``python -m workflows.cli`` with the tree's sources first
 on ``PYTHONPATH``, from a scratch folder) on a fresh output folder.
-Printed: a markdown table of the case, then per tree the exit code and its line (the FOS line and
-the first warning of a study that ran, else the first line on stderr), and whether a traceback
+Printed: a markdown table of the case, then per tree the exit code and its line (the first
+warning and the FOS line of a study that ran, else the first error line on stderr, else its
+first line), and whether a traceback
 appeared anywhere; for the user-file case, whether the user's files survived.  The cases are the findings of issue #29.
 """
 
@@ -110,7 +111,8 @@ def run_case(tree: Path, text: str | None, args: list[str], user_files: list[str
     lines = [line for line in done.stderr.splitlines() if line.strip() and "━" not in line]
     fos = [line for line in done.stdout.splitlines() if line.startswith(("FOS", "no FOS"))]
     warnings = [line for line in lines if line.startswith("warning")]
-    first = "; ".join(fos[-1:] + warnings[:1]) if done.returncode == 0 and fos else (lines or [""])[0]
+    errors = [line for line in lines if line.startswith("error")]  # past a progress bar's last line
+    first = "; ".join(warnings[:1] + fos[-1:]) if done.returncode == 0 and fos else (errors + lines + [""])[0]
     traceback = "Traceback" in done.stderr or "Traceback" in done.stdout
     return done.returncode, first, traceback, kept
 
