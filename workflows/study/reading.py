@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
-from workflows.study import slope_form
-from workflows.study.tables import SlopeForm, Study
+from workflows.study import engineering_units, line_files, section_form, slope_form
+from workflows.study.tables import SectionForm, SlopeForm, Study
 from workflows.study.toml_text import to_toml
 
 
@@ -37,6 +37,8 @@ def _build(cls, raw, path: str):
     if not isinstance(raw, dict):
         raise StudyError(path, f"must be a table, got {show(raw)}")
     declared = specs(cls)
+    written = raw
+    raw, given_as = engineering_units.in_pascals(written, declared, path)
     for key in raw:
         if key not in declared:
             raise _unknown(path, key, declared)
@@ -56,6 +58,10 @@ def _build(cls, raw, path: str):
     try:
         return cls(**values)
     except StudyError as error:
+        if error.field in given_as:  # a value given in kPa or MPa: name it as written
+            alias = given_as[error.field]
+            raise StudyError(_join(path, alias), f"{error.problem} (in Pa; {alias} = {show(written[alias])})") \
+                from None
         raise StudyError(_join(path, error.field), error.problem) from None
 
 
@@ -93,11 +99,22 @@ def _loads(toml_text: str) -> dict:
 
 
 def _build_study(raw: dict) -> Study:
-    """The Study of a study dict, a slope form (``[geometry.slope]``) expanded first."""
+    """The Study of a study dict, a slope form (``[geometry.slope]``) or a section drawn as lines
+    (``[geometry.section]``) expanded first."""
+    weights = {}
+    if isinstance(raw, dict):
+        raw, weights = engineering_units.with_densities(raw)
     geometry = raw.get("geometry") if isinstance(raw, dict) else None
     if isinstance(geometry, dict) and "slope" in geometry:
         raw = slope_form.expand(raw, _build(SlopeForm, geometry["slope"], "geometry.slope"))
-    return _build(Study, raw, "")
+    if isinstance(geometry, dict) and "section" in geometry:
+        raw = section_form.expand(raw, _build(SectionForm, geometry["section"], "geometry.section"))
+    try:
+        return _build(Study, raw, "")
+    except StudyError as error:
+        if error.field in weights:  # a density given as a unit weight: name it as written
+            raise StudyError(weights[error.field], f"{error.problem} (as a density in kg m-3)") from None
+        raise
 
 
 def parse_study(toml_text: str) -> Study:
@@ -197,6 +214,8 @@ def sweep_cases(study: Study) -> list[SweepCase]:
         for axis, (value, _) in zip(sweep.axes, combo):
             node, key, _ = resolve_sweep_path(case_raw, axis.path)
             node[key] = list(value) if isinstance(value, tuple) else value
+            for other in engineering_units.other_names(key):  # the field as the file gave it, in other units
+                node.pop(other, None)
         values = {label: stored for label, (_, stored) in zip(labels, combo)}
         case_id = "__".join(f"{label}={_case_value(v)}" for label, v in values.items())
         if case_id in cases:
@@ -239,6 +258,14 @@ def decode_study_bytes(data: bytes) -> str:
 
 
 def load_study(path: str | Path) -> Study:
-    """The study in the TOML file ``path`` (OSError if unreadable, StudyError if invalid)."""
-    return parse_study(decode_study_bytes(Path(path).read_bytes()))
+    """The study in the TOML file ``path`` (OSError if unreadable, StudyError if invalid).  Lines
+    given as file names (:mod:`workflows.study.line_files`) are read in, and the study's text is
+    then the file with those lines written out."""
+    path = Path(path)
+    toml_text = decode_study_bytes(path.read_bytes())
+    raw = _loads(toml_text)
+    read = line_files.read_line_files(raw, path.parent)
+    if read:
+        toml_text = to_toml(raw, header=f"{path.name} with the lines of {', '.join(read)} written out")
+    return parse_study(toml_text)
 

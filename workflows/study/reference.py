@@ -13,6 +13,7 @@ import json
 import sys
 
 from workflows.fields import MAX_NAME_LENGTH, NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
+from workflows.study import engineering_units
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
@@ -36,8 +37,8 @@ def _value_schema(spec: Spec) -> dict:
         return dict(pair)
     if spec.type == "polygon":
         return {"type": "array", "items": pair, "minItems": 3}
-    if spec.type == "polyline":
-        return {"type": "array", "items": pair, "minItems": 2}
+    if spec.type == "polyline":  # or a line file (workflows.study.line_files)
+        return {"anyOf": [{"type": "array", "items": pair, "minItems": 2}, {"type": "string", "minLength": 1}]}
     if spec.type == "names":
         return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
     if spec.type == "values":
@@ -83,8 +84,23 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
         properties[field_name] = schema
         if default is REQUIRED:
             required.append(field_name)
+    one_of_names = []  # a field that may be given in other units (workflows.study.engineering_units)
+    for field_name, spec in specs(cls).items():
+        others = engineering_units.other_names(field_name) if spec.type == "number" else []
+        if spec.unit == "Pa" or field_name in engineering_units.UNIT_WEIGHTS.values():
+            for other in others:
+                unit = other.rsplit("_", 1)[-1] if other.endswith("pa") else "kN m-3"
+                alias = {k: v for k, v in properties[field_name].items() if k not in _BOUND_KEYWORDS.values()}
+                alias.pop("default", None)
+                alias["description"] = f"{field_name} in {unit.replace('kpa', 'kPa').replace('mpa', 'MPa')}"
+                properties[other] = alias
+            if field_name in required:
+                required.remove(field_name)
+                one_of_names.append([field_name, *others])
     schema = {"type": "object", "description": (cls.__doc__ or "").strip().splitlines()[0]}
     schema.update(properties=properties, required=required, additionalProperties=False)
+    if one_of_names:
+        schema["allOf"] = [{"oneOf": [{"required": [name]} for name in names]} for names in one_of_names]
     return schema
 
 
@@ -121,7 +137,7 @@ def _type_name(spec: Spec) -> str:
         "names": "`[name, ...]`",
         "point": "`[x, y]`",
         "polygon": "`[[x, y], ...]`",
-        "polyline": "`[[x, y], ...]`",
+        "polyline": "`[[x, y], ...]` or file",
         "numbers": "`[float, ...]`",
         "values": "`[value, ...]`",
     }[spec.type]
@@ -202,6 +218,38 @@ height_m = 10.0
 angle_deg = 35.0           # or gradient = 2.0 (1V:2H)
 foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
 ```
+
+**Section drawn as lines.**  A `[geometry.section]` table draws the section as engineers do:
+the ground surface as a line from left to right (its ends are the section's sides), the level
+of the fixed base, and each layer by the line it lies below (`below_m`), above (`above_m`) or
+between.  The code closes them into the polygon and the materials' regions; a material that no
+layer places and that gives no `region_m` fills the rest.  When the study gives no
+`[[boundary]]`, the base is fixed (`base`) and both sides are rollers (`left`, `right`).
+
+```toml
+[geometry.section]
+ground_m = [[20.0, 25.0], [30.0, 25.0], [50.0, 35.0], [70.0, 35.0]]
+base_y_m = 20.0
+
+[[geometry.section.layers]]
+material = "clay"                        # a [[materials]] entry, without region_m
+below_m = [[30.0, 25.0], [50.0, 29.0], [70.0, 31.0]]
+above_m = [[40.0, 27.0], [52.0, 24.0], [70.0, 24.0]]
+```
+
+**Engineering units.**  Every field in Pa (`<name>_pa`) may be given in kPa (`<name>_kpa`) or
+MPa (`<name>_mpa`) instead, and a material's `density_kg_m3` and `saturated_density_kg_m3` by
+its unit weight in kN/m3 (`unit_weight_kn_m3`, `saturated_unit_weight_kn_m3`; rho = 1000 gamma / |g|
+with g from `loads.gravity_m_s2`): `cohesion_kpa = 10.0`, `youngs_modulus_mpa = 100.0`,
+`unit_weight_kn_m3 = 20.0`.  The name says the unit, never the size of the number; the results
+are in SI units.  A sweep axis names the SI field (`materials.soil.cohesion_pa`).
+
+**Lines from files.**  Every line field (`[[x, y], ...]` or file in the table below: the
+section's lines and the phreatic lines) may name a file instead, relative to the study file:
+`"ground.csv"` (two columns x, y in m, a header row skipped; comma, semicolon or tab) or
+`"section.dxf#GROUND"` (the one LWPOLYLINE, POLYLINE or LINE on the DXF layer `GROUND`, drawn in
+either direction).  The points are read when the study is loaded, and the study text kept with
+the results has them written out.
 
 **Water and loads.**  `[water]` sets the pore pressure u in the ground from a piezometric line
 (`phreatic_line_m`, or a horizontal `phreatic_level_m`; a material may have its own

@@ -12,6 +12,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from spfem_core.geometry import points_in_polygon, relief_m
 from spfem_core.settings import DEFAULT_ALPHA, DEFAULT_CFL, DEFAULT_MIN_ANGLE_DEG, DEFAULT_STABILISATION_BETA
 from workflows.box import Box
@@ -28,6 +30,7 @@ from workflows.fields import (
     optional_table,
     point,
     polygon,
+    polyline,
     table,
     tables,
     text,
@@ -110,6 +113,57 @@ class SlopeForm(Record):
         return 0.5 * self.height_m if self.foundation_depth_m is None else self.foundation_depth_m
 
 
+@dataclass(frozen=True, kw_only=True)
+class SectionLayer(Record):
+    """Where one material lies in a section drawn as lines: above a line, below one, or between two
+    (over the x-range the lines share); the lines run left to right and the code closes them into
+    the material's region."""
+
+    material: str = name_field("name of the [[materials]] entry this layer places (it gives no region_m)")
+    above_m: tuple | None = polyline("m", "the material lies above this line, [[x, y], ...], x increasing",
+                                     default=None)
+    below_m: tuple | None = polyline("m", "the material lies below this line, [[x, y], ...], x increasing",
+                                     default=None)
+
+    def check(self):
+        if self.above_m is None and self.below_m is None:
+            raise StudyError("above_m", "give above_m, below_m or both (the lines that bound the layer)")
+        if self.above_m is not None and self.below_m is not None:
+            low = max(self.above_m[0][0], self.below_m[0][0])
+            high = min(self.above_m[-1][0], self.below_m[-1][0])
+            if not low < high:
+                raise StudyError("below_m", f"shares no x-range with above_m (x = {self.above_m[0][0]:g} to "
+                                 f"{self.above_m[-1][0]:g} against {self.below_m[0][0]:g} to {self.below_m[-1][0]:g})")
+            xs = sorted({x for x, _ in (*self.above_m, *self.below_m) if low <= x <= high})
+            lower = np.interp(xs, *np.array(self.above_m).T)
+            upper = np.interp(xs, *np.array(self.below_m).T)
+            crossing = np.flatnonzero(upper < lower)
+            if crossing.size:
+                x = xs[crossing[0]]
+                raise StudyError("below_m", f"passes under above_m at x = {x:g} m (the layer lies below below_m "
+                                 "and above above_m: the lines may meet, not cross)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SectionForm(Record):
+    """A section drawn as engineers draw it: the ground surface as a line, a base below it, and the
+    layers by their boundary lines; it makes the polygon, the materials' regions, and the supports a
+    study leaves out (a fixed base, rollers on both sides)."""
+
+    ground_m: tuple = polyline("m", "the ground surface from left to right, [[x, y], ...], x increasing: its ends "
+                               "are the section's sides")
+    base_y_m: float = number("m", "level of the fixed base of the section, below every point of the ground")
+    layers: tuple = tables(SectionLayer, "materials placed by lines; the others fill the rest of the section "
+                           "(a material with no layer and no region_m fills all of it, under the later ones)",
+                           unique="material")
+
+    def check(self):
+        lowest = min(y for _, y in self.ground_m)
+        if self.base_y_m >= lowest:
+            raise StudyError("base_y_m", f"must lie below the ground, whose lowest point is at y = {lowest:g} m, "
+                             f"got {self.base_y_m:g}")
+
+
 MAX_GRADING = 1.5
 """Largest ``geometry.grading``: steeper transitions leave holes in the first mesh of jittered clouds."""
 
@@ -129,8 +183,8 @@ class Geometry(Record):
     particles at spacing h."""
 
     polygon_m: tuple | None = polygon(
-        "m", "outline of the domain, [[x, y], ...], either orientation, not closed; give polygon_m or "
-        "[geometry.slope]", default=None,
+        "m", "outline of the domain, [[x, y], ...], either orientation, not closed; give polygon_m, "
+        "[geometry.slope] or [geometry.section]", default=None,
     )
     spacing_m: float = number("m", "particle spacing h of the lattice clipped to the polygon", gt=0.0)
     jitter: float = number(  # lt: spfem_core.cloud.MAX_JITTER (not imported: it would import numba)
@@ -138,6 +192,7 @@ class Geometry(Record):
     )
     seed: int = integer("seed of the random jitter", default=0, ge=0)
     slope: SlopeForm | None = optional_table(SlopeForm)
+    section: SectionForm | None = optional_table(SectionForm)
     refined: tuple = tables(RefinedZone, "zones with a finer spacing; around them the spacing grows by the "
                             "factor grading per spacing of distance, up to spacing_m", unique="name")
     grading: float = number(
@@ -157,7 +212,8 @@ class Geometry(Record):
 
     def check(self):
         if self.polygon_m is None:
-            raise StudyError("polygon_m", "required field missing (or give a [geometry.slope] table)")
+            raise StudyError("polygon_m", "required field missing (or give a [geometry.slope] or [geometry.section] "
+                             "table)")
         xs, ys = [x for x, _ in self.polygon_m], [y for _, y in self.polygon_m]
         extent = min(max(xs) - min(xs), max(ys) - min(ys))
         if self.spacing_m > 0.5 * extent:

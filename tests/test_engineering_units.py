@@ -1,0 +1,147 @@
+"""Fields in engineers' units (workflows.study.engineering_units): kPa and MPa for any field in
+Pa, unit weights in kN/m3 for densities; the study they make is the SI one, and errors name the
+field as written."""
+
+from __future__ import annotations
+
+import tomllib
+
+import jsonschema
+import pytest
+
+from workflows.study import StudyError, parse_study, reference
+from workflows.study.reading import sweep_cases
+from workflows.study.toml_text import to_toml
+
+SI = """
+[study]
+name = "units"
+[geometry]
+spacing_m = 1.0
+[geometry.slope]
+height_m = 10.0
+gradient = 2.0
+[[materials]]
+name = "soil"
+model = "mohr_coulomb"
+density_kg_m3 = 2000.0
+saturated_density_kg_m3 = 2100.0
+youngs_modulus_pa = 100e6
+poisson_ratio = 0.3
+cohesion_pa = 10e3
+friction_deg = 20.0
+tensile_strength_pa = 2e3
+[water]
+phreatic_level_m = 6.0
+[loads]
+gravity_m_s2 = [0.0, -10.0]
+[[loads.strip]]
+name = "surcharge"
+x_start_m = 2.0
+x_end_m = 8.0
+pressure_pa = 20e3
+[[stages]]
+name = "gravity"
+kind = "relaxation"
+elastic = true
+max_duration_s = 20.0
+record_interval_s = 0.05
+[[stages]]
+name = "srf"
+kind = "strength_reduction"
+duration_s = 5.0
+record_interval_s = 0.05
+srf_min = 1.0
+srf_max = 2.0
+srf_step = 0.1
+"""
+
+ENGINEERING = {"density_kg_m3": ("unit_weight_kn_m3", 20.0),
+               "saturated_density_kg_m3": ("saturated_unit_weight_kn_m3", 21.0),
+               "youngs_modulus_pa": ("youngs_modulus_mpa", 100.0),
+               "cohesion_pa": ("cohesion_kpa", 10.0),
+               "tensile_strength_pa": ("tensile_strength_kpa", 2.0)}
+
+
+def _engineering() -> dict:
+    raw = tomllib.loads(SI)
+    material = raw["materials"][0]
+    for si, (name, value) in ENGINEERING.items():
+        del material[si]
+        material[name] = value
+    strip = raw["loads"]["strip"][0]
+    del strip["pressure_pa"]
+    strip["pressure_kpa"] = 20.0
+    return raw
+
+
+def test_engineering_units_make_the_si_study():
+    si, engineering = parse_study(SI), parse_study(to_toml(_engineering()))
+    assert engineering.materials == si.materials
+    assert engineering.loads == si.loads
+
+
+def test_the_json_schema_takes_either_form_but_not_both_nor_neither():
+    schema = reference.json_schema()
+    for raw in (tomllib.loads(SI), _engineering()):
+        jsonschema.validate(raw, schema, cls=jsonschema.Draft202012Validator)
+    for change in ({"cohesion_pa": 1.0}, {"density_kg_m3": None}):
+        raw = _engineering()
+        for key, value in change.items():
+            if value is None:
+                del raw["materials"][0]["unit_weight_kn_m3"]
+            else:
+                raw["materials"][0][key] = value
+        with pytest.raises(jsonschema.ValidationError):
+            jsonschema.validate(raw, schema, cls=jsonschema.Draft202012Validator)
+
+
+@pytest.mark.parametrize(
+    "change, field, words",
+    [
+        ({"cohesion_kpa": -1.0}, "materials[0].cohesion_kpa", "must be >= 0"),
+        ({"cohesion_kpa": "10"}, "materials[0].cohesion_kpa", "must be a number"),
+        ({"cohesion_pa": 10e3}, "materials[0].cohesion_kpa", "not both"),
+        ({"density_kg_m3": 2000.0}, "materials[0].unit_weight_kn_m3", "not both"),
+        ({"unit_weight_kn_m3": 0.0}, "materials[0].unit_weight_kn_m3", "> 0"),
+        ({"cohesion_gpa": 1.0}, "materials[0].cohesion_gpa", "unknown field"),
+        ({"friction_kpa": 1.0}, "materials[0].friction_kpa", "unknown field"),
+    ],
+)
+def test_errors_name_the_field_as_written(change, field, words):
+    raw = _engineering()
+    raw["materials"][0].update(change)
+    with pytest.raises(StudyError) as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == field and words in error.value.problem
+
+
+def test_a_density_check_names_the_unit_weight():
+    raw = _engineering()
+    del raw["water"]
+    with pytest.raises(StudyError, match="below a piezometric line") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "materials[0].saturated_unit_weight_kn_m3"
+
+
+def test_a_unit_weight_needs_gravity():
+    raw = _engineering()
+    raw["loads"]["gravity_m_s2"] = [0.0, 0.0]
+    with pytest.raises(StudyError, match="needs gravity") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "materials[0].unit_weight_kn_m3"
+
+
+def test_a_sweep_of_the_si_field_replaces_the_engineering_one():
+    raw = _engineering()
+    raw["sweep"] = {"axes": [{"path": "materials.soil.cohesion_pa", "values": [5e3, 15e3]}]}
+    cases = sweep_cases(parse_study(to_toml(raw)))
+    assert [case.study.materials[0].cohesion_pa for case in cases] == [5e3, 15e3]
+    assert {case.study.materials[0].density_kg_m3 for case in cases} == {2000.0}
+
+
+def test_a_unit_weight_takes_the_default_gravity():
+    raw = _engineering()
+    del raw["loads"]["gravity_m_s2"]
+    raw["materials"][0]["unit_weight_kn_m3"] = 9.81
+    assert parse_study(to_toml(raw)).materials[0].density_kg_m3 == pytest.approx(1000.0)

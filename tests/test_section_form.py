@@ -1,0 +1,155 @@
+"""A section drawn as lines (``[geometry.section]``, workflows.study.section_form) and its lines
+read from CSV and DXF files (workflows.study.line_files): the published ACADS 1(c) slope written
+both ways makes the scene of its polygon study, particle for particle, so the FOS is the same."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from workflows.scene import build_scene
+from workflows.study import StudyError, load_study, parse_study
+from workflows.study.toml_text import to_toml
+
+PUBLISHED = Path(__file__).resolve().parents[1] / "studies" / "published"
+
+
+def _same_scene(a, b):
+    scene_a, scene_b = build_scene(a), build_scene(b)
+    assert scene_a.n_particles == scene_b.n_particles > 1000
+    np.testing.assert_array_equal(scene_a.node_xy_m, scene_b.node_xy_m)
+    np.testing.assert_array_equal(scene_a.node_material, scene_b.node_material)
+    np.testing.assert_array_equal(scene_a.node_fixed, scene_b.node_fixed)
+    assert [m.name for m in a.materials] == [m.name for m in b.materials]
+
+
+@pytest.fixture(scope="module")
+def polygons():
+    return load_study(PUBLISHED / "acads_1c.toml")
+
+
+@pytest.fixture
+def lines_raw():
+    return tomllib.loads((PUBLISHED / "acads_1c_lines.toml").read_text())
+
+
+def test_lines_make_the_polygon_study(polygons):
+    lines = load_study(PUBLISHED / "acads_1c_lines.toml")
+    _same_scene(polygons, lines)
+    assert lines.stages == polygons.stages and lines.loads == polygons.loads
+
+
+def _write_csv(path: Path, points, delimiter=","):
+    path.write_text("x_m" + delimiter + "y_m\n" + "".join(f"{x}{delimiter}{y}\n" for x, y in points))
+
+
+def test_lines_read_from_csv_files(tmp_path, polygons, lines_raw):
+    section = lines_raw["geometry"]["section"]
+    _write_csv(tmp_path / "ground.csv", section["ground_m"])
+    _write_csv(tmp_path / "top_of_2.csv", section["layers"][0]["below_m"], delimiter=";")
+    _write_csv(tmp_path / "top_of_3.csv", section["layers"][0]["above_m"], delimiter="\t")
+    section["ground_m"] = "ground.csv"
+    section["layers"][0]["below_m"] = section["layers"][1]["above_m"] = "top_of_2.csv"
+    section["layers"][0]["above_m"] = "top_of_3.csv"
+    (tmp_path / "study.toml").write_text(to_toml(lines_raw))
+    study = load_study(tmp_path / "study.toml")
+    _same_scene(polygons, study)
+    # the study kept with the results holds the points, not the file names
+    assert "ground.csv" not in study.source_text.split("\n", 1)[1]
+    assert parse_study(study.source_text).geometry == study.geometry
+
+
+def test_lines_read_from_a_dxf_file(tmp_path, polygons, lines_raw):
+    ezdxf = pytest.importorskip("ezdxf")
+    section = lines_raw["geometry"]["section"]
+    document = ezdxf.new()
+    space = document.modelspace()
+    space.add_lwpolyline(section["ground_m"][::-1], dxfattribs={"layer": "GROUND"})  # drawn right to left
+    space.add_polyline2d(section["layers"][0]["below_m"], dxfattribs={"layer": "TOP_OF_2"})
+    space.add_lwpolyline(section["layers"][0]["above_m"], dxfattribs={"layer": "TOP_OF_3"})
+    space.add_text("ACADS 1(c)", dxfattribs={"layer": "NOTES"})
+    document.saveas(tmp_path / "section.dxf")
+    section["ground_m"] = "section.dxf#GROUND"
+    section["layers"][0]["below_m"] = section["layers"][1]["above_m"] = "section.dxf#TOP_OF_2"
+    section["layers"][0]["above_m"] = "section.dxf#TOP_OF_3"
+    (tmp_path / "study.toml").write_text(to_toml(lines_raw))
+    _same_scene(polygons, load_study(tmp_path / "study.toml"))
+
+
+def _error(tmp_path, raw) -> StudyError:
+    (tmp_path / "study.toml").write_text(to_toml(raw))
+    with pytest.raises(StudyError) as error:
+        load_study(tmp_path / "study.toml")
+    return error.value
+
+
+def test_line_file_errors_name_the_field(tmp_path, lines_raw):
+    section = lines_raw["geometry"]["section"]
+    section["ground_m"] = "missing.csv"
+    assert "geometry.section.ground_m" in str(_error(tmp_path, lines_raw))
+    assert "no such line file" in str(_error(tmp_path, lines_raw))
+    (tmp_path / "ground.csv").write_text("x,y\n20,25\n30,25\n25,30\n")  # x turns back
+    section["ground_m"] = "ground.csv"
+    assert "geometry.section.ground_m" in str(_error(tmp_path, lines_raw))
+    (tmp_path / "ground.csv").write_text("x,y\n20,25\n30,abc\n")
+    message = str(_error(tmp_path, lines_raw))
+    assert "line 3" in message and "geometry.section.ground_m" in message
+    section["ground_m"] = "ground.dxf"
+    (tmp_path / "ground.dxf").write_text("not a dxf")
+    assert "name the DXF layer" in str(_error(tmp_path, lines_raw))
+    section["ground_m"] = "ground.dxf#GROUND"
+    assert "cannot read ground.dxf as DXF" in str(_error(tmp_path, lines_raw))
+
+
+def test_a_dxf_layer_needs_one_line(tmp_path, lines_raw):
+    ezdxf = pytest.importorskip("ezdxf")
+    document = ezdxf.new()
+    document.modelspace().add_lwpolyline([(20, 25), (70, 35)], dxfattribs={"layer": "GROUND"})
+    document.modelspace().add_lwpolyline([(20, 26), (70, 36)], dxfattribs={"layer": "GROUND"})
+    document.saveas(tmp_path / "section.dxf")
+    lines_raw["geometry"]["section"]["ground_m"] = "section.dxf#WATER"
+    message = str(_error(tmp_path, lines_raw))
+    assert "no line on layer 'WATER'" in message and "GROUND" in message
+    lines_raw["geometry"]["section"]["ground_m"] = "section.dxf#GROUND"
+    assert "2 lines on layer 'GROUND'" in str(_error(tmp_path, lines_raw))
+
+
+@pytest.mark.parametrize(
+    "change, field, words",
+    [
+        (lambda s: s.update(base_y_m=26.0), "geometry.section.base_y_m", "below the ground"),
+        (lambda s: s["layers"][0].update(material="clay"), "geometry.section.layers[0].material", "no [[materials]]"),
+        (lambda s: s["layers"][0].update(above_m=[[30.0, 30.0], [70.0, 30.0]]),
+         "geometry.section.layers[0].below_m", "passes under above_m"),
+        (lambda s: s["layers"][0].update(above_m=[[10.0, 24.0], [15.0, 24.0]]),
+         "geometry.section.layers[0].below_m", "shares no x-range"),
+        (lambda s: [s["layers"][0].pop("above_m"), s["layers"][0].pop("below_m")],
+         "geometry.section.layers[0].above_m", "give above_m, below_m or both"),
+        (lambda s: s.update(ground_m=[[20.0, 25.0], [20.0, 35.0]]), "geometry.section.ground_m", "x must increase"),
+    ],
+)
+def test_section_errors_name_the_field(lines_raw, change, field, words):
+    change(lines_raw["geometry"]["section"])
+    with pytest.raises(StudyError) as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == field and words in str(error.value)
+
+
+def test_a_section_with_polygon_or_region_is_refused(lines_raw, polygons):
+    lines_raw["geometry"]["polygon_m"] = [list(p) for p in polygons.geometry.polygon_m]
+    with pytest.raises(StudyError, match="not both") as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == "geometry.polygon_m"
+    del lines_raw["geometry"]["polygon_m"]
+    lines_raw["materials"][1]["region_m"] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+    with pytest.raises(StudyError, match="not both"):
+        parse_study(to_toml(lines_raw))
+
+
+def test_own_supports_replace_the_default(lines_raw):
+    lines_raw["boundary"] = [{"name": "base", "y_max_m": 20.0, "vx_m_s": 0.0, "vy_m_s": 0.0}]
+    study = parse_study(to_toml(lines_raw))
+    assert [b.name for b in study.boundary] == ["base"]

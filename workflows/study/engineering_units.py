@@ -1,0 +1,101 @@
+"""Fields in the units engineers write: any field in Pa (``<name>_pa``) may be given in kPa
+(``<name>_kpa``) or MPa (``<name>_mpa``) instead, and a material's densities by its unit weights
+(``unit_weight_kn_m3``, ``saturated_unit_weight_kn_m3``), with the gravity of ``[loads]``:
+
+    rho = 1000 gamma / |g|        (gamma in kN m-3, g = loads.gravity_m_s2 in m s-2)
+
+The field's name says the unit: nothing is guessed from the size of a number.  The study is
+built in SI units (Pa, kg m-3), as the result files are written.
+"""
+
+from __future__ import annotations
+
+import math
+
+from workflows.fields import StudyError, show
+
+PRESSURE_SUFFIXES = {"_kpa": 1e3, "_mpa": 1e6}
+"""Name ending of a pressure field in kPa or MPa, and its value in Pa per unit."""
+
+UNIT_WEIGHTS = {"unit_weight_kn_m3": "density_kg_m3", "saturated_unit_weight_kn_m3": "saturated_density_kg_m3"}
+"""A material's unit weight field (kN m-3) and the density field (kg m-3) it stands for."""
+
+DEFAULT_GRAVITY_M_S2 = (0.0, -9.81)  # workflows.loads.Loads.gravity_m_s2's default
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def pressure_field(key: str, declared: dict) -> tuple[str, float] | None:
+    """(the Pa field, Pa per unit) that ``key`` gives in kPa or MPa, if ``declared`` has it."""
+    for suffix, factor in PRESSURE_SUFFIXES.items():
+        if key.endswith(suffix):
+            canonical = key[: -len(suffix)] + "_pa"
+            spec = declared.get(canonical)
+            if spec is not None and spec.type == "number" and spec.unit == "Pa":
+                return canonical, factor
+    return None
+
+
+def other_names(field: str) -> list[str]:
+    """The names of the SI field ``field`` in the other units (module doc)."""
+    if field.endswith("_pa"):
+        return [field[: -len("_pa")] + suffix for suffix in PRESSURE_SUFFIXES]
+    return [weight for weight, density in UNIT_WEIGHTS.items() if density == field]
+
+
+def in_pascals(raw: dict, declared: dict, path: str) -> tuple[dict, dict]:
+    """The table ``raw`` with its kPa and MPa fields given in Pa, and {Pa field: the name used}."""
+    table, given_as = {}, {}
+    for key, value in raw.items():
+        alias = None if key in declared else pressure_field(key, declared)
+        if alias is None:
+            table[key] = value
+            continue
+        canonical, factor = alias
+        other = canonical if canonical in raw else given_as.get(canonical)
+        if other is not None:
+            raise StudyError(_join(path, key), f"give {key} or {other}, not both")
+        if not _is_number(value):
+            raise StudyError(_join(path, key), f"must be a number, got {show(value)}")
+        table[canonical], given_as[canonical] = value * factor, key
+    return table, given_as
+
+
+def with_densities(raw: dict) -> tuple[dict, dict]:
+    """The study dict ``raw`` with its materials' unit weights given as densities (module doc),
+    and {density field's path: the unit weight's path} for the messages."""
+    materials = raw.get("materials")
+    if not isinstance(materials, list) or not any(
+        isinstance(m, dict) and any(key in m for key in UNIT_WEIGHTS) for m in materials
+    ):
+        return raw, {}
+    loads = raw.get("loads") if isinstance(raw.get("loads"), dict) else {}
+    gravity = loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
+    g_m_s2 = math.hypot(*gravity) if isinstance(gravity, (list, tuple)) and len(gravity) == 2 and all(
+        _is_number(v) for v in gravity) else None
+    converted, given_as = [], {}
+    for i, material in enumerate(materials):
+        material = dict(material) if isinstance(material, dict) else material
+        for weight_key, density_key in UNIT_WEIGHTS.items():
+            if not isinstance(material, dict) or weight_key not in material:
+                continue
+            field, weight = f"materials[{i}].{weight_key}", material.pop(weight_key)
+            if density_key in material:
+                raise StudyError(field, f"give {weight_key} or {density_key}, not both")
+            if not _is_number(weight) or not weight > 0.0:
+                raise StudyError(field, f"must be a number > 0, got {show(weight)}")
+            if g_m_s2 is None:
+                continue  # loads.gravity_m_s2 is invalid: its own check names it
+            if not (g_m_s2 > 0.0 and math.isfinite(g_m_s2)):
+                raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is {show(gravity)}: "
+                                 f"give {density_key} instead")
+            material[density_key] = 1000.0 * weight / g_m_s2
+            given_as[f"materials[{i}].{density_key}"] = field
+        converted.append(material)
+    return dict(raw, materials=converted), given_as
