@@ -86,7 +86,7 @@ def draw_water_and_loads(ax, study) -> None:
         ax.text(0.01, 0.03, seismic.note(), transform=ax.transAxes, fontsize=8, color="tab:red")
 
 
-FIGURE_NAMES = ("srf_curve.png", "fields_srf_*.png", "particle_spacing.png")
+FIGURE_NAMES = ("srf_curve.png", "fields_srf_*.png", "particle_spacing.png", "slip_surface.png")
 """The figures :func:`draw_figures` may draw: those of an earlier invocation it did not draw again
 are removed (``output.figures.remove_stale_figures``)."""
 
@@ -110,11 +110,48 @@ def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
         run_path = out_dir / run_file_name(float(value))
         if run_path.is_file():
             paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png"))
+    if summary.sizes.get("slip_point", 0) and (out_dir / run_file_name(float(summary["slip_srf"]))).is_file():
+        paths.append(slip_figure(summary, out_dir, out_dir / "slip_surface.png"))
     if picks and (run_path := out_dir / run_file_name(float(picks[0]))).is_file():
         with xr.open_dataset(run_path) as ds:
             if "particle_spacing" in ds:
                 paths.append(spacing_map(ds, out_dir / "particle_spacing.png"))
     return paths
+
+
+def slip_figure(summary: xr.Dataset, out_dir: Path, path: Path) -> Path:
+    """The slip line on the section: the particles at their initial positions coloured by the
+    mechanism's displacement (the failed run's beyond the stable run's), the line, its ends, and
+    the two factors of safety."""
+    plt = pyplot()
+    srf, stable_srf = float(summary["slip_srf"]), float(summary["slip_srf"].attrs.get("stable_srf", np.nan))
+    with xr.open_dataset(out_dir / run_file_name(srf)) as failed:
+        x0, y0 = failed["particle_x0"].values, failed["particle_y0"].values
+        ux, uy = failed["particle_ux"].values, failed["particle_uy"].values
+    if not np.isnan(stable_srf) and (out_dir / run_file_name(stable_srf)).is_file():
+        with xr.open_dataset(out_dir / run_file_name(stable_srf)) as stable:
+            ux, uy = ux - stable["particle_ux"].values, uy - stable["particle_uy"].values
+    moved = np.maximum(np.hypot(ux, uy), 1e-9)
+    width = max(float(np.ptp(x0)), 1e-9)
+    fig, ax = plt.subplots(figsize=(8.0, max(2.5, 8.0 * float(np.ptp(y0)) / width + 1.0)))
+    log_moved = np.log10(moved)
+    points = ax.scatter(x0, y0, c=log_moved, s=2.0, cmap="viridis", vmin=log_moved.max() - 3.0, vmax=log_moved.max())
+    fig.colorbar(points, ax=ax, shrink=0.8, label="log10 displacement (m)")
+    ax.plot(summary["slip_x"].values, summary["slip_y"].values, color="tab:red", lw=2.0, label="slip line")
+    ax.plot([float(summary["slip_entry_x"]), float(summary["slip_exit_x"])],
+            [float(summary["slip_entry_y"]), float(summary["slip_exit_y"])], "o", color="tab:red", ms=5)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    fos, le = float(summary["fos"]), float(summary["le_fos"])
+    le_text = f"Spencer on this line {le:.3f}" if not np.isnan(le) else "no limit-equilibrium FOS"
+    mechanism = f"SRF {srf:g}" + ("" if np.isnan(stable_srf) else f" beyond SRF {stable_srf:g}")
+    ax.set_title(f"slip surface of the run at {mechanism}: {float(summary['slip_depth']):.2f} m deep, "
+                 f"{float(summary['slip_area']):.1f} m2\nFOS {fos:.3f} by strength reduction, {le_text}", fontsize=9)
+    ax.legend(loc="lower left", fontsize=8)
+    save_figure(fig, path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
 
 
 def spacing_map(ds: xr.Dataset, path: Path) -> Path:

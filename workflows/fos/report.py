@@ -52,4 +52,11 @@ def report_lines(outcome) -> list[str]:
             f"second criterion (run verdicts): FOS in [{outcome.status_low:.4g}, {outcome.status_high:.4g}]"
             + ("" if outcome.criteria_agree else "  <-- DISAGREES with the knee")
         )
+    slip = getattr(outcome, "slip", None)
+    if slip is not None and not isinstance(slip, str):
+        (x_in, y_in), (x_out, y_out), le = slip.entry_m, slip.exit_m, slip.limit_equilibrium
+        cross_check = (f"Spencer's limit-equilibrium FOS on it {le.fos:.4g}" if not math.isnan(le.fos)
+                       else f"no limit-equilibrium FOS on it: {le.reason}")
+        lines.append(f"slip surface (SRF {slip.srf:g}): entry ({x_in:.4g}, {y_in:.4g}) m, exit ({x_out:.4g}, "
+                     f"{y_out:.4g}) m, {slip.depth_m:.3g} m deep, {slip.area_m2:.3g} m2; {cross_check}")
     return lines

@@ -7,6 +7,7 @@ declared in :data:`workflows.output.variables.SUMMARY_FILE`, ``FOS_ATTRIBUTES`` 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,7 +18,8 @@ import xarray as xr
 from workflows.fos.criterion import brackets_agree, curvature, first_failed_sweep_srf, status_bracket
 from workflows.fos.figures import FIGURE_NAMES, draw_figures
 from workflows.fos.report import verdict_line
-from workflows.fos.run_store import SUMMARY_NAME
+from workflows.fos.run_store import SUMMARY_NAME, run_file_name
+from workflows.fos.slip_surface import SlipSurface, run_particles, slip_surface
 from workflows.fos.task import RunRecord
 from workflows.fos.verdict import DIVERGED, displacement_floor_m
 from workflows.output.figures import remove_stale_figures
@@ -51,6 +53,7 @@ class FosOutcome:
     guesses: tuple[int, int] = (0, 0)  # runs started ahead of the search on idle workers, and used
     figures: list[Path] = field(default_factory=list)
     stiffness_factor: float = 1.0  # the runs' moduli over the declared ones (StrengthReductionStage.stiffness_factor)
+    slip: SlipSurface | str = "not extracted"  # the slip surface, or why there is none (slip_surface.py)
 
 
 def conclude_case(case, progress, wall_start: float, figures: bool, summary_file: bool = True) -> FosOutcome:
@@ -96,6 +99,7 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
         (out_dir / SUMMARY_NAME).unlink(missing_ok=True)  # not one of an earlier invocation's
         return outcome
     io_start = time.perf_counter()
+    outcome.slip = case_slip_surface(study, out_dir, status)
     summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
     timings["total"] = time.perf_counter() - wall_start
     summary.attrs.update({f"time_{name}_s": value for name, value in timings.items()})
@@ -106,6 +110,42 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
     # an earlier invocation's figures of other runs (or all of them, figures = false) are not this one's
     remove_stale_figures(out_dir, FIGURE_NAMES, keep={path.name for path in outcome.figures})
     return outcome
+
+
+def case_slip_surface(study, out_dir: Path, status) -> SlipSurface | str:
+    """The slip surface of the case's first failed run beyond its last stable run (the status
+    bracket), from their run files; or why there is none."""
+    if math.isnan(status.fos_high):
+        return "no run failed"
+    failed = run_particles(out_dir / run_file_name(status.fos_high), study)
+    if failed is None:
+        return f"the run at SRF {status.fos_high:g} kept no particle fields"
+    stable = None
+    if not math.isnan(status.fos_low):
+        stable = run_particles(out_dir / run_file_name(status.fos_low), study)
+    return slip_surface(study, failed, stable, status.fos_high, status.fos_low if stable is not None else math.nan)
+
+
+def _slip_variables(ds: xr.Dataset, slip: SlipSurface | str) -> None:
+    """The slip surface's variables of ``summary.nc`` (NaN and the reason when there is none)."""
+    var = SUMMARY_FILE
+    if isinstance(slip, str):
+        for name in ("slip_srf", "slip_entry_x", "slip_entry_y", "slip_exit_x", "slip_exit_y", "slip_depth",
+                     "slip_area"):
+            ds[name] = var[name](math.nan)
+        ds["slip_x"], ds["slip_y"] = var["slip_x"](np.array([])), var["slip_y"](np.array([]))
+        ds["slip_srf"].attrs["reason"] = slip
+        ds["le_fos"] = var["le_fos"](math.nan, reason=f"no slip line: {slip}")
+        return
+    ds["slip_x"], ds["slip_y"] = var["slip_x"](slip.x_m), var["slip_y"](slip.y_m)
+    ds["slip_srf"] = var["slip_srf"](slip.srf, stable_srf=slip.stable_srf, moved_m=slip.moved_m)
+    for name, value in (("slip_entry_x", slip.entry_m[0]), ("slip_entry_y", slip.entry_m[1]),
+                        ("slip_exit_x", slip.exit_m[0]), ("slip_exit_y", slip.exit_m[1]),
+                        ("slip_depth", slip.depth_m), ("slip_area", slip.area_m2)):
+        ds[name] = var[name](float(value))
+    le = slip.limit_equilibrium
+    ds["le_fos"] = var["le_fos"](le.fos, method="Spencer", interslice_angle_deg=float(np.degrees(le.theta_rad)),
+                                 reason=le.reason)
 
 
 def summary_dataset(study, outcome: FosOutcome, knee, status, stop_reason: str, floor_m: float) -> xr.Dataset:
@@ -151,6 +191,7 @@ def summary_dataset(study, outcome: FosOutcome, knee, status, stop_reason: str, 
         criteria_agree=int(bool(outcome.criteria_agree)),
         verdict=outcome.verdict,
     )
+    _slip_variables(ds, outcome.slip)
     skipped = sorted(outcome.skipped.items())
     ds.attrs = {
         "title": f"spfem-fos strength-reduction summary of study {study.name}",

@@ -208,6 +208,19 @@ SUMMARY_FILE = _table(
              "first failed sweep value; NaN at the ends and above it (runs there finish or not by timing)"),
     Variable("fos", (), "1",
              "factor of safety: middle of the bracket around the knee of the SRF-displacement curve (NaN: none)"),
+    Variable("slip_x", ("slip_point",), "m", "x of the slip line, from its entry (upper end) to its exit, in the "
+             "initial configuration (workflows/fos/slip_surface.py)"),
+    Variable("slip_y", ("slip_point",), "m", "y of the slip line"),
+    Variable("slip_srf", (), "1", "SRF of the failed run the slip line comes from (its mechanism: the displacement "
+             "beyond the last stable run's, attribute stable_srf)"),
+    Variable("slip_entry_x", (), "m", "x of the slip line's entry on the ground (its upper end, the back scarp)"),
+    Variable("slip_entry_y", (), "m", "y of the slip line's entry"),
+    Variable("slip_exit_x", (), "m", "x of the slip line's exit on the ground (its lower end, the toe)"),
+    Variable("slip_exit_y", (), "m", "y of the slip line's exit"),
+    Variable("slip_depth", (), "m", "largest vertical depth of the slip line below the ground"),
+    Variable("slip_area", (), "m2", "area of the sliding mass: between the ground and the slip line"),
+    Variable("le_fos", (), "1", "limit-equilibrium factor of safety on the slip line (Spencer), a cross-check: at "
+             "least the critical surface's (NaN: none, attribute reason)"),
 )
 
 FOS_ATTRIBUTES = (

@@ -1,0 +1,222 @@
+"""The slip surface of a strength-reduction study: the failure mechanism of its first failed run
+as a line on the section, and Spencer's limit-equilibrium FOS on that line.
+
+**The mechanism.**  The displacement of the first failed run minus that of the last stable run
+below it, du_p = |u_p(failed) - u_p(stable)| per particle, in the particles' initial positions:
+the elastic and pre-failure response cancels and the sliding mass stands out by orders of
+magnitude.  The two classes of log10 du that Otsu's threshold separates give the mass's typical
+displacement U (the median of the upper class); the mass is the largest connected set of
+particles (neighbours closer than 1.5 h) that moved more than U / 2: the slip line runs through
+the middle of the shear band, where the displacement jumps from 0 to U.
+
+**The line.**  In columns 2 h wide across the mass, the slip point lies midway between the
+mass's lowest particle and the highest particle of the rest below it (h / 2 below the mass
+where nothing lies below), smoothed over three columns; at both ends the line rises to the
+ground at the mass's outermost particle (+- h / 2).  Its upper end is the entry (the back scarp),
+the lower the exit (the toe); the depth is the largest vertical distance below the ground, the
+area the one between the ground and the line.
+
+**Limit equilibrium on it** (:mod:`workflows.fos.limit_equilibrium`): the mass above the line in
+SLICES slices, each particle's mass spread over its width h along x, its weight and horizontal
+body force from the runs' acceleration (gravity and the pseudo-static earthquake), the surface
+loads on the ground, the pore pressure and the strength (c', phi' of Mohr-Coulomb and
+Drucker-Prager soils, peak values of softening ones; s_u and phi = 0 of Tresca ones) of the
+particle nearest each slice's base midpoint, unreduced.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import sparse
+from scipy.spatial import cKDTree
+
+from spfem_core.geometry import surface_height_m
+from workflows.fos.limit_equilibrium import Slices, SpencerResult, spencer
+
+SLICES = 100
+"""Slices of the limit-equilibrium mass (Spencer's F changes by < 0.1% beyond 50 on a circle)."""
+
+NEIGHBOUR_RADIUS = 1.5
+"""Particles closer than this many spacings belong to one connected mass."""
+
+
+@dataclass(frozen=True)
+class SlipSurface:
+    """A slip line on the section, from entry to exit, with what it bounds."""
+
+    x_m: np.ndarray  # the line, from the entry (upper end) to the exit
+    y_m: np.ndarray
+    depth_m: float  # largest vertical distance below the ground
+    area_m2: float  # between the ground and the line
+    srf: float  # the failed run it came from
+    stable_srf: float  # the stable run subtracted (NaN: none)
+    moved_m: float  # U: typical displacement of the mass in the failed run (beyond the stable run's)
+    limit_equilibrium: SpencerResult
+
+    @property
+    def entry_m(self) -> tuple[float, float]:
+        return float(self.x_m[0]), float(self.y_m[0])
+
+    @property
+    def exit_m(self) -> tuple[float, float]:
+        return float(self.x_m[-1]), float(self.y_m[-1])
+
+
+def _otsu_threshold(values: np.ndarray, bins: int = 128) -> float:
+    """The threshold that maximises the between-class variance of ``values`` (Otsu, 1979)."""
+    counts, edges = np.histogram(values, bins=bins)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    weight = np.cumsum(counts) / counts.sum()
+    mean = np.cumsum(counts * centres) / counts.sum()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        between = (mean[-1] * weight - mean) ** 2 / (weight * (1.0 - weight))
+    return float(centres[np.nanargmax(between[:-1])])
+
+
+def _largest_connected(xy: np.ndarray, members: np.ndarray, radius_m: float) -> np.ndarray:
+    """The members (bool mask) of the largest set of ``members`` linked by distances < radius."""
+    index = np.flatnonzero(members)
+    pairs = cKDTree(xy[index]).query_pairs(radius_m, output_type="ndarray")
+    graph = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(index.size, index.size))
+    _, labels = sparse.csgraph.connected_components(graph, directed=False)
+    largest = np.zeros_like(members)
+    largest[index[labels == np.bincount(labels).argmax()]] = True
+    return largest
+
+
+def moving_mass(xy0_m: np.ndarray, displacement_m: np.ndarray, spacing_m: float) -> tuple[np.ndarray, float]:
+    """(the particles of the sliding mass, U) from the mechanism's displacements (module doc)."""
+    moved = displacement_m > 0.0
+    log_u = np.log10(displacement_m[moved])
+    upper = log_u > _otsu_threshold(log_u)
+    typical_m = float(np.median(displacement_m[moved][upper]))
+    return _largest_connected(xy0_m, displacement_m > 0.5 * typical_m, NEIGHBOUR_RADIUS * spacing_m), typical_m
+
+
+def slip_line(xy0_m: np.ndarray, mass: np.ndarray, spacing_m: float, polygon_m) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) of the line under ``mass``, from end to end on the ground, x increasing (module doc)."""
+    x, y = xy0_m[:, 0], xy0_m[:, 1]
+    low, high = x[mass].min() - 0.5 * spacing_m, x[mass].max() + 0.5 * spacing_m
+    edges = np.linspace(low, high, max(2, int(np.ceil((high - low) / (2.0 * spacing_m)))) + 1)
+    column = np.digitize(x, edges) - 1
+    xs, ys = [], []
+    for i in range(edges.size - 1):
+        in_column = column == i
+        if not (in_column & mass).any():
+            continue
+        bottom = y[in_column & mass].min()
+        below = y[in_column & ~mass & (y < bottom)]
+        xs.append(0.5 * (edges[i] + edges[i + 1]))
+        ys.append(0.5 * (bottom + below.max()) if below.size else bottom - 0.5 * spacing_m)
+    ys = np.array(ys)
+    if ys.size >= 3:
+        ys[1:-1] = (ys[:-2] + ys[1:-1] + ys[2:]) / 3.0
+    ground = surface_height_m(polygon_m, np.array([low, high]))
+    return np.array([low, *xs, high]), np.array([ground[0], *ys, ground[1]])
+
+
+def _strength(material) -> tuple[float, float] | None:
+    """(c in Pa, tan phi) of a material for limit equilibrium; None: no strength (elastic)."""
+    if getattr(material, "cohesion_pa", None) is not None and getattr(material, "friction_deg", None) is not None:
+        return float(material.cohesion_pa), float(np.tan(np.radians(material.friction_deg)))
+    if getattr(material, "undrained_shear_strength_pa", None) is not None:
+        return float(material.undrained_shear_strength_pa), 0.0
+    return None
+
+
+def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slices | str:
+    """The slices of the mass above the line (module doc); a reason string when there are none.
+    ``particles``: initial x0, y0, mass (kg m-1), spacing (m), material (row), pore_pressure (Pa)."""
+    x0, y0 = particles["x0"], particles["y0"]
+    acceleration = study.loads.acceleration_m_s2(study.geometry.polygon_m, strength_reduction=True)
+    upper, lower = (0, -1) if line_y_m[0] >= line_y_m[-1] else (-1, 0)
+    mirror = line_x_m[upper] > line_x_m[lower]  # the entry, the higher end, on the right: the mass moves to -x
+    sign = -1.0 if mirror else 1.0
+    px, lx = sign * x0, sign * np.asarray(line_x_m)
+    ly = np.asarray(line_y_m)
+    order = np.argsort(lx)
+    lx, ly = lx[order], ly[order]
+    edges = np.linspace(lx[0], lx[-1], SLICES + 1)
+    base = np.interp(edges, lx, ly)
+    middle = 0.5 * (edges[1:] + edges[:-1])
+    width = np.diff(edges)
+    above = (y0 > np.interp(px, lx, ly)) & (px > lx[0] - particles["spacing"]) & (px < lx[-1] + particles["spacing"])
+    # each particle's mass spread evenly over [x - h/2, x + h/2]: its share in each slice
+    half = 0.5 * particles["spacing"][above]
+    share = np.clip(np.minimum(px[above, None] + half[:, None], edges[None, 1:])
+                    - np.maximum(px[above, None] - half[:, None], edges[None, :-1]), 0.0, None) / (2.0 * half[:, None])
+    mass = share * particles["mass"][above, None]
+    slice_mass = mass.sum(axis=0)
+    if not (slice_mass > 0.0).all():
+        return "a slice of the mass holds no particle"
+    centroid_y = (mass * y0[above, None]).sum(axis=0) / slice_mass
+    vertical = -acceleration[1] * slice_mass
+    if "load_y" in particles:  # the surface loads (N m-1) on the particles of the ground
+        vertical = vertical - (share * particles["load_y"][above, None]).sum(axis=0)
+    horizontal = sign * acceleration[0] * slice_mass
+    base_y = np.interp(middle, lx, ly)
+    nearest = cKDTree(np.column_stack([px, y0])).query(np.column_stack([middle, base_y]))[1]
+    strengths = [_strength(study.materials[m]) for m in particles["material"][nearest]]
+    if any(s is None for s in strengths):
+        names = sorted({study.materials[m].name for m, s in zip(particles["material"][nearest], strengths) if s is None})
+        return f"the slip line runs through {', '.join(names)}, which has no strength (elastic)"
+    cohesion, tan_friction = (np.array(v) for v in zip(*strengths))
+    return Slices(x_m=middle, y_m=base_y, width_m=width, alpha_rad=np.arctan(-np.diff(base) / width),
+                  vertical_load_n=vertical, horizontal_load_n=horizontal, horizontal_arm_m=centroid_y - base_y,
+                  pore_pressure_pa=particles["pore_pressure"][nearest], cohesion_pa=cohesion, tan_friction=tan_friction)
+
+
+def run_particles(path, study) -> dict | None:
+    """The particle fields of a run file that :func:`slip_surface` reads; None: the file keeps none."""
+    import xarray as xr
+
+    from workflows.scene import surface_load_forces
+
+    with xr.open_dataset(path) as ds:
+        if "particle_x0" not in ds:
+            return None
+        fields = {"x0": "particle_x0", "y0": "particle_y0", "ux": "particle_ux", "uy": "particle_uy",
+                  "mass": "particle_mass", "material": "particle_material", "pore_pressure": "particle_pore_pressure"}
+        particles = {key: ds[name].values for key, name in fields.items() if name in ds}
+        spacing = ds["particle_spacing"].values if "particle_spacing" in ds else None
+    particles.setdefault("pore_pressure", np.zeros_like(particles["x0"]))
+    particles["material"] = particles["material"].astype(np.int64)
+    particles["spacing"] = spacing if spacing is not None else np.full(particles["x0"].size, study.geometry.spacing_m)
+    if study.loads.surface_loads():
+        xy0 = np.column_stack([particles["x0"], particles["y0"]])
+        particles["load_y"] = surface_load_forces(study, xy0, particles["spacing"])[:, 1]
+    return particles
+
+
+def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, stable_srf: float) -> SlipSurface | str:
+    """The slip surface of ``study`` from the particle fields of its first failed run and of the last
+    stable run below it (dicts of arrays: x0, y0, ux, uy, mass, spacing, material, pore_pressure); a
+    reason string when there is none."""
+    xy0 = np.column_stack([failed["x0"], failed["y0"]])
+    ux, uy = failed["ux"], failed["uy"]
+    if stable is not None:
+        ux, uy = ux - stable["ux"], uy - stable["uy"]
+    displacement = np.hypot(ux, uy)
+    spacing = float(np.min(failed["spacing"]))
+    if np.count_nonzero(displacement > 0.0) < 10:
+        return "the failed run moved no particle"
+    mass, typical = moving_mass(xy0, displacement, spacing)
+    if mass.sum() < 10:
+        return f"the mechanism holds {mass.sum()} particles: too few to draw a line"
+    x, y = slip_line(xy0, mass, spacing, study.geometry.polygon_m)
+    if y[-1] > y[0]:
+        x, y = x[::-1], y[::-1]  # from the entry, the upper end
+    ground = surface_height_m(study.geometry.polygon_m, np.linspace(x.min(), x.max(), 400))
+    line = np.interp(np.linspace(x.min(), x.max(), 400), x[np.argsort(x)], y[np.argsort(x)])
+    slices = limit_equilibrium_slices(study, failed if stable is None else stable, x, y)
+    if isinstance(slices, str):
+        le = SpencerResult(float("nan"), float("nan"), slices)
+    elif study.random_field is not None:
+        le = SpencerResult(float("nan"), float("nan"), "not computed: the soil varies from point to point")
+    else:
+        le = spencer(slices)
+    return SlipSurface(x_m=x, y_m=y, depth_m=float(np.max(ground - line)),
+                       area_m2=float(np.trapezoid(ground - line, np.linspace(x.min(), x.max(), 400))),
+                       srf=failed_srf, stable_srf=stable_srf, moved_m=typical, limit_equilibrium=le)
