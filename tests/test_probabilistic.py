@@ -80,6 +80,13 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     assert ((ds["max_displacement"].values > failure_m) == (verdicts == "failed")).all()
     assert list(ds["particle_fields"].values) == list(verdicts == "failed")  # keep_fields = "failed"
     assert ds.attrs["pf_low"] <= ds.attrs["pf"] <= ds.attrs["pf_high"]
+    # the failed realisations' slip lines: a toe mechanism each, and their envelope
+    assert ds["slip_envelope_x"].attrs["n_lines"] == np.sum(verdicts == "failed")
+    assert ds["slip_envelope_count"].max() == np.sum(verdicts == "failed")
+    lower, upper = ds["slip_envelope_lower"].values, ds["slip_envelope_upper"].values
+    reached = ds["slip_envelope_count"].values > 0
+    assert np.all(lower[reached] <= upper[reached]) and 0.0 <= np.nanmin(lower) < 5.0
+    assert (tmp_path / "slip_envelope.png").is_file()
     assert first.runs_made == 8
     n_failed = int(np.sum(verdicts == "failed"))
     assert len(progress.lines) == 8 and progress.lines[-1] == f"{n_failed} failed, pf {n_failed / 8:.3g}"

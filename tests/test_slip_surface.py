@@ -109,3 +109,14 @@ def test_the_quickstart_stores_and_draws_its_slip_surface(quickstart_run):
     assert 1.35 < float(summary["le_fos"]) < 1.05 * outcome.fos
     assert summary["le_fos"].attrs["method"] == "Spencer"
     assert (out / "slip_surface.png").is_file()
+
+
+def test_the_envelope_holds_the_deepest_and_shallowest_line():
+    deep = (np.array([0.0, 5.0, 10.0]), np.array([10.0, 2.0, 10.0]))
+    shallow = (np.array([4.0, 6.0, 8.0]), np.array([10.0, 8.0, 10.0]))
+    x, lower, upper, count = slip.envelope([deep, shallow])
+    assert x[0] == 0.0 and x[-1] == 10.0
+    middle = np.argmin(np.abs(x - 5.0))
+    assert lower[middle] == pytest.approx(np.interp(x[middle], *deep)) and count[middle] == 2
+    assert upper[middle] == pytest.approx(np.interp(x[middle], *shallow))
+    assert count[0] == 1 and lower[0] == upper[0] == 10.0

@@ -98,7 +98,8 @@ def moving_mass(xy0_m: np.ndarray, displacement_m: np.ndarray, spacing_m: float)
 def slip_line(xy0_m: np.ndarray, mass: np.ndarray, spacing_m: float, polygon_m) -> tuple[np.ndarray, np.ndarray]:
     """(x, y) of the line under ``mass``, from end to end on the ground, x increasing (module doc)."""
     x, y = xy0_m[:, 0], xy0_m[:, 1]
-    low, high = x[mass].min() - 0.5 * spacing_m, x[mass].max() + 0.5 * spacing_m
+    low = max(x[mass].min() - 0.5 * spacing_m, x.min())  # within the section
+    high = min(x[mass].max() + 0.5 * spacing_m, x.max())
     edges = np.linspace(low, high, max(2, int(np.ceil((high - low) / (2.0 * spacing_m)))) + 1)
     column = np.digitize(x, edges) - 1
     xs, ys = [], []
@@ -110,7 +111,7 @@ def slip_line(xy0_m: np.ndarray, mass: np.ndarray, spacing_m: float, polygon_m) 
         below = y[in_column & ~mass & (y < bottom)]
         xs.append(0.5 * (edges[i] + edges[i + 1]))
         ys.append(0.5 * (bottom + below.max()) if below.size else bottom - 0.5 * spacing_m)
-    ys = np.array(ys)
+    ys = np.maximum(np.array(ys), np.asarray(polygon_m, dtype=float)[:, 1].min())  # not below the domain
     if ys.size >= 3:
         ys[1:-1] = (ys[:-2] + ys[1:-1] + ys[2:]) / 3.0
     ground = surface_height_m(polygon_m, np.array([low, high]))
@@ -190,7 +191,8 @@ def run_particles(path, study) -> dict | None:
     return particles
 
 
-def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, stable_srf: float) -> SlipSurface | str:
+def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, stable_srf: float,
+                 limit_equilibrium: bool = True) -> SlipSurface | str:
     """The slip surface of ``study`` from the particle fields of its first failed run and of the last
     stable run below it (dicts of arrays: x0, y0, ux, uy, mass, spacing, material, pore_pressure); a
     reason string when there is none."""
@@ -210,7 +212,8 @@ def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, st
         x, y = x[::-1], y[::-1]  # from the entry, the upper end
     ground = surface_height_m(study.geometry.polygon_m, np.linspace(x.min(), x.max(), 400))
     line = np.interp(np.linspace(x.min(), x.max(), 400), x[np.argsort(x)], y[np.argsort(x)])
-    slices = limit_equilibrium_slices(study, failed if stable is None else stable, x, y)
+    slices = limit_equilibrium_slices(study, failed if stable is None else stable, x, y) if limit_equilibrium \
+        else "not computed"
     if isinstance(slices, str):
         le = SpencerResult(float("nan"), float("nan"), slices)
     elif study.random_field is not None:
@@ -220,3 +223,25 @@ def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, st
     return SlipSurface(x_m=x, y_m=y, depth_m=float(np.max(ground - line)),
                        area_m2=float(np.trapezoid(ground - line, np.linspace(x.min(), x.max(), 400))),
                        srf=failed_srf, stable_srf=stable_srf, moved_m=typical, limit_equilibrium=le)
+
+
+ENVELOPE_POINTS = 200
+"""Abscissae of the envelope of many slip lines."""
+
+
+def envelope(lines: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(x, lowest y, highest y, number of lines) over the x-range of ``lines`` (each (x, y)): at
+    each x the deepest and the shallowest of the lines that reach it (NaN where none does)."""
+    low = min(float(np.min(x)) for x, _ in lines)
+    high = max(float(np.max(x)) for x, _ in lines)
+    grid = np.linspace(low, high, ENVELOPE_POINTS)
+    heights = np.full((len(lines), grid.size), np.nan)
+    for i, (x, y) in enumerate(lines):
+        order = np.argsort(x)
+        reach = (grid >= x[order][0]) & (grid <= x[order][-1])
+        heights[i, reach] = np.interp(grid[reach], x[order], y[order])
+    count = np.isfinite(heights).sum(axis=0)
+    with np.errstate(all="ignore"):
+        lower = np.where(count > 0, np.nanmin(np.where(np.isfinite(heights), heights, np.inf), axis=0), np.nan)
+        upper = np.where(count > 0, np.nanmax(np.where(np.isfinite(heights), heights, -np.inf), axis=0), np.nan)
+    return grid, lower, upper, count

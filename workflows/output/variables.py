@@ -303,6 +303,11 @@ PROBABILISTIC_FILE = _table(
              "pf of the realisations up to and including this one (pf against the count)"),
     Variable("fos_rank_correlation", ("random_variable",), "1",
              "Spearman rank correlation of each random variable with the FOS (fos mode): the sensitivity"),
+    Variable("slip_envelope_x", ("slip_envelope_point",), "m",
+             "x of the envelope of the failed realisations' slip lines (of those whose run files keep the particles)"),
+    Variable("slip_envelope_lower", ("slip_envelope_point",), "m", "the deepest of the slip lines at x"),
+    Variable("slip_envelope_upper", ("slip_envelope_point",), "m", "the shallowest of the slip lines at x"),
+    Variable("slip_envelope_count", ("slip_envelope_point",), "1", "how many of the slip lines reach x"),
 )
 """``probabilistic.nc`` of a probabilistic study (``[probabilistic]``): every realisation over
 the dimension ``realisation``, and the study's statistics as attributes."""

@@ -25,12 +25,12 @@ from workflows.probabilistic.reliability import failure_probability
 
 FAILED_FIGURES = 3
 
-FIGURE_NAMES = ("pf_convergence.png", "failed_*.png", "fos_distribution.png", "sensitivity.png")
+FIGURE_NAMES = ("pf_convergence.png", "failed_*.png", "fos_distribution.png", "sensitivity.png", "slip_envelope.png")
 """The figures :func:`draw_probabilistic_figures` may draw: those of an earlier invocation it did not
 draw again are removed (``output.figures.remove_stale_figures``)."""
 
 
-def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None) -> list[Path]:
+def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None, slip_lines: list | None = None) -> list[Path]:
     """Every figure of one probabilistic study that its dataset supports (module doc)."""
     paths = [pf_convergence(out_dir / "pf_convergence.png", ds)]
     if study is not None and study.random_field is not None:
@@ -39,12 +39,37 @@ def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None) -> lis
         paths += [failed_realisation(out_dir / "cases" / folder, out_dir / f"failed_{folder}.png")
                   for folder in failed]
         paths = [path for path in paths if path is not None]
+    if "slip_envelope_x" in ds and study is not None:
+        paths.append(slip_envelope(out_dir / "slip_envelope.png", ds, study, slip_lines))
     fos = ds["fos"].values
     if ds.attrs["compute"] == "fos" and np.isfinite(fos).sum() >= 3:
         paths.append(fos_distribution(out_dir / "fos_distribution.png", ds))
         if "fos_rank_correlation" in ds:
             paths.append(sensitivity(out_dir / "sensitivity.png", ds))
     return paths
+
+
+def slip_envelope(path: Path, ds: xr.Dataset, study, lines: list | None = None) -> Path:
+    """The section, the failed realisations' slip lines (``lines``, when given) and their deepest
+    envelope."""
+    plt = pyplot()
+    polygon = np.array([*study.geometry.polygon_m, study.geometry.polygon_m[0]])
+    width = float(np.ptp(polygon[:, 0]))
+    fig, ax = plt.subplots(figsize=(8.0, max(2.5, 8.0 * float(np.ptp(polygon[:, 1])) / width + 1.0)))
+    ax.plot(polygon[:, 0], polygon[:, 1], color="0.3", lw=1.0)
+    x = ds["slip_envelope_x"].values
+    for i, (line_x, line_y) in enumerate(lines or []):
+        ax.plot(line_x, line_y, color="tab:red", lw=0.6, alpha=0.35,
+                label="a failed realisation's slip line" if i == 0 else None)
+    ax.plot(x, ds["slip_envelope_lower"].values, color="tab:red", lw=1.8,
+            label=f"deepest of the {ds['slip_envelope_x'].attrs['n_lines']} slip lines")
+    ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    ax.set_title(f"{ds.attrs['study_name']}: envelope of the failed realisations' slip lines, pf {ds.attrs['pf']:.3g}",
+                 fontsize=9)
+    ax.legend(loc="lower left", fontsize=8)
+    save_figure(fig, path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
 
 
 def pf_convergence(path: Path, ds: xr.Dataset) -> Path:

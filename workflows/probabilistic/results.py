@@ -7,6 +7,7 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
+from workflows.fos.slip_surface import envelope
 from workflows.output.stage_file import provenance
 from workflows.output.variables import PROBABILISTIC_FILE
 from workflows.probabilistic.reliability import reliability_index
@@ -15,9 +16,11 @@ from workflows.study.reading import _loads, resolve_sweep_path
 FAILED, UNDECIDED = "failed", "undecided"
 
 
-def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outcome, runs: dict) -> xr.Dataset:
+def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outcome, runs: dict,
+                          slip_lines: list | None = None) -> xr.Dataset:
     """The dataset of a finished probabilistic study (``outcome``: its ``ProbabilisticOutcome``; ``runs``:
-    each realisation's ``RunRecord`` list by case id, empty where its gravity diverged)."""
+    each realisation's ``RunRecord`` list by case id, empty where its gravity diverged; ``slip_lines``:
+    the failed realisations' slip lines (x, y), whose envelope it holds)."""
     var = PROBABILISTIC_FILE
     table = study.probabilistic
     n = len(cases)
@@ -60,6 +63,12 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
         ds["fos_rank_correlation"] = var["fos_rank_correlation"](np.array(ranks))
         attrs = {"reliability_index_normal": reliability_index(fos[found], "normal"),
                  "reliability_index_lognormal": reliability_index(fos[found], "lognormal")}
+    if slip_lines:
+        x, lower, upper, count = envelope(slip_lines)
+        ds["slip_envelope_x"] = var["slip_envelope_x"](x, n_lines=len(slip_lines))
+        ds["slip_envelope_lower"] = var["slip_envelope_lower"](lower)
+        ds["slip_envelope_upper"] = var["slip_envelope_upper"](upper)
+        ds["slip_envelope_count"] = var["slip_envelope_count"](count.astype(np.int64))
     ds.attrs = {
         "title": f"spfem-fos probabilistic study {study.name}",
         "Conventions": "CF-1.11",

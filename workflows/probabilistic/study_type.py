@@ -184,6 +184,8 @@ class ProbabilisticStudy(SweepStudy):
         self.waiting: list = []  # realisations of the later batches (pf_interval_width)
         self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known with the cases)
         self.realisation_of: dict[str, int] = {}  # case id -> realisation number (known with the cases)
+        self.slip_lines: dict[str, tuple] = {}  # case id -> the slip line (x, y) of a failed realisation
+        self.study_of: dict[str, Study] = {}  # case id -> its study (known with the cases)
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
@@ -217,8 +219,28 @@ class ProbabilisticStudy(SweepStudy):
             for record in outcome.runs:
                 if record.status == FAILED:
                     without_particle_fields(outcome.out_dir / run_file_name(record.srf))
+        if verdict == FAILED and not isinstance(outcome, DivergenceError):
+            line = self._slip_line(case_id, outcome)
+            if line is not None:
+                self.slip_lines[case_id] = line
         decided = tally[FAILED] + tally[STABLE]
         progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
+
+    def _slip_line(self, case_id: str, outcome) -> tuple | None:
+        """The slip line (x, y) of a failed realisation: its summary's, or in verdict mode the mechanism
+        of its failed run alone (no stable run to subtract); None when its run file keeps no particles."""
+        from workflows.fos.run_store import run_file_name
+        from workflows.fos.slip_surface import SlipSurface, run_particles, slip_surface
+
+        slip = getattr(outcome, "slip", None)
+        if not isinstance(slip, SlipSurface):
+            failed = sorted(record.srf for record in outcome.runs if record.status == FAILED)
+            study = self.study_of[case_id]
+            particles = run_particles(outcome.out_dir / run_file_name(failed[0]), study) if failed else None
+            if particles is None:
+                return None
+            slip = slip_surface(study, particles, None, failed[0], math.nan, limit_equilibrium=False)
+        return (slip.x_m, slip.y_m) if isinstance(slip, SlipSurface) else None
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticOutcome:
         from workflows.output.writing import write_dataset
@@ -252,12 +274,13 @@ class ProbabilisticStudy(SweepStudy):
                             "total": time.perf_counter() - wall_start}
         case_runs = {case.case_id: ([] if isinstance(outcome := outcomes[self.same_as[case.case_id]], DivergenceError)
                                     else outcome.runs) for case in self.sweep_cases}
-        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs)
+        slip_lines = [self.slip_lines[case.case_id] for case in self.sweep_cases if case.case_id in self.slip_lines]
+        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs, slip_lines)
         write_dataset(dataset, result.result_path)
         from workflows.probabilistic.figures import FIGURE_NAMES, draw_probabilistic_figures  # (matplotlib: on use)
 
         if self.study.output.figures:
-            result.figures = draw_probabilistic_figures(self.out_dir, dataset, self.study)
+            result.figures = draw_probabilistic_figures(self.out_dir, dataset, self.study, slip_lines)
         self.stale_figures = remove_stale_figures(self.out_dir, FIGURE_NAMES, keep={path.name for path in result.figures})
         return result
 
@@ -266,6 +289,7 @@ class ProbabilisticStudy(SweepStudy):
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
         cases = [self._placed(case) for case in super().cases()]
         self.realisation_of = {case.case_id: case.position[0] for case in self.sweep_cases}
+        self.study_of = {case.case_id: case.study for case in self.sweep_cases}
         if self.shared_gravity:  # its one gravity state relaxes on all cores while the cluster starts
             self.placement = dataclasses.replace(self.placement, gravity_in_process=True)
         if self.study.probabilistic.pf_interval_width is None:
