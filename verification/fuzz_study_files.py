@@ -2,14 +2,16 @@
 
     python -m verification.fuzz_study_files [--examples 300]
 
-Three small valid studies (an elastic block settling under gravity, a coarse slope whose
-strength-reduction search makes a few short runs, and a sweep of two cases over a slope made
-by ``[geometry.slope]``) are mutated by hypothesis: a value replaced
+Small valid studies (an elastic block settling under gravity, a coarse slope whose
+strength-reduction search makes a few short runs, a sweep of two cases over a slope made
+by ``[geometry.slope]``, the slope with water and loads, a runout, and the slope drawn as lines
+in engineers' units) are mutated by hypothesis: a value replaced
 by another type, a huge, tiny, negative, zero, NaN or infinite number, a key removed,
 renamed or written twice, bytes corrupted, the text saved as UTF-16 or Latin-1; or a value of
 the right type against the study's own scales (``_semantic``: a vertex 1e-12-1e-3 m from
 another, gravity turned or of 0 to 1e4 m/s2, durations from 1e-9 s, SRF tolerances and failure
-displacements out of scale, a material region or water line off the domain, supports removed).  Each
+displacements out of scale, a material region or water line off the domain, supports removed,
+a section's layer lines crossing, above the ground or off the section, its base at the ground).  Each
 mutant is run through the command in this process (``typer.testing.CliRunner``).  It must end
 with exit 0 and complete result files (no ``*.tmp``), or with exit 2, one line on stderr that
 starts with ``error:`` and nothing written, or, for a valid study whose numbers drive the
@@ -154,7 +156,21 @@ RUNOUT = (
 )
 """The slope with a softening soil, failing in a runout stage, with an animation."""
 
-BASES = {"block": BLOCK, "slope": SLOPE, "sweep": SWEEP, "water": WATER, "runout": RUNOUT}
+SECTION = (
+    '[study]\nname = "section"\n\n[geometry]\nspacing_m = 1.0\n\n'
+    "[geometry.section]\nground_m = [[0.0, 8.0], [10.0, 8.0], [20.0, 3.0], [30.0, 3.0]]\nbase_y_m = 0.0\n\n"
+    '[[geometry.section.layers]]\nmaterial = "clay"\nbelow_m = [[0.0, 4.0], [30.0, 2.5]]\n'
+    "above_m = [[0.0, 1.0], [30.0, 0.5]]\n\n"
+    + SLOPE[SLOPE.index("[[materials]]"):SLOPE.index("[loads]")]
+    .replace("density_kg_m3 = 2000.0", "unit_weight_kn_m3 = 20.0").replace("cohesion_pa = 10e3", "cohesion_kpa = 10.0")
+    + '[[materials]]\nname = "clay"\nmodel = "tresca"\nunit_weight_kn_m3 = 19.0\nyoungs_modulus_mpa = 50.0\n'
+    "poisson_ratio = 0.45\nundrained_shear_strength_kpa = 40.0\n\n"
+    + SLOPE[SLOPE.index("[loads]"):SLOPE.index("[[boundary]]")]  # no supports: the section makes them
+    + SLOPE[SLOPE.index("[[stages]]"):]
+)
+"""The slope drawn as lines ([geometry.section]) with a layer between two lines, in kPa, MPa and kN/m3."""
+
+BASES = {"block": BLOCK, "slope": SLOPE, "sweep": SWEEP, "water": WATER, "runout": RUNOUT, "section": SECTION}
 
 ODD_VALUES = st.one_of(
     st.sampled_from([0, -1, 1, 2, 10**30, -(10**30), 0.0, -0.0, 1e-300, -1e-300, 1e308, -1e308, math.inf, -math.inf,
@@ -196,6 +212,8 @@ def _semantic(draw, data: dict) -> None:
     choices = ["gravity", "duration", "supports"]
     choices += ["vertex", "region"] if polygon else []
     choices += ["tolerance", "failure"] if any(s.get("kind") == "strength_reduction" for s in stages) else []
+    section = data.get("geometry", {}).get("section")
+    choices += ["line", "base"] if section else []
     choice = draw(st.sampled_from(choices))
     if choice == "gravity":
         angle = math.radians(draw(st.sampled_from([0.0, 30.0, 90.0, 135.0, 180.0, 270.0])))
@@ -221,6 +239,14 @@ def _semantic(draw, data: dict) -> None:
         if draw(st.booleans()):
             data["materials"][-1]["phreatic_line_m"] = [[-1e3, draw(st.sampled_from([-1e3, 1e3, 7.9]))],
                                                         [1e3, 0.0]]
+    elif choice == "line":  # a layer's line crossing the other, above the ground, off the section, one point
+        layer = section["layers"][0]
+        key = draw(st.sampled_from(["below_m", "above_m"]))
+        layer[key] = draw(st.sampled_from([
+            [[0.0, 0.5], [30.0, 5.0]], [[0.0, 20.0], [30.0, 20.0]], [[100.0, 1.0], [130.0, 1.0]],
+            [[0.0, 2.0]], [[0.0, 2.0], [0.0, 3.0]], [[-1e6, 2.0], [1e6, 2.0]], [[0.0, 1.0 + 1e-12], [30.0, 0.5]]]))
+    elif choice == "base":
+        section["base_y_m"] = draw(st.sampled_from([3.0, 3.0 - 1e-9, 2.999, -1e6, 7.9]))
     elif choice == "tolerance":
         stage = next(s for s in stages if s.get("kind") == "strength_reduction")
         stage["tolerance"] = draw(st.sampled_from([1e-12, 1e-6, 1e-4, 1e-2, 0.5]))
