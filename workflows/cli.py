@@ -264,6 +264,11 @@ def main(
             typer.echo(line, err=True)
         for line in report.lines:
             typer.echo(line)
+        from workflows.output.html_report import write_html_report
+
+        page = write_html_report(kind, outcome, study_file)
+        if not quiet:
+            typer.echo(f"report: {page}")
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except DivergenceError as error:

@@ -35,11 +35,12 @@ FIGURE_SOFTWARE = "spfem-fos"
 """The PNG ``Software`` text of every figure :func:`save_figure` writes: what marks a picture as ours."""
 
 
-def save_figure(fig, path: Path, **options) -> Path:
+def save_figure(fig, path, **options):
     """Save ``fig`` to ``path`` (PNG), marked as ours (:data:`FIGURE_SOFTWARE`), so that a later
-    study may replace or remove it and never touches a picture of the user's."""
-    fig.savefig(path, metadata={"Software": FIGURE_SOFTWARE}, **options)
-    return Path(path)
+    study may replace or remove it and never touches a picture of the user's; ``path`` as a Path,
+    or the binary file object it was (a picture kept in memory)."""
+    fig.savefig(path, metadata={"Software": FIGURE_SOFTWARE}, format="png", **options)
+    return Path(path) if isinstance(path, (str, Path)) else path
 
 
 def drawn_by_us(path: Path) -> bool:
