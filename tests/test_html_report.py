@@ -113,6 +113,24 @@ def test_a_sweep_report_shows_its_table_and_design_charts(strength_sweep):
     assert {"section", "fos_map.png", "fos_cohesion_pa.png", "fos_friction_deg.png"} == set(_pictures(page))
 
 
+def test_a_probabilistic_report_shows_pf_its_variables_and_the_slip_envelope(tmp_path):
+    """8 realisations of a lognormal cohesion on the quickstart, judged at F = 1.3 (2 fail): pf as the
+    headline, the random variable's table among the inputs, pf's convergence and the slip envelope."""
+    from workflows.cases import RunOptions
+    from workflows.study import parse_study
+    from workflows.study_types import run_study
+
+    text = (REPO / "studies" / "quickstart.toml").read_text() + (
+        '\n[probabilistic]\nrealisations = 8\nseed = 3\nfactor = 1.3\n[[probabilistic.variables]]\n'
+        'path = "materials.soil.cohesion_pa"\ndistribution = "lognormal"\ncov = 0.3\n')
+    study = parse_study(text)
+    outcome = run_study(study, tmp_path, RunOptions(workers=2))
+    _, page = _write((study, tmp_path, outcome))
+    assert len(page.headlines) == 1 and page.headlines[0].startswith("pf = 0.25, 95% interval")
+    assert ["path", "materials.soil.cohesion_pa"] in page.rows and ["distribution", "lognormal"] in page.rows
+    assert {"section", "pf_convergence.png", "slip_envelope.png"} <= set(_pictures(page))
+
+
 def test_only_our_pictures_are_shown_in_the_order_of_the_captions(tmp_path):
     """A user's PNG in the output folder is not ours and stays out of the page; ours come in the
     captions' order, a stage's final state (any other name) last."""
