@@ -206,7 +206,8 @@ def main(
     ] = None,
     scheduler: Annotated[
         Optional[str],
-        typer.Option("--scheduler", help="address of a running dask scheduler (tcp://host:8786) to run the SRF runs on",
+        typer.Option("--scheduler", help="a running dask scheduler to run the SRF runs on: its address "
+                     "(tcp://host:8786) or its scheduler file (scheduler.json)",
                      show_default=False),
     ] = None,
     max_memory: Annotated[

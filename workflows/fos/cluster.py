@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gc
 import importlib
+import json
 import logging
 import multiprocessing
 import multiprocessing.forkserver
@@ -19,6 +20,7 @@ import uuid
 from concurrent.futures import CancelledError, ThreadPoolExecutor
 from contextlib import contextmanager
 from multiprocessing import resource_tracker
+from pathlib import Path
 from urllib.parse import urlsplit
 
 import dask
@@ -30,10 +32,31 @@ from spfem_core.warmup import warm_up
 from workflows.study import StudyError
 
 
+def scheduler_address(scheduler: str) -> str:
+    """The address ``scheduler`` names: itself, or the ``address`` held in the scheduler file it
+    names (a path ending in ``.json``, as ``dask scheduler --scheduler-file``, ``dask-mpi`` and an
+    HPC batch job write it on a shared file system); StudyError on ``--scheduler`` for a file
+    without one."""
+    if not scheduler.endswith(".json"):
+        return scheduler
+    try:
+        address = json.loads(Path(scheduler).read_text(encoding="utf-8")).get("address")
+    except OSError as error:
+        raise StudyError("--scheduler", f"cannot read the scheduler file {scheduler}: {error.strerror or error} "
+                         "(is the scheduler started, and the file on a file system this machine sees?)") from None
+    except (ValueError, AttributeError):
+        address = None
+    if not isinstance(address, str) or not address:
+        raise StudyError("--scheduler", f"{scheduler}: not a dask scheduler file (a JSON object with the "
+                         "scheduler's \"address\")")
+    return address
+
+
 def connect(scheduler: str):
-    """A client of the dask scheduler at ``scheduler``; StudyError (exit 2) if it cannot be reached.
-    A ``tcp://host:port`` that refuses the connection is said at once (dask would retry it for the
-    whole 30 s timeout)."""
+    """A client of the dask scheduler at ``scheduler`` (an address, or a scheduler file:
+    :func:`scheduler_address`); StudyError (exit 2) if it cannot be reached.  A ``tcp://host:port``
+    that refuses the connection is said at once (dask would retry it for the whole 30 s timeout)."""
+    scheduler = scheduler_address(scheduler)
     address = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
     try:
         port = address.port
@@ -73,7 +96,8 @@ def check_scheduler(scheduler: str) -> None:
         client.wait_for_workers(1, timeout=SCHEDULER_WORKER_WAIT_S)
     except (TimeoutError, OSError):
         raise StudyError("--scheduler", f"{scheduler} has no worker (none joined within "
-                         f"{SCHEDULER_WORKER_WAIT_S:g} s): start one (dask worker {scheduler}) or run without "
+                         f"{SCHEDULER_WORKER_WAIT_S:g} s): start one (dask worker "
+                         f"{'--scheduler-file ' * scheduler.endswith('.json')}{scheduler}) or run without "
                          "--scheduler") from None
     finally:
         client.close()
@@ -166,10 +190,24 @@ and queued there while the other worker idled (6.4 s of one study).  Work steali
 on as the remedy for any such placement."""
 
 
+class _RescheduledGather(logging.Filter):
+    """Drops the client's warning "Couldn't gather N keys, rescheduling": a worker that held a
+    finished run died before the run was fetched, and dask computes it again on another worker.
+    Nothing is lost and the result is the same (tests/test_scale_out.py); the study would print
+    dask's raw log line on stderr for it."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("Couldn't gather")
+
+
+_RESCHEDULED_GATHER = _RescheduledGather()
+
+
 def start_client(workers: int, scheduler: str | None):
     """A client on ``scheduler``, or on a new local cluster of ``workers`` single-thread
     processes (settings :data:`LOCAL_CLUSTER_CONFIG`), prepared by
     :func:`_prepare_local_worker`; (client, cluster or None)."""
+    logging.getLogger("distributed.client").addFilter(_RESCHEDULED_GATHER)  # once: a filter is added once
     if scheduler:
         client = connect(scheduler)
         try:
