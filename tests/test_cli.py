@@ -146,6 +146,20 @@ def test_divergence_exits_1_without_result(tmp_path, monkeypatch):
     assert not (tmp_path / "out" / "run.nc").exists()
 
 
+def test_a_closed_worker_connection_is_one_line_not_an_abort(tmp_path, monkeypatch):
+    """click turns an EOFError into Abort (exit 1, "Aborted!", or 130 as Ctrl-C): the study never
+    reads stdin, so an EOFError is a pipe to another process that closed; one line, exit 2."""
+    def closed(self, *args, **kwargs):
+        raise EOFError("Ran out of input")
+
+    monkeypatch.setattr(simulation.Simulation, "run", closed)
+    study = write_study(tmp_path, TINY_BEAM)
+    result = invoke(study, "--out", tmp_path / "out", "--quiet")
+    assert result.exit_code == 2 and result.stderr.count("\n") == 1
+    assert "connection closed unexpectedly (EOFError: Ran out of input)" in result.stderr
+    assert "run the same command again to resume" in result.stderr and "Aborted" not in result.output
+
+
 SLOPE = (REPO / "studies" / "quickstart.toml").read_text()
 
 

@@ -278,6 +278,10 @@ def main(
         where = f"{error.filename}: " if error.filename else ""
         raise _fail(f"error: {study_file}: {where}{error.strerror or error}; the finished runs are kept in {out_dir}; "
                     "fix the cause and run the same command again to resume", EXIT_BAD_STUDY) from None
+    except EOFError as error:  # a pipe to a worker or the forkserver closed: click would call it Ctrl-C
+        raise _fail(f"error: {study_file}: a worker process's connection closed unexpectedly (EOFError{': ' if str(error) else ''}"
+                    f"{error}); the finished runs are kept in {out_dir}; run the same command again to resume",
+                    EXIT_BAD_STUDY) from None
     except (KeyboardInterrupt, Exception) as interrupt:
         if not isinstance(interrupt, KeyboardInterrupt) and signals_in_callbacks.cut_short is None:
             raise
