@@ -336,6 +336,7 @@ def test_killed_sweep_resumes_on_one_worker_with_the_same_study_nc(strength_swee
     assert "cohesion_pa  friction_deg" in rerun.stdout
 
 
+@pytest.mark.slow  # the default suite runs this path with a killed worker: tests/test_scale_out.py
 def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_dask_cluster, tmp_path):
     _, local_out, _ = strength_sweep
     path = tmp_path / "sweep.toml"
