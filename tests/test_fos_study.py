@@ -267,6 +267,7 @@ def test_killed_study_resumes_without_recomputing_finished_runs(tmp_path):
     assert not list(out.glob("*.tmp"))
 
 
+@pytest.mark.slow  # the default suite runs this path through a scheduler file: tests/test_scale_out.py
 def test_runs_on_a_separately_started_dask_cluster(quickstart_run, separate_dask_cluster, tmp_path):
     _, _, local = quickstart_run
     study_path = tmp_path / "quickstart.toml"
