@@ -3,7 +3,7 @@
     python -m benchmarks.step_passes                      # the beam at 1k and 100k, every variant
     python -m benchmarks.step_passes --sizes 1k 10k 100k --repeats 5
 
-The elastic cantilever beam of ``bench_threads`` (beta = 0.1), on one thread, in a fresh process
+The elastic cantilever beam of ``bench_core`` (beta = 0.1), on one thread, in a fresh process
 per measurement (warm numba cache).  Each pass of the step (``spfem_core.stepper``: smoothing,
 stress update, element forces, bond forces, leapfrog) runs alone in a compiled loop of many
 repetitions on the beam's state after 20 steps; the best of 3 timings is quoted in ns per
@@ -29,23 +29,22 @@ import subprocess
 import sys
 from pathlib import Path
 
+from benchmarks.bench_core import BEAM
+
 ROOT = Path(__file__).resolve().parents[1]
 SIZES = {"1k": 1_000, "10k": 10_000, "100k": 100_000}
 VARIANTS = ("shipped", "one block", "hilbert", "packed bonds")
 PASSES = ("smoothing", "stress", "elements", "bonds", "leapfrog")
 
-MEASURE = r'''
+MEASURE = BEAM + r'''
 import json, math, sys, time
 import numpy as np
 import spfem_core.cloud as cloud
 import spfem_core.mesh as mesh_module
 from numba import njit
-from spfem_core import MaterialTable, Scene, SolverSettings
-from spfem_core.cloud import particles_in_polygon
 from spfem_core.constitutive import update_stress
 from spfem_core.integration import leapfrog
 from spfem_core.nodal_force import add_bond_forces, add_element_forces
-from spfem_core.simulation import Simulation
 from spfem_core.smoothing import smooth_velocity_gradient
 
 variant, n_target = {variant!r}, {n}
@@ -76,11 +75,8 @@ if variant == "one block":
     mesh_module.BLOCK_ITEMS = 1 << 40
 
 h = math.sqrt(2.0 * 0.2 / n_target)
-xy = particles_in_polygon([[0.0, 0.0], [2.0, 0.0], [2.0, 0.2], [0.0, 0.2]], h)
-scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.elastic("beam", 1850.0, 80e6, 0.25), h,
-              gravity_m_s2=[0.0, -9.8])
-scene.fix(scene.select_box(x_max=0.0), vx_m_s=0.0, vy_m_s=0.0)
-sim = Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=0.1))
+sim = beam(h, 0.1)
+xy = sim.nodes.xy_m
 sim.run(20 * sim.dt_s)
 nodes, scratch, mesh, mat, dt = sim.nodes, sim.scratch, sim.mesh_arrays, sim.material_arrays, sim.dt_s
 half_beta_dt, min_bond_sq = 0.5 * 0.1 * dt, 0.25 * h * h

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from verification.section_forms import write_forms
 from workflows.scene import build_scene
 from workflows.study import StudyError, load_study, parse_study
 from workflows.study.toml_text import to_toml
@@ -42,41 +43,17 @@ def test_lines_make_the_polygon_study(polygons):
     assert lines.stages == polygons.stages and lines.loads == polygons.loads
 
 
-def _write_csv(path: Path, points, delimiter=","):
-    path.write_text("x_m" + delimiter + "y_m\n" + "".join(f"{x}{delimiter}{y}\n" for x, y in points))
-
-
-def test_lines_read_from_csv_files(tmp_path, polygons, lines_raw):
-    section = lines_raw["geometry"]["section"]
-    _write_csv(tmp_path / "ground.csv", section["ground_m"])
-    _write_csv(tmp_path / "top_of_2.csv", section["layers"][0]["below_m"], delimiter=";")
-    _write_csv(tmp_path / "top_of_3.csv", section["layers"][0]["above_m"], delimiter="\t")
-    section["ground_m"] = "ground.csv"
-    section["layers"][0]["below_m"] = section["layers"][1]["above_m"] = "top_of_2.csv"
-    section["layers"][0]["above_m"] = "top_of_3.csv"
-    (tmp_path / "study.toml").write_text(to_toml(lines_raw))
-    study = load_study(tmp_path / "study.toml")
+def test_lines_read_from_csv_files(tmp_path, polygons):
+    study = load_study(write_forms(tmp_path, polygons.geometry.spacing_m)["lines from CSV"])
     _same_scene(polygons, study)
     # the study kept with the results holds the points, not the file names
     assert "ground.csv" not in study.source_text.split("\n", 1)[1]
     assert parse_study(study.source_text).geometry == study.geometry
 
 
-def test_lines_read_from_a_dxf_file(tmp_path, polygons, lines_raw):
-    ezdxf = pytest.importorskip("ezdxf")
-    section = lines_raw["geometry"]["section"]
-    document = ezdxf.new()
-    space = document.modelspace()
-    space.add_lwpolyline(section["ground_m"][::-1], dxfattribs={"layer": "GROUND"})  # drawn right to left
-    space.add_polyline2d(section["layers"][0]["below_m"], dxfattribs={"layer": "TOP_OF_2"})
-    space.add_lwpolyline(section["layers"][0]["above_m"], dxfattribs={"layer": "TOP_OF_3"})
-    space.add_text("ACADS 1(c)", dxfattribs={"layer": "NOTES"})
-    document.saveas(tmp_path / "section.dxf")
-    section["ground_m"] = "section.dxf#GROUND"
-    section["layers"][0]["below_m"] = section["layers"][1]["above_m"] = "section.dxf#TOP_OF_2"
-    section["layers"][0]["above_m"] = "section.dxf#TOP_OF_3"
-    (tmp_path / "study.toml").write_text(to_toml(lines_raw))
-    _same_scene(polygons, load_study(tmp_path / "study.toml"))
+def test_lines_read_from_a_dxf_file(tmp_path, polygons):
+    pytest.importorskip("ezdxf")
+    _same_scene(polygons, load_study(write_forms(tmp_path, polygons.geometry.spacing_m)["lines from DXF"]))
 
 
 def _error(tmp_path, raw) -> StudyError:
