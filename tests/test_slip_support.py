@@ -78,9 +78,9 @@ def test_least_circle_reproduces_taylors_toe_circles(angle_deg, taylor_n):
     assert 20e3 / (circle.fos * 20e3 * 5.0) == pytest.approx(taylor_n, rel=0.005)
 
 
-def _phi0_fos(tmp_path, fixed_base: bool) -> float:
+def _phi0_fos(tmp_path, base: str) -> float:
     """FOS of the 5 m undrained slope of taylor_phi0.toml at 45 deg, h = H / 10, on its base at the
-    toe (``verification.fixed_supports.study_text``)."""
+    toe written ``vx_m_s = vy_m_s = 0``, welded or rough (``verification.fixed_supports.study_text``)."""
     import xarray as xr
 
     from verification.fixed_supports import study_text
@@ -88,16 +88,35 @@ def _phi0_fos(tmp_path, fixed_base: bool) -> float:
     from workflows.study import parse_study
     from workflows.study_types import run_study
 
-    run_study(parse_study(study_text(45.0, 0.5, fixed_base)), tmp_path, RunOptions(workers=2))
+    run_study(parse_study(study_text(45.0, 0.5, base)), tmp_path, RunOptions(workers=2))
     with xr.open_dataset(tmp_path / "summary.nc") as ds:
         return float(ds["fos"])
 
 
-def test_an_undrained_slope_on_a_firm_base_meets_its_least_circle_where_fixed_particles_stood_4pc_above(tmp_path):
-    """The least circle touches the base: on fixed particles the slip can only pass a row above it
-    (+4.1% at H / 10, falling at first order); sliding along the base at cu it lies at the bound."""
+def test_an_undrained_slope_on_a_rigid_base_meets_its_least_circle_where_welded_particles_stood_4pc_above(tmp_path):
+    """The least circle touches the base: on welded particles the slip can only pass a row above it
+    (+4.1% at H / 10, falling at first order); on the base as written, vx = vy = 0, which is rough by
+    default, the soil slides along it at cu and the FOS lies at the bound."""
     bound = slope_least_circle(5.0, 45.0, 20e3, 20e3).fos  # 1.2153
-    on_slip_base = _phi0_fos(tmp_path / "slip", fixed_base=False)  # the slope form's base: slip = "soil"
-    on_fixed_base = _phi0_fos(tmp_path / "fixed", fixed_base=True)
-    assert abs(on_slip_base / bound - 1.0) < 0.01
-    assert on_fixed_base / bound - 1.0 > 0.03
+    on_rough_base = _phi0_fos(tmp_path / "rough", "rough")
+    on_welded_base = _phi0_fos(tmp_path / "welded", "welded")
+    assert abs(on_rough_base / bound - 1.0) < 0.01
+    assert on_welded_base / bound - 1.0 > 0.03
+
+
+def test_a_base_held_in_both_directions_is_the_slope_forms_slip_base():
+    """``vx_m_s = vy_m_s = 0`` on a horizontal line of particles: held vertically, sliding along at the
+    soil's strength, particle for particle the support that ``slip = "soil"`` with ``vy_m_s = 0`` makes;
+    ``slip = "welded"`` holds both directions."""
+    from verification.fixed_supports import study_text
+    from workflows.scene import build_scene
+    from workflows.study import parse_study
+
+    rough = build_scene(parse_study(study_text(45.0, 0.5, "rough")))
+    form = build_scene(parse_study(study_text(45.0, 0.5, "rough").split("[[boundary]]")[0]))  # the slope form's
+    welded = build_scene(parse_study(study_text(45.0, 0.5, "welded")))
+    for name in ("node_fixed", "node_fixed_velocity_m_s", "node_slip_length_m", "node_slip_side"):
+        np.testing.assert_array_equal(getattr(rough, name), getattr(form, name))
+    base = welded.node_xy_m[:, 1] <= 1e-9
+    assert welded.node_fixed[base].all() and not welded.node_slip_length_m.any()
+    assert not rough.node_fixed[base & (rough.node_xy_m[:, 0] > 1e-9), 0].any()

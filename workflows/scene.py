@@ -219,10 +219,11 @@ class Supports(NamedTuple):
 
 def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) -> Supports:
     """The ``[[boundary]]`` entries named in ``active`` (default: all), applied in file order.  A
-    slip support's particles lie on one line across its prescribed direction: each gets half the
-    distance between its neighbours along the line (an end particle half the gap to its one
-    neighbour) and the side the support lies on, away from the body's centroid.  A particle that
-    ends with both directions prescribed (a corner shared with another support) is not a slip one."""
+    slip support (:func:`slip_normal`) holds only its normal direction; its particles lie on one
+    line across that direction: each gets half the distance between its neighbours along the line
+    (an end particle half the gap to its one neighbour) and the side the support lies on, away from
+    the body's centroid.  A particle that ends with both directions prescribed (a corner shared with
+    another support) is not a slip one."""
     n = scene.n_particles
     fixed = np.zeros((n, 2), dtype=bool)
     velocity = np.zeros((n, 2))
@@ -231,18 +232,42 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) 
         if active is not None and boundary.name not in active:
             continue
         nodes = _boundary_nodes(scene, boundary)
+        normal = slip_normal(scene, boundary, nodes)
         for d, value in enumerate((boundary.vx_m_s, boundary.vy_m_s)):
-            if value is not None:
+            if value is not None and (normal is None or d == normal):
                 fixed[nodes, d] = True
                 velocity[nodes, d] = value
-        if boundary.slip == "soil":
-            normal = 0 if boundary.vx_m_s is not None else 1
+        if normal is not None:
             slip_length[nodes], slip_side[nodes] = _slip_shares(scene, nodes, normal, boundary.name)
         else:
             slip_length[nodes], slip_side[nodes] = 0.0, 0.0
     corner = fixed.all(axis=1)
     slip_length[corner], slip_side[corner] = 0.0, 0.0
     return Supports(fixed, velocity, slip_length, slip_side)
+
+
+def slip_normal(scene: Scene, boundary, nodes: np.ndarray) -> int | None:
+    """The direction a slip support holds (0: x, 1: y), or None for a support that is not one.
+
+    ``slip = "soil"`` with one direction prescribed holds that one; with both prescribed at 0 it holds
+    the one across the straight line its particles lie on.  Without ``slip``, a support that holds
+    both velocities at 0 along one horizontal or vertical line is a slip support (a rough rigid base:
+    the soil slides along it at its own strength, docs/method.md section 3); ``welded`` and ``none``
+    are not."""
+    if boundary.slip in ("welded", "none"):
+        return None
+    if boundary.slip == "soil" and [boundary.vx_m_s, boundary.vy_m_s].count(None) == 1:
+        return 0 if boundary.vx_m_s is not None else 1
+    if not boundary.holds_both_at_rest:
+        return None
+    on_line = [d for d in (1, 0) if nodes.size >= 2 and np.ptp(scene.node_xy_m[nodes, d]) <= 1e-3 * scene.spacing_m]
+    if on_line:
+        return on_line[0]
+    if boundary.slip == "soil":
+        raise StudyError("boundary", f"the slip support {boundary.name!r} holds both velocities, so its particles "
+                         "must lie on one horizontal or vertical line (the direction it holds is the one across it); "
+                         "they do not: give only the velocity it holds (vx_m_s or vy_m_s = 0), or slip = \"welded\"")
+    return None
 
 
 def _slip_shares(scene: Scene, nodes: np.ndarray, normal: int, name: str) -> tuple[np.ndarray, np.ndarray]:
