@@ -125,18 +125,3 @@ def test_a_refined_band_gives_the_fos_of_the_uniform_fine_cloud_with_fewer_parti
     assert (tmp_path / "band" / "particle_spacing.png").is_file()
     with xr.open_dataset(tmp_path / "band" / "gravity.nc") as gravity:
         assert gravity["particle_spacing"].values.min() == 0.5 and gravity["particle_spacing"].values.max() == 1.0
-
-
-def test_adaptive_refinement_refines_the_coarse_runs_shear_band(fine_quickstart, tmp_path):
-    """[refinement] adaptive_spacing_m = 0.5: the second level is the 1 m study with a zone of 0.5 m
-    along the band of the first's failed run; its FOS is the uniform 0.5 m cloud's within the
-    search tolerance, with fewer particles."""
-    outcome = run_study(parse_study(QUICKSTART + "\n[refinement]\nadaptive_spacing_m = 0.5\n"), tmp_path,
-                        RunOptions(workers=2))
-    coarse, refined = outcome.levels
-    assert coarse.spacing_m == 1.0 and refined.spacing_m == 0.5
-    assert abs(refined.fos - fine_quickstart.fos) <= 0.01
-    assert coarse.n_particles < refined.n_particles < fine_quickstart.n_particles
-    level = parse_study((tmp_path / "levels" / "1_h=0.5" / "case.toml").read_text())
-    assert level.geometry.spacing_m == 1.0 and [zone.spacing_m for zone in level.geometry.refined] == [0.5]
-    assert outcome.verdict.startswith("FOS = ") and "shear band" in outcome.verdict

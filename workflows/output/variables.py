@@ -246,6 +246,9 @@ SUMMARY_FILE_ATTRIBUTES = (
               "runs guessed on idle workers ahead of the search, and how many the search then asked for"),
     Attribute("time_<part>_s", "wall time of gravity, srf_runs_elapsed, srf_runs_worker (summed over workers), "
               "remeshing, io and total (s)"),
+    Attribute("box_decides", "1 when the first failed run's mechanism reaches a side of the domain, a welded "
+              "support or a smooth base: the FOS depends on where the box was drawn (workflows/fos/domain_edges.py)"),
+    Attribute("mechanism_edges", "each support the mechanism reaches, what it is and what to do; empty: none"),
 )
 
 SWEEP_DIMS = ("<sweep dims>",)
@@ -270,12 +273,12 @@ SWEEP_FILE = _table(
 )
 
 REFINED_SWEEP_FILE = _table(
-    Variable("fos_extrapolated", SWEEP_DIMS, "1",
-             "the case's FOS at h -> 0 (its refinement.nc; NaN: fewer than three levels have an FOS)"),
-    Variable("fos_band_low", SWEEP_DIMS, "1", "lower end of the case's discretisation band"),
-    Variable("fos_band_high", SWEEP_DIMS, "1", "upper end of the case's discretisation band"),
-    Variable("extrapolation_status", SWEEP_DIMS, "1",
-             "extrapolated, converged, oscillating, order_out_of_range or none (as refinement.nc)"),
+    Variable("fos_limit", SWEEP_DIMS, "1",
+             "the case's FOS at h -> 0 (its refinement.nc; NaN: fewer than four levels have an FOS)"),
+    Variable("fos_uncertainty", SWEEP_DIMS, "1", "U of the case: its FOS lies in fos_limit -+ U (95%)"),
+    Variable("fos_band_low", SWEEP_DIMS, "1", "lower end of the case's discretisation band, fos_limit - U"),
+    Variable("fos_band_high", SWEEP_DIMS, "1", "upper end of the case's discretisation band, fos_limit + U"),
+    Variable("band_trusted", SWEEP_DIMS, "1", "1 when the case's band is trusted (as refinement.nc), else 0"),
     Variable("finest_spacing", SWEEP_DIMS, "m", "particle spacing of the case's finest level, whose FOS is fos"),
 )
 """What ``study.nc`` of a sweep with ``[refinement]`` holds besides ``SWEEP_FILE``, whose variables
@@ -321,6 +324,10 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
     Attribute("fos_mean, fos_std, reliability_index_normal, reliability_index_lognormal",
               "fos mode: the FOS statistics and the reliability index (beta = (mu - 1) / sigma; lognormal: "
               "ln(mu / sqrt(1 + V^2)) / sqrt(ln(1 + V^2)))"),
+    Attribute("n_mechanisms, mechanism_edges, box_decides_fraction",
+              "failed realisations whose mechanism was extracted (their run files keep particles); the fraction of "
+              "them whose mechanism reaches each support it reaches (workflows/fos/domain_edges.py); the largest such "
+              "fraction at a side, a welded support or a smooth base, where the box and not the soil decides"),
 )
 
 PROBABILISTIC_SWEEP_FILE = _table(
@@ -362,7 +369,7 @@ GRADED_CLOUD_VARIABLES = ("particle_spacing",)
 """Variables of STAGE_FILE that a stage file holds only for a graded cloud (``[[geometry.refined]]``)."""
 
 REFINEMENT_FILE = _table(
-    Variable("spacing", ("level",), "m", "nominal particle spacing h of the level"),
+    Variable("spacing", ("level",), "m", "particle spacing h of the level (adaptive: of its finest zone, the band)"),
     Variable("n_particles", ("level",), "1", "particles of the level's slope"),
     Variable("fos", ("level",), "1", "factor of safety at the level's spacing (NaN: none, see level_verdict)"),
     Variable("fos_low", ("level",), "1", "lower end of the level's FOS bracket"),
@@ -372,23 +379,31 @@ REFINEMENT_FILE = _table(
     Variable("criteria_agree", ("level",), "1", "1 when the level's run verdicts bracket the same FOS"),
     Variable("level_verdict", ("level",), "1", "the level's FOS line (its summary.nc)"),
     Variable("level_folder", ("level",), "1", "the folder under OUT/levels/ with the level's files"),
-    Variable("fos_extrapolated", (), "1",
-             "factor of safety at h -> 0: Richardson's extrapolation of the three finest levels where they "
-             "extrapolate, else the finest level's FOS (see extrapolation_status)"),
+    Variable("fos_fit", ("level",), "1", "the fit of the band's procedure at the level's spacing (NaN: no band)"),
+    Variable("fos_limit", (), "1",
+             "factor of safety at h -> 0: f0 of the least-squares fit of the levels (Eca & Hoekstra 2014; NaN: "
+             "fewer than four levels have an FOS)"),
+    Variable("fos_uncertainty", (), "1", "U: the FOS lies in fos_limit -+ U with 95% confidence"),
 )
 """``refinement.nc`` of a refinement study (``[refinement]``): the FOS over the ``level``
-dimension (coarsest first) and its extrapolation to h -> 0 (docs/method.md, section 9)."""
+dimension (coarsest first), its value at h -> 0 and its uncertainty (docs/method.md, section 9)."""
 
 REFINEMENT_FILE_ATTRIBUTES = (
     Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the refinement's study text)"),
-    Attribute("extrapolation_status", "extrapolated, converged (the levels agree within their resolution), "
-              "oscillating or order_out_of_range (no extrapolation: a conservative band), or none"),
-    Attribute("band_low, band_high", "the discretisation band of the FOS: the finest level's FOS -+ the GCI "
-              "(or the conservative band)"),
-    Attribute("observed_order", "p of the three finest levels (NaN: none)"),
-    Attribute("gci", "grid convergence index of the finest level, a fraction of its FOS"),
-    Attribute("safety_factor, level_fos_tolerance", "Fs of the GCI, and each level's search tolerance"),
-    Attribute("extrapolation_reason, verdict", "one line each: how the band was found; the report's first line"),
+    Attribute("mode", "adaptive or uniform"),
+    Attribute("band_low, band_high", "the discretisation band fos_limit -+ fos_uncertainty"),
+    Attribute("band_trusted", "1 when the band is trusted: an observed order in range and levels that differ by "
+              "more than their scatter (safety factor 1.25), else 0 (safety factor 3)"),
+    Attribute("fit_kind, observed_order", "the fit the band rests on (free order, first order, second order, first "
+              "and second order) and its order"),
+    Attribute("error_estimate, scatter, data_range, safety_factor",
+              "eps = |f_1 - f0|, the scatter s (the largest of the fit's standard deviation, the measured scatter and "
+              "the levels' search resolution), Delta, Fs"),
+    Attribute("measured_scatter, repeat_fos", "the scatter measured by repeating level 1 with another jitter seed, "
+              "and that repeat's FOS (NaN: not repeated)"),
+    Attribute("level_fos_tolerance", "each level's search tolerance"),
+    Attribute("band_reason, stop_reason, verdict", "one line each: how the band was found and whether to trust it; "
+              "why the levels stopped; the report's first line"),
 )
 
 SEEPAGE_FILE = _table(

@@ -1,6 +1,6 @@
 """``convergence.png`` of a refinement study: each level's FOS and bracket against its spacing h,
-the extrapolation to h -> 0 (f_ext + (f1 - f_ext) (h / h1)^p through the finest level) and the
-discretisation band at h = 0 (PNG, matplotlib without a display, ``workflows.output.figures``)."""
+the fit of the band's procedure through them to h -> 0 and the band there (PNG, matplotlib without
+a display, ``workflows.output.figures``)."""
 
 from __future__ import annotations
 
@@ -22,20 +22,21 @@ def draw_convergence(out_dir: Path, ds: xr.Dataset) -> list[Path]:
     found = np.isfinite(fos)
     ax.errorbar(h[found], fos[found], yerr=[fos[found] - low[found], high[found] - fos[found]], fmt="o",
                 color="tab:blue", capsize=3, label="FOS and bracket per level")
-    status = ds.attrs["extrapolation_status"]
+    if math.isfinite(ds.attrs["repeat_fos"]):
+        ax.plot([h[1]], [ds.attrs["repeat_fos"]], "x", color="tab:blue", label="level 1, another jitter seed")
     band_low, band_high = ds.attrs["band_low"], ds.attrs["band_high"]
     if math.isfinite(band_low):
+        trusted = "trusted" if ds.attrs["band_trusted"] else "not to be trusted"
         ax.fill_between([0.0, 0.04 * h.max()], band_low, band_high, color="tab:orange", alpha=0.3,
-                        label=f"band at h -> 0 ({status.replace('_', ' ')})")
-    p, extrapolated = ds.attrs["observed_order"], float(ds["fos_extrapolated"])
-    if status == "extrapolated":
-        finest = int(np.argmin(np.where(found, h, np.inf)))
-        curve_h = np.linspace(0.0, h[found].max(), 100)
-        curve = extrapolated + (fos[finest] - extrapolated) * (curve_h / h[finest]) ** p
-        ax.plot(curve_h, curve, "--", color="tab:orange", label=f"Richardson, p = {p:.2g}")
-        ax.plot([0.0], [extrapolated], "s", color="tab:orange")
+                        label=f"FOS at h -> 0, 95% band ({trusted})")
+        limit = float(ds["fos_limit"])
+        fit = ds["fos_fit"].values
+        order = np.argsort(h)
+        ax.plot(np.concatenate([[0.0], h[order]]), np.concatenate([[limit], fit[order]]), "--", color="tab:orange",
+                label=f"fit: {ds.attrs['fit_kind']}")
+        ax.plot([0.0], [limit], "s", color="tab:orange")
     ax.set_xlim(left=0.0)
-    ax.set_xlabel("particle spacing h (m)")
+    ax.set_xlabel("particle spacing h (m)" + (" of the band" if ds.attrs["mode"] == "adaptive" else ""))
     ax.set_ylabel("factor of safety")
     ax.set_title(f"{ds.attrs['study_name']}: FOS against particle spacing", fontsize=10)
     ax.legend(fontsize=8)

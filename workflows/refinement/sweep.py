@@ -128,7 +128,8 @@ class RefinedSweepStudy(StudyType):
                 results[case_id] = diverged_result(f"the gravity stage diverged: {self.diverged[case_id]}", 0)
                 continue
             refinements[case_id] = refinement.conclude(self.level_outcomes[case_id], CaseTimings(), wall_start)
-            finest = self.level_outcomes[case_id][refinement._case_id(refinement.current)]
+            finest = self.level_outcomes[case_id][refinement._case_id(max(refinement.found))] \
+                if refinement.found else next(iter(self.level_outcomes[case_id].values()))
             results[case_id] = case_result(finest)
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = refined_sweep_dataset(self.study, self.sweep_cases, results, refinements)
@@ -150,13 +151,14 @@ class RefinedSweepStudy(StudyType):
         rows = []
         for case in outcome.cases:
             refinement, finest = outcome.refinements[case.case_id], outcome.results[case.case_id]
-            x = refinement.extrapolation if refinement is not None else None
+            x = refinement.band if refinement is not None else None
             levels = " ".join(f"{level.fos:.4f}" if math.isfinite(level.fos) else "-"
                               for level in (refinement.levels if refinement is not None else []))
-            band = f"{x.fos:.4f} [{x.band_low:.4f}, {x.band_high:.4f}]" if x is not None else "-"
-            status = x.status if x is not None else (refinement.message if refinement is not None else finest.status)
+            band = f"{x.fos:.4f} +- {x.uncertainty:.4f}" if x is not None else "-"
+            status = (("trusted" if x.trusted else "not trusted") if x is not None else
+                      (refinement.message if refinement is not None else finest.status))
             rows.append([value_text(case.values[label]) for label in labels] + [levels, band, status])
-        table = fixed_width_table(labels + ["FOS per level", "FOS at h -> 0 [band]", "status"], rows, len(labels))
+        table = fixed_width_table(labels + ["FOS per level", "FOS at h -> 0 (95%)", "band"], rows, len(labels))
         if quiet:
             return Report(table)
         header = f"{self.study.name}: {len(outcome.cases)} cases refined, wall time {outcome.timings_s['total']:.1f} s"
