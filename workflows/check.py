@@ -123,6 +123,8 @@ class StudyCheck:
     processes: int  # simulations held at once (the client and each local worker)
     estimate: RunTimeEstimate | None
     section_png: Path
+    critical: object = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
+    warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings)
 
     def lines(self) -> list[str]:
         """What the command prints."""
@@ -139,6 +141,12 @@ class StudyCheck:
                 cases = "" if e.cases == 1 else f"{e.cases} cases x "
                 lines.append(f"the study: about {_seconds(e.study_s)} ({cases}{TYPICAL_STABLE_RUNS + TYPICAL_FAILED_RUNS} "
                              f"runs, as a typical study makes, on {e.workers} worker{'s' * (e.workers > 1)})")
+        if self.critical is not None:
+            c = self.critical
+            lines.append(f"limit equilibrium (Bishop's circles, {c.water}): F about {c.fos:.3g} on a circle from x = "
+                         f"{min(c.entry_x_m, c.exit_x_m):.4g} to {max(c.entry_x_m, c.exit_x_m):.4g} m (where the "
+                         "mechanism should form; the strength reduction gives the FOS)")
+        lines += list(self.warnings)
         lines.append(f"wrote {self.section_png}")
         return lines
 
@@ -150,23 +158,27 @@ def _seconds(value_s: float) -> str:
 def check_study(study: Study, out_dir: Path, workers: int) -> StudyCheck:
     """Build the scene of ``study`` (its refusals as StudyError), draw the section into ``out_dir`` and
     estimate the run (module doc)."""
+    from workflows.fos.critical_circle import critical_circle, domain_warnings
     from workflows.output.writing import make_output_folder
     from workflows.scene import build_scene
 
     scene = build_scene(study)
     make_output_folder(out_dir)
-    path = draw_section(study, scene, out_dir / SECTION_FIGURE)
+    critical = critical_circle(study) if study.strength_reduction is not None else None
+    path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical)
     processes = 1 + workers if study.strength_reduction is not None else 1
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, processes,
-                      run_time_estimate(study, scene, workers), path)
+                      run_time_estimate(study, scene, workers), path, critical,
+                      tuple(domain_warnings(study, critical)) if critical is not None else ())
 
 
 SECTION_FIGURE = "section.png"
 """The picture ``spfem-fos check`` draws in the output folder."""
 
 
-def draw_section(study: Study, scene, path: Path) -> Path:
-    """The section of the module doc into ``path``."""
+def draw_section(study: Study, scene, path: Path, critical=None) -> Path:
+    """The section of the module doc into ``path``, with the ``critical`` circle of a limit-equilibrium
+    search (``fos.critical_circle``) dashed where it lies in the ground."""
     from workflows.fos.figures import draw_water_and_loads
     from workflows.output.figures import pyplot, save_figure
     from workflows.scene import supports
@@ -202,6 +214,11 @@ def draw_section(study: Study, scene, path: Path) -> Path:
         zone_ring = np.vstack([zone.region_m, zone.region_m[:1]])
         ax.plot(zone_ring[:, 0], zone_ring[:, 1], ":", color="tab:purple", lw=1.2)
     draw_water_and_loads(ax, study)
+    if critical is not None:
+        low, high = sorted((critical.entry_x_m, critical.exit_x_m))
+        x = np.linspace(low, high, 200)
+        y = critical.centre_m[1] - np.sqrt(np.maximum(critical.radius_m**2 - (x - critical.centre_m[0]) ** 2, 0.0))
+        ax.plot(x, y, "--", color="tab:red", lw=1.0, label=f"critical circle (Bishop, F {critical.fos:.3g})")
     for monitor in study.monitors:
         ax.plot(monitor.x_m, monitor.y_m, "x", color="tab:red", ms=7, mew=1.5)
         ax.annotate(monitor.name, (monitor.x_m, monitor.y_m), xytext=(4, 4), textcoords="offset points",

@@ -232,7 +232,7 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) 
         if active is not None and boundary.name not in active:
             continue
         nodes = _boundary_nodes(scene, boundary)
-        normal = slip_normal(scene, boundary, nodes)
+        normal = slip_normal(scene.node_xy_m, scene.spacing_m, boundary, nodes)
         for d, value in enumerate((boundary.vx_m_s, boundary.vy_m_s)):
             if value is not None and (normal is None or d == normal):
                 fixed[nodes, d] = True
@@ -246,7 +246,7 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) 
     return Supports(fixed, velocity, slip_length, slip_side)
 
 
-def slip_normal(scene: Scene, boundary, nodes: np.ndarray) -> int | None:
+def slip_normal(node_xy_m: np.ndarray, spacing_m: float, boundary, nodes: np.ndarray) -> int | None:
     """The direction a slip support holds (0: x, 1: y), or None for a support that is not one.
 
     ``slip = "soil"`` with one direction prescribed holds that one; with both prescribed at 0 it holds
@@ -260,7 +260,7 @@ def slip_normal(scene: Scene, boundary, nodes: np.ndarray) -> int | None:
         return 0 if boundary.vx_m_s is not None else 1
     if not boundary.holds_both_at_rest:
         return None
-    on_line = [d for d in (1, 0) if nodes.size >= 2 and np.ptp(scene.node_xy_m[nodes, d]) <= 1e-3 * scene.spacing_m]
+    on_line = [d for d in (1, 0) if nodes.size >= 2 and np.ptp(node_xy_m[nodes, d]) <= 1e-3 * spacing_m]
     if on_line:
         return on_line[0]
     if boundary.slip == "soil":

@@ -59,4 +59,6 @@ def report_lines(outcome) -> list[str]:
                        else f"no limit-equilibrium FOS on it: {le.reason}")
         lines.append(f"slip surface (SRF {slip.srf:g}): entry ({x_in:.4g}, {y_in:.4g}) m, exit ({x_out:.4g}, "
                      f"{y_out:.4g}) m, {slip.depth_m:.3g} m deep, {slip.area_m2:.3g} m2; {cross_check}")
+    for contact in getattr(outcome, "edges", []):
+        lines.append(("WARNING, the box decides: " if contact.warning else "note: ") + contact.line)
     return lines

@@ -118,7 +118,7 @@ def slip_line(xy0_m: np.ndarray, mass: np.ndarray, spacing_m: float, polygon_m) 
     return np.array([low, *xs, high]), np.array([ground[0], *ys, ground[1]])
 
 
-def _strength(material) -> tuple[float, float] | None:
+def material_strength(material) -> tuple[float, float] | None:
     """(c in Pa, tan phi) of a material for limit equilibrium; None: no strength (elastic)."""
     if getattr(material, "cohesion_pa", None) is not None and getattr(material, "friction_deg", None) is not None:
         return float(material.cohesion_pa), float(np.tan(np.radians(material.friction_deg)))
@@ -159,7 +159,7 @@ def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slic
     horizontal = sign * acceleration[0] * slice_mass
     base_y = np.interp(middle, lx, ly)
     nearest = cKDTree(np.column_stack([px, y0])).query(np.column_stack([middle, base_y]))[1]
-    strengths = [_strength(study.materials[m]) for m in particles["material"][nearest]]
+    strengths = [material_strength(study.materials[m]) for m in particles["material"][nearest]]
     if any(s is None for s in strengths):
         names = sorted({study.materials[m].name for m, s in zip(particles["material"][nearest], strengths) if s is None})
         return f"the slip line runs through {', '.join(names)}, which has no strength (elastic)"
@@ -179,7 +179,8 @@ def run_particles(path, study) -> dict | None:
         if "particle_x0" not in ds:
             return None
         fields = {"x0": "particle_x0", "y0": "particle_y0", "ux": "particle_ux", "uy": "particle_uy",
-                  "mass": "particle_mass", "material": "particle_material", "pore_pressure": "particle_pore_pressure"}
+                  "mass": "particle_mass", "material": "particle_material", "pore_pressure": "particle_pore_pressure",
+                  "plastic_strain": "particle_plastic_strain"}
         particles = {key: ds[name].values for key, name in fields.items() if name in ds}
         spacing = ds["particle_spacing"].values if "particle_spacing" in ds else None
     particles.setdefault("pore_pressure", np.zeros_like(particles["x0"]))

@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from workflows.fos.criterion import brackets_agree, curvature, first_failed_sweep_srf, status_bracket
+from workflows.fos.domain_edges import EdgeContact, edge_contacts
 from workflows.fos.figures import FIGURE_NAMES, draw_figures
 from workflows.fos.report import verdict_line
 from workflows.fos.run_store import SUMMARY_NAME, run_file_name
@@ -54,6 +55,7 @@ class FosOutcome:
     figures: list[Path] = field(default_factory=list)
     stiffness_factor: float = 1.0  # the runs' moduli over the declared ones (StrengthReductionStage.stiffness_factor)
     slip: SlipSurface | str = "not extracted"  # the slip surface, or why there is none (slip_surface.py)
+    edges: list[EdgeContact] = field(default_factory=list)  # the supports its mechanism reaches (domain_edges.py)
 
 
 def conclude_case(case, progress, wall_start: float, figures: bool, summary_file: bool = True) -> FosOutcome:
@@ -99,7 +101,10 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
         (out_dir / SUMMARY_NAME).unlink(missing_ok=True)  # not one of an earlier invocation's
         return outcome
     io_start = time.perf_counter()
-    outcome.slip = case_slip_surface(study, out_dir, status)
+    outcome.slip, outcome.edges = case_mechanism(study, out_dir, status)
+    for contact in outcome.edges if case.label else []:  # a single study's report says it
+        if contact.warning:
+            progress.message(case.say(f"warning: the box decides: {contact.line}"))
     summary = summary_dataset(study, outcome, knee, status, search.stop_reason, floor_m)
     timings["total"] = time.perf_counter() - wall_start
     summary.attrs.update({f"time_{name}_s": value for name, value in timings.items()})
@@ -112,18 +117,19 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
     return outcome
 
 
-def case_slip_surface(study, out_dir: Path, status) -> SlipSurface | str:
+def case_mechanism(study, out_dir: Path, status) -> tuple[SlipSurface | str, list[EdgeContact]]:
     """The slip surface of the case's first failed run beyond its last stable run (the status
-    bracket), from their run files; or why there is none."""
+    bracket), from their run files, or why there is none; and the supports its mechanism reaches."""
     if math.isnan(status.fos_high):
-        return "no run failed"
+        return "no run failed", []
     failed = run_particles(out_dir / run_file_name(status.fos_high), study)
     if failed is None:
-        return f"the run at SRF {status.fos_high:g} kept no particle fields"
+        return f"the run at SRF {status.fos_high:g} kept no particle fields", []
     stable = None
     if not math.isnan(status.fos_low):
         stable = run_particles(out_dir / run_file_name(status.fos_low), study)
-    return slip_surface(study, failed, stable, status.fos_high, status.fos_low if stable is not None else math.nan)
+    slip = slip_surface(study, failed, stable, status.fos_high, status.fos_low if stable is not None else math.nan)
+    return slip, edge_contacts(study, failed, stable)
 
 
 def _slip_variables(ds: xr.Dataset, slip: SlipSurface | str) -> None:
@@ -207,6 +213,8 @@ def summary_dataset(study, outcome: FosOutcome, knee, status, stop_reason: str, 
         "gravity_reused": int(bool(outcome.gravity_reused)),
         "runs_started_ahead": int(outcome.guesses[0]),
         "runs_started_ahead_used": int(outcome.guesses[1]),
+        "box_decides": int(any(contact.warning for contact in outcome.edges)),
+        "mechanism_edges": "; ".join(contact.line for contact in outcome.edges),
         **provenance(study),
     }
     return ds

@@ -77,6 +77,10 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
         "n_realisations": n, "n_failed": outcome.n_failed, "n_undecided": outcome.n_undecided,
         "method": table.method, "seed": table.seed, "compute": table.compute, "factor": table.factor,
         "fos_mean": outcome.fos_mean, "fos_std": outcome.fos_std,
+        "n_mechanisms": outcome.n_mechanisms,
+        "mechanism_edges": "; ".join(f"{fraction:.4f} reach {where}" for where, fraction, _ in outcome.edge_fractions),
+        "box_decides_fraction": max([fraction for _, fraction, warning in outcome.edge_fractions if warning],
+                                    default=0.0),
         **attrs,
         **provenance(study),
     }

@@ -148,6 +148,8 @@ class ProbabilisticOutcome:
     runs_made: int = 0
     timings_s: dict[str, float] = field(default_factory=dict)
     figures: list[Path] = field(default_factory=list)
+    n_mechanisms: int = 0  # failed realisations whose mechanism was extracted (their run files keep particles)
+    edge_fractions: list = field(default_factory=list)  # (where, fraction of n_mechanisms, a warning) per support
 
     @property
     def verdict(self) -> str:
@@ -185,6 +187,7 @@ class ProbabilisticStudy(SweepStudy):
         self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known with the cases)
         self.realisation_of: dict[str, int] = {}  # case id -> realisation number (known with the cases)
         self.slip_lines: dict[str, tuple] = {}  # case id -> the slip line (x, y) of a failed realisation
+        self.edges_reached: dict[str, list] = {}  # case id -> the supports its mechanism reaches (failed ones)
         self.study_of: dict[str, Study] = {}  # case id -> its study (known with the cases)
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
@@ -220,27 +223,42 @@ class ProbabilisticStudy(SweepStudy):
                 if record.status == FAILED:
                     without_particle_fields(outcome.out_dir / run_file_name(record.srf))
         if verdict == FAILED and not isinstance(outcome, DivergenceError):
-            line = self._slip_line(case_id, outcome)
+            line, edges = self._mechanism(case_id, outcome)
             if line is not None:
                 self.slip_lines[case_id] = line
+                self.edges_reached[case_id] = edges
         decided = tally[FAILED] + tally[STABLE]
         progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
 
-    def _slip_line(self, case_id: str, outcome) -> tuple | None:
-        """The slip line (x, y) of a failed realisation: its summary's, or in verdict mode the mechanism
-        of its failed run alone (no stable run to subtract); None when its run file keeps no particles."""
+    def _mechanism(self, case_id: str, outcome) -> tuple[tuple | None, list]:
+        """The slip line (x, y) of a failed realisation and the supports its mechanism reaches: its
+        summary's, or in verdict mode those of its failed run alone (no stable run to subtract); (None,
+        []) when its run file keeps no particles."""
+        from workflows.fos.domain_edges import edge_contacts
         from workflows.fos.run_store import run_file_name
         from workflows.fos.slip_surface import SlipSurface, run_particles, slip_surface
 
-        slip = getattr(outcome, "slip", None)
+        slip, edges = getattr(outcome, "slip", None), getattr(outcome, "edges", [])
         if not isinstance(slip, SlipSurface):
             failed = sorted(record.srf for record in outcome.runs if record.status == FAILED)
             study = self.study_of[case_id]
             particles = run_particles(outcome.out_dir / run_file_name(failed[0]), study) if failed else None
             if particles is None:
-                return None
+                return None, []
             slip = slip_surface(study, particles, None, failed[0], math.nan, limit_equilibrium=False)
-        return (slip.x_m, slip.y_m) if isinstance(slip, SlipSurface) else None
+            edges = edge_contacts(study, particles, None)
+        return ((slip.x_m, slip.y_m), edges) if isinstance(slip, SlipSurface) else (None, [])
+
+    def edge_fractions(self, case_ids) -> list[tuple[str, float, bool]]:
+        """(where, fraction, a warning) for each support some mechanism reaches: the fraction of the failed
+        realisations with a mechanism (among ``case_ids``) whose mechanism reaches it
+        (``domain_edges.EdgeContact``: where it is, whether the box decides there)."""
+        with_mechanism = [case_id for case_id in case_ids if case_id in self.edges_reached]
+        counts: dict[tuple[str, bool], int] = {}
+        for case_id in with_mechanism:
+            for key in {(contact.where, contact.warning) for contact in self.edges_reached[case_id]}:
+                counts[key] = counts.get(key, 0) + 1
+        return [(where, count / len(with_mechanism), warning) for (where, warning), count in sorted(counts.items())]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticOutcome:
         from workflows.output.writing import write_dataset
@@ -275,6 +293,8 @@ class ProbabilisticStudy(SweepStudy):
         case_runs = {case.case_id: ([] if isinstance(outcome := outcomes[self.same_as[case.case_id]], DivergenceError)
                                     else outcome.runs) for case in self.sweep_cases}
         slip_lines = [self.slip_lines[case.case_id] for case in self.sweep_cases if case.case_id in self.slip_lines]
+        result.edge_fractions = self.edge_fractions([case.case_id for case in self.sweep_cases])
+        result.n_mechanisms = len(slip_lines)
         dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs, slip_lines)
         write_dataset(dataset, result.result_path)
         from workflows.probabilistic.figures import FIGURE_NAMES, draw_probabilistic_figures  # (matplotlib: on use)
@@ -338,5 +358,13 @@ class ProbabilisticStudy(SweepStudy):
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
+                       *_edge_lines(outcome),
                        f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
                        + "".join(f", {path.name}" for path in outcome.figures), *self.removed])
+
+
+def _edge_lines(outcome) -> list[str]:
+    """Where the failed realisations' mechanisms meet the box, a line per support reached."""
+    return [f"{'WARNING, the box decides: ' if warning else 'note: '}{100 * fraction:.0f}% of the "
+            f"{outcome.n_mechanisms} failed realisations with a mechanism reach {where}"
+            for where, fraction, warning in outcome.edge_fractions]

@@ -1,0 +1,102 @@
+"""When the box decides: a mechanism that reaches a side of the domain is named after the run
+(``workflows.fos.domain_edges``), and ``check`` sees a domain too short for the critical circle of a
+limit-equilibrium search before the run (``workflows.fos.critical_circle``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import xarray as xr
+
+from verification.least_circle import slope_least_circle
+from workflows.cases import RunOptions
+from workflows.fos.critical_circle import critical_circle, domain_warnings
+from workflows.study import load_study, parse_study
+from workflows.study_types import run_study
+
+REPO = Path(__file__).resolve().parents[1]
+
+SHORT_DOMAIN = """
+[study]
+name = "short"
+
+[geometry]
+spacing_m = 1.0
+
+[geometry.slope]
+height_m = 10.0
+gradient = 2.0
+foundation_depth_m = 10.0
+crest_length_m = 3.0
+toe_length_m = 3.0
+
+[[materials]]
+name = "clay"
+model = "tresca"
+unit_weight_kn_m3 = 20.0
+youngs_modulus_mpa = 100.0
+poisson_ratio = 0.45
+undrained_shear_strength_kpa = 50.0
+
+[[stages]]
+name = "gravity"
+kind = "relaxation"
+elastic = true
+max_duration_s = 20.0
+record_interval_s = 0.05
+
+[[stages]]
+name = "srf"
+kind = "strength_reduction"
+duration_s = 8.0
+record_interval_s = 0.02
+srf_min = 1.0
+srf_max = 2.0
+srf_step = 0.1
+"""
+"""An undrained slope on a deep foundation drawn 3 m behind its crest and 3 m beyond its toe: its
+deep base circle needs some 10 m more on either side."""
+
+
+def test_a_mechanism_at_the_sides_of_a_short_domain_is_named_in_the_report_and_summary(tmp_path):
+    outcome = run_study(parse_study(SHORT_DOMAIN), tmp_path, RunOptions(workers=2))
+    sides = {contact.support for contact in outcome.edges if contact.warning}
+    assert "left" in sides
+    with xr.open_dataset(tmp_path / "summary.nc") as ds:
+        assert ds.attrs["box_decides"] == 1 and "behind the crest" in ds.attrs["mechanism_edges"]
+    from workflows.fos.report import report_lines
+
+    assert any(line.startswith("WARNING, the box decides") and "widen" in line for line in report_lines(outcome))
+
+
+def test_the_quickstarts_mechanism_stays_clear_of_the_box(quickstart_run):
+    _, out, outcome = quickstart_run
+    assert not [contact for contact in outcome.edges if contact.warning]
+    with xr.open_dataset(out / "summary.nc") as ds:
+        assert ds.attrs["box_decides"] == 0
+
+
+def test_bishops_critical_circle_of_the_reference_slope_is_limit_equilibriums_and_sees_no_short_domain():
+    """Bishop on the raster of the section: 1.369 published (Bishop simplified), within 1%."""
+    study = load_study(REPO / "studies" / "quickstart.toml")
+    circle = critical_circle(study)
+    assert circle.fos == pytest.approx(1.369, rel=0.01)
+    assert 15.0 < circle.entry_x_m < 20.0 and 38.0 < circle.exit_x_m < 41.0  # behind the crest, at the toe
+    assert domain_warnings(study, circle) == []
+
+
+def test_for_phi_0_the_critical_circle_is_the_least_circle():
+    """Bishop's method on a circle is its moment equilibrium, exact for phi = 0: Taylor's 60 deg toe
+    circle (verification.least_circle) within 1%."""
+    text = (REPO / "studies" / "published" / "taylor_phi0.toml").read_text()
+    study = parse_study(text[:text.index("[sweep]")])
+    assert critical_circle(study).fos == pytest.approx(slope_least_circle(5.0, 60.0, 20e3, 20e3).fos, rel=0.01)
+
+
+def test_check_warns_before_the_run_that_the_domain_is_too_short():
+    warnings = domain_warnings(parse_study(SHORT_DOMAIN))
+    assert len(warnings) == 2 and all(w.startswith("warning: the domain may be too short") for w in warnings)
+    assert any("behind the crest" in w for w in warnings) and any("beyond the toe" in w for w in warnings)
+    assert all(math.isfinite(float(w.split("at least ")[1].split(" m")[0])) for w in warnings)
