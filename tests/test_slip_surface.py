@@ -120,3 +120,35 @@ def test_the_envelope_holds_the_deepest_and_shallowest_line():
     assert lower[middle] == pytest.approx(np.interp(x[middle], *deep)) and count[middle] == 2
     assert upper[middle] == pytest.approx(np.interp(x[middle], *shallow))
     assert count[0] == 1 and lower[0] == upper[0] == 10.0
+
+
+def _run_slip(text: str, tmp_path):
+    from workflows.cases import RunOptions
+    from workflows.study import parse_study
+    from workflows.study_types import run_study
+
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    return outcome, outcome.slip
+
+
+def test_a_shallow_face_slide_on_a_steep_slope_is_drawn_where_the_soil_moved(tmp_path):
+    """A 1H:1V slope at phi 40 deg at H/10 fails by a face slide through the toe: the line is its band
+    (a couple of metres deep, not a deep circle through the displacements' scatter), and Spencer on
+    it lies within the cross-check margin of the FOS."""
+    from verification.fos_accuracy import c_phi_text
+
+    outcome, surface = _run_slip(c_phi_text("phi40_1h1v"), tmp_path)
+    assert surface.depth_m < 4.0 and 15.0 < surface.entry_m[0] < 20.5 and 28.0 < surface.exit_m[0] < 31.0
+    assert abs(surface.limit_equilibrium.fos / outcome.fos - 1.0) < slip.CROSS_CHECK_MARGIN
+
+
+def test_a_refined_zone_over_part_of_the_slope_does_not_bend_the_line_to_its_edge(tmp_path):
+    """A zone of 0.5 m particles over the upper half of the quickstart's face: the line is the band
+    through both spacings, its entry behind the crest and its exit at the toe as without the zone."""
+    zone = ('\n[[geometry.refined]]\nname = "upper"\nspacing_m = 0.5\n'
+            "region_m = [[15.0, 8.0], [30.0, 8.0], [30.0, 16.0], [15.0, 16.0]]\n")
+    text = (REPO / "studies" / "quickstart.toml").read_text().replace("[[materials]]", zone + "\n[[materials]]", 1)
+    outcome, surface = _run_slip(text, tmp_path)
+    assert 14.0 < surface.entry_m[0] < 20.0 and 37.0 < surface.exit_m[0] < 43.0
+    assert np.all(np.diff(surface.x_m) > 0.0)  # no vertical step at the zone's edge
+    assert abs(surface.limit_equilibrium.fos / outcome.fos - 1.0) < slip.CROSS_CHECK_MARGIN

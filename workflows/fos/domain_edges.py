@@ -2,9 +2,8 @@
 
 A support (``[[boundary]]`` of the strength-reduction stage) is reached when at least
 ``MIN_CONTACT`` particles of the mechanism lie within ``REACH`` spacings of its particles (each
-particle's own spacing).  The mechanism is the first failed run's moving mass (the particles the
-slip surface bounds, ``slip_surface.moving_mass``) and its shear band (the plastic strain that run
-gained over the last stable run below it, at least ``BAND_FRACTION`` of its largest).  Each support
+particle's own spacing).  The mechanism is the first failed run's shear band and the soil it bounds
+(``slip_surface``: the band of plastic strain, and the particles above the line through it).  Each support
 reached is named with what it is and what to do:
 
 - a side (a support on a vertical line at the domain's left or right end, behind the crest or beyond
@@ -30,8 +29,6 @@ MIN_CONTACT = 3
 """A support is reached by at least this many particles of the mechanism."""
 REACH = 1.5
 """... within this many spacings of one of its particles."""
-BAND_FRACTION = 0.25
-"""A particle is in the shear band when its plastic-strain gain reaches this fraction of the largest."""
 SIDE, WELDED, SMOOTH_BASE, ROUGH_BASE, OTHER = "side", "welded", "smooth base", "rough base", "support"
 
 
@@ -98,24 +95,26 @@ def _crest_on_the_left(study) -> bool:
 def mechanism_particles(failed: dict, stable: dict | None) -> np.ndarray:
     """(n,) bool: the mechanism of the first failed run (module doc), from its particle fields and those
     of the last stable run (dicts of arrays as ``slip_surface.run_particles`` gives: x0, y0, ux, uy,
-    spacing, and plastic_strain when kept)."""
-    from workflows.fos.slip_surface import moving_mass
+    spacing, and plastic_strain when kept): its shear band and the particles above the band's line, or
+    without plastic strain the moving mass of its displacements."""
+    from workflows.fos.slip_surface import band_line, moving_mass, shear_band
 
     xy0 = np.column_stack([failed["x0"], failed["y0"]])
+    spacing = np.asarray(failed["spacing"], dtype=float)
+    band = shear_band(failed, stable)
+    if band is not None:
+        polygon = np.array([[xy0[:, 0].min(), xy0[:, 1].min()], [xy0[:, 0].max(), xy0[:, 1].min()],
+                            [xy0[:, 0].max(), xy0[:, 1].max()], [xy0[:, 0].min(), xy0[:, 1].max()]])
+        x, y = band_line(xy0, *band, spacing, polygon)
+        above = (xy0[:, 1] > np.interp(xy0[:, 0], x, y)) & (xy0[:, 0] >= x[0]) & (xy0[:, 0] <= x[-1])
+        return band[0] | above
     ux, uy = failed["ux"], failed["uy"]
     if stable is not None:
         ux, uy = ux - stable["ux"], uy - stable["uy"]
     displacement = np.hypot(ux, uy)
-    members = np.zeros(xy0.shape[0], dtype=bool)
-    if np.count_nonzero(displacement > 0.0) >= 10:
-        members |= moving_mass(xy0, displacement, float(np.min(failed["spacing"])))[0]
-    if "plastic_strain" in failed:
-        gain = failed["plastic_strain"] - (stable["plastic_strain"] if stable is not None and "plastic_strain" in stable
-                                           else 0.0)
-        top = float(np.max(gain)) if gain.size else 0.0
-        if top > 0.0:
-            members |= gain >= BAND_FRACTION * top
-    return members
+    if np.count_nonzero(displacement > 0.0) < 10:
+        return np.zeros(xy0.shape[0], dtype=bool)
+    return moving_mass(xy0, displacement, float(np.max(spacing)))[0]
 
 
 def edge_contacts(study, failed: dict, stable: dict | None) -> list[EdgeContact]:

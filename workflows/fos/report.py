@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from workflows.fos.slip_surface import CROSS_CHECK_MARGIN
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 
@@ -57,6 +58,10 @@ def report_lines(outcome) -> list[str]:
         (x_in, y_in), (x_out, y_out), le = slip.entry_m, slip.exit_m, slip.limit_equilibrium
         cross_check = (f"Spencer's limit-equilibrium FOS on it {le.fos:.4g}" if not math.isnan(le.fos)
                        else f"no limit-equilibrium FOS on it: {le.reason}")
+        if math.isfinite(le.fos) and math.isfinite(outcome.fos) and abs(le.fos / outcome.fos - 1.0) > CROSS_CHECK_MARGIN:
+            cross_check += (f", {100 * (le.fos / outcome.fos - 1.0):+.0f}% from the FOS: more than "
+                            f"{100 * CROSS_CHECK_MARGIN:.0f}%, so the line may not be the mechanism (see the fields "
+                            "of the failed run)")
         lines.append(f"slip surface (SRF {slip.srf:g}): entry ({x_in:.4g}, {y_in:.4g}) m, exit ({x_out:.4g}, "
                      f"{y_out:.4g}) m, {slip.depth_m:.3g} m deep, {slip.area_m2:.3g} m2; {cross_check}")
     for contact in getattr(outcome, "edges", []):

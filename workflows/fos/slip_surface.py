@@ -1,27 +1,34 @@
 """The slip surface of a strength-reduction study: the failure mechanism of its first failed run
 as a line on the section, and Spencer's limit-equilibrium FOS on that line.
 
-**The mechanism.**  The displacement of the first failed run minus that of the last stable run
-below it, du_p = |u_p(failed) - u_p(stable)| per particle, in the particles' initial positions:
-the elastic and pre-failure response cancels and the sliding mass stands out by orders of
-magnitude.  The two classes of log10 du that Otsu's threshold separates give the mass's typical
-displacement U (the median of the upper class); the mass is the largest connected set of
-particles (neighbours closer than 1.5 h) that moved more than U / 2: the slip line runs through
-the middle of the shear band, where the displacement jumps from 0 to U.
+**The mechanism.**  Where the run file keeps the plastic strain, the shear band: the plastic strain
+the first failed run gained over the last stable run below it (its own where the two are alike), the
+particles whose gain reaches ``BAND_FRACTION`` of the largest, in their initial positions.  The band
+is the mechanism whatever its shape and the cloud's grading: a shallow face slide on a steep slope,
+where the displacements of two runs either side of the FOS differ little and everywhere, or a band
+through a refined zone.  Without plastic strain (a synthetic field), the displacement of the failed
+run minus that of the stable run, du_p = |u_p(failed) - u_p(stable)| per particle: the two classes of
+log10 du that Otsu's threshold separates give the mass's typical displacement U (the median of the
+upper class); the mass is the largest connected set of particles (neighbours closer than 1.5 h, h the
+coarsest spacing) that moved more than U / 2, and the band its lower edge.
 
-**The line.**  In columns 2 h wide across the mass, the slip point lies midway between the
-mass's lowest particle and the highest particle of the rest below it (h / 2 below the mass
-where nothing lies below), smoothed over three columns; at both ends the line rises to the
-ground at the mass's outermost particle (+- h / 2).  Its upper end is the entry (the back scarp),
-the lower the exit (the toe); the depth is the largest vertical distance below the ground, the
-area the one between the ground and the line.
+**The line.**  In columns two spacings of the band wide (the coarsest spacing for a mass), the slip
+point lies at the band's middle: the mean height of its particles weighted by their gain (for a
+mass: midway between its lowest particle and the highest particle of the rest below it, h / 2 below
+the mass where nothing lies below), smoothed over three columns; at both ends the line rises to the
+ground at the band's outermost particle (+- h / 2).  Its upper end is the entry (the back scarp), the
+lower the exit (the toe); the depth is the largest vertical distance below the ground, the area the
+one between the ground and the line, the typical displacement U the median of the particles above
+the line (beyond the stable run's).
 
 **Limit equilibrium on it** (:mod:`workflows.fos.limit_equilibrium`): the mass above the line in
 SLICES slices, each particle's mass spread over its width h along x, its weight and horizontal
 body force from the runs' acceleration (gravity and the pseudo-static earthquake), the surface
 loads on the ground, the pore pressure and the strength (c', phi' of Mohr-Coulomb and
 Drucker-Prager soils, peak values of softening ones; s_u and phi = 0 of Tresca ones) of the
-particle nearest each slice's base midpoint, unreduced.
+particle nearest each slice's base midpoint, unreduced.  Spencer's FOS on the mechanism's line is a
+cross-check of the strength reduction; where they differ by more than ``CROSS_CHECK_MARGIN`` the
+report says the line may not be the mechanism.
 """
 
 from __future__ import annotations
@@ -40,6 +47,12 @@ SLICES = 100
 
 NEIGHBOUR_RADIUS = 1.5
 """Particles closer than this many spacings belong to one connected mass."""
+BAND_FRACTION = 0.25
+"""A particle is in the shear band when its plastic-strain gain reaches this fraction of the largest."""
+MIN_BAND_PARTICLES = 10
+"""A band of fewer particles gives no line (the displacement's mass is used instead)."""
+CROSS_CHECK_MARGIN = 0.1
+"""Spencer on the line and the strength-reduction FOS differ by more than this fraction: said."""
 
 
 @dataclass(frozen=True)
@@ -118,6 +131,52 @@ def slip_line(xy0_m: np.ndarray, mass: np.ndarray, spacing_m: float, polygon_m) 
     return np.array([low, *xs, high]), np.array([ground[0], *ys, ground[1]])
 
 
+def shear_band(failed: dict, stable: dict | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """(band mask, gain) of the module doc from the runs' plastic strain; None where the run file
+    keeps none or the band is too small."""
+    if "plastic_strain" not in failed:
+        return None
+    gain = failed["plastic_strain"] - (stable["plastic_strain"] if stable is not None and "plastic_strain" in stable
+                                       else 0.0)
+    top = float(np.max(gain)) if gain.size else 0.0
+    if not top > 0.0 or np.count_nonzero(gain >= BAND_FRACTION * top) < MIN_BAND_PARTICLES:
+        gain = failed["plastic_strain"]  # the two runs alike: the failed run's own band
+        top = float(np.max(gain)) if gain.size else 0.0
+    if not top > 0.0:
+        return None
+    band = gain >= BAND_FRACTION * top
+    return (band, gain) if np.count_nonzero(band) >= MIN_BAND_PARTICLES else None
+
+
+def band_line(xy0_m: np.ndarray, band: np.ndarray, gain: np.ndarray, spacing_m: np.ndarray,
+              polygon_m) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) of the line through the middle of the ``band``, from end to end on the ground, x
+    increasing (module doc)."""
+    x, y = xy0_m[band, 0], xy0_m[band, 1]
+    weight = gain[band]
+    h = float(np.median(spacing_m[band]))
+    low, high = max(x.min() - 0.5 * h, xy0_m[:, 0].min()), min(x.max() + 0.5 * h, xy0_m[:, 0].max())
+    edges = np.linspace(low, high, max(2, int(np.ceil((high - low) / (2.0 * h)))) + 1)
+    column = np.clip(np.digitize(x, edges) - 1, 0, edges.size - 2)
+    totals = np.bincount(column, weights=weight, minlength=edges.size - 1)
+    heights = np.bincount(column, weights=weight * y, minlength=edges.size - 1)
+    filled = totals > 0.0
+    xs = 0.5 * (edges[1:] + edges[:-1])[filled]
+    ys = heights[filled] / totals[filled]
+    ys = np.clip(ys, np.asarray(polygon_m, dtype=float)[:, 1].min(), surface_height_m(polygon_m, xs))
+    if ys.size >= 3:
+        ys[1:-1] = (ys[:-2] + ys[1:-1] + ys[2:]) / 3.0
+    line_x, line_y = np.array([low, *xs, high]), np.array([np.nan, *ys, np.nan])
+    ground = surface_height_m(polygon_m, line_x)
+    line_y[0], line_y[-1] = ground[0], ground[-1]
+    below = np.flatnonzero(ground - line_y > 0.1 * h)  # where the band runs along the ground, it has come out
+    if below.size:
+        first, last = max(below[0] - 1, 0), min(below[-1] + 1, line_x.size - 1)
+        line_x, line_y, ground = line_x[first:last + 1], line_y[first:last + 1], ground[first:last + 1]
+        line_y[0], line_y[-1] = ground[0], ground[-1]
+    return line_x, line_y
+
+
 def material_strength(material) -> tuple[float, float] | None:
     """(c in Pa, tan phi) of a material for limit equilibrium; None: no strength (elastic)."""
     if getattr(material, "cohesion_pa", None) is not None and getattr(material, "friction_deg", None) is not None:
@@ -150,9 +209,23 @@ def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slic
                     - np.maximum(px[above, None] - half[:, None], edges[None, :-1]), 0.0, None) / (2.0 * half[:, None])
     mass = share * particles["mass"][above, None]
     slice_mass = mass.sum(axis=0)
+    empty = ~(slice_mass > 0.0)  # a thin mass at coarse spacing: the nearest particle's density over the slice
+    if empty.any():
+        if np.all(empty):
+            return "the mass above the line holds no particle"
+        top = surface_height_m(study.geometry.polygon_m, sign * middle[empty])
+        base_y = np.interp(middle[empty], lx, ly)
+        near = cKDTree(np.column_stack([px, y0])).query(np.column_stack([middle[empty], 0.5 * (top + base_y)]))[1]
+        density = particles["mass"][near] / particles["spacing"][near] ** 2
+        slice_mass = slice_mass.copy()
+        slice_mass[empty] = density * np.clip(top - base_y, 0.0, None) * width[empty]
+        mass = np.concatenate([mass, np.diag(np.where(empty, slice_mass, 0.0))[empty]], axis=0)
+        y0_slices = np.concatenate([y0[above], 0.5 * (top + base_y)])
+    else:
+        y0_slices = y0[above]
     if not (slice_mass > 0.0).all():
-        return "a slice of the mass holds no particle"
-    centroid_y = (mass * y0[above, None]).sum(axis=0) / slice_mass
+        return "a slice of the mass has no height"
+    centroid_y = (mass * y0_slices[:, None]).sum(axis=0) / slice_mass
     vertical = -acceleration[1] * slice_mass
     if "load_y" in particles:  # the surface loads (N m-1) on the particles of the ground
         vertical = vertical - (share * particles["load_y"][above, None]).sum(axis=0)
@@ -202,13 +275,19 @@ def slip_surface(study, failed: dict, stable: dict | None, failed_srf: float, st
     if stable is not None:
         ux, uy = ux - stable["ux"], uy - stable["uy"]
     displacement = np.hypot(ux, uy)
-    spacing = float(np.min(failed["spacing"]))
-    if np.count_nonzero(displacement > 0.0) < 10:
-        return "the failed run moved no particle"
-    mass, typical = moving_mass(xy0, displacement, spacing)
-    if mass.sum() < 10:
-        return f"the mechanism holds {mass.sum()} particles: too few to draw a line"
-    x, y = slip_line(xy0, mass, spacing, study.geometry.polygon_m)
+    spacing = np.asarray(failed["spacing"], dtype=float)
+    band = shear_band(failed, stable)
+    if band is not None:
+        x, y = band_line(xy0, *band, spacing, study.geometry.polygon_m)
+        above = (xy0[:, 1] > np.interp(xy0[:, 0], x, y)) & (xy0[:, 0] >= x[0]) & (xy0[:, 0] <= x[-1])
+        typical = float(np.median(displacement[above])) if above.any() else float(np.max(displacement))
+    else:
+        if np.count_nonzero(displacement > 0.0) < 10:
+            return "the failed run moved no particle"
+        mass, typical = moving_mass(xy0, displacement, float(np.max(spacing)))
+        if mass.sum() < 10:
+            return f"the mechanism holds {mass.sum()} particles: too few to draw a line"
+        x, y = slip_line(xy0, mass, float(np.max(spacing)), study.geometry.polygon_m)
     if y[-1] > y[0]:
         x, y = x[::-1], y[::-1]  # from the entry, the upper end
     ground = surface_height_m(study.geometry.polygon_m, np.linspace(x.min(), x.max(), 400))
