@@ -116,13 +116,16 @@ def test_an_empty_refinement_table_is_adaptive_and_levels_make_it_uniform():
 
 
 UNIFORM = "\n[refinement]\nspacings_m = [2.0, 1.68, 1.41, 1.19]\n"
+LEVELS_STUDY = (REPO / "studies" / "refinement_levels.toml").read_text()
+CONTROLLED_STUDY = (REPO / "studies" / "fos_controlled.toml").read_text()
 
 
 def test_four_uniform_levels_of_the_quickstart_give_a_band_and_later_levels_search_near_the_fos(tmp_path):
     """Every level has an FOS within the levels' tolerance of its own bracket, later levels make fewer
     runs than the first, level 1 is repeated with another jitter seed, refinement.nc holds the levels,
     the band and the measured scatter, and a second invocation reuses every run."""
-    text = QUICKSTART + UNIFORM
+    text = LEVELS_STUDY.replace("spacings_m = [1.0, 0.8409, 0.7071, 0.5946]", "spacings_m = [2.0, 1.68, 1.41, 1.19]")
+    assert text != LEVELS_STUDY  # the shipped study, at coarser levels
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert len(outcome.levels) == 4 and all(math.isfinite(level.fos) for level in outcome.levels)
     assert all(level.fos_high - level.fos_low <= 0.002 + 1e-9 for level in outcome.levels)
@@ -149,7 +152,8 @@ def test_adaptive_refinement_refines_each_levels_shear_band_and_nests_the_zones(
     """Four adaptive levels from the 2 m quickstart: each level keeps the zones of the one before and
     adds finer ones along its band; the particles stay far below a uniform cloud at the finest band
     spacing, the FOS falls with h, and the band holds every level's fit."""
-    text = QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 2.0") + "\n[refinement]\nmax_levels = 4\n"
+    text = CONTROLLED_STUDY.replace("spacing_m = 1.0", "spacing_m = 2.0").replace(
+        "target_uncertainty = 0.005", "target_uncertainty = 0.005\nmax_levels = 4")  # the shipped study, shortened
     outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert [level.spacing_m for level in outcome.levels] == pytest.approx([2.0, 1.41421, 1.0, 0.707107], rel=1e-5)
     zones = []
@@ -184,8 +188,8 @@ def _level_outcome(srf_status: list[tuple[float, str]]):
 
 
 def test_a_level_whose_fos_lies_at_the_edge_of_its_window_grows_the_window_instead_of_shifting_it(tmp_path):
-    """One stable run below the first failure sends the window down, and every run stable sends it
-    up: each time it grows by its width, so that it keeps the SRFs it had."""
+    """A run failed but no knee (one stable run below the first failure) sends the window down, every run stable
+    sends it up: each time it grows by its width, so that it keeps the SRFs it had."""
     from workflows.refinement.study_type import RefinementStudy, _Level
 
     study = RefinementStudy(parse_study(QUICKSTART + UNIFORM), tmp_path)

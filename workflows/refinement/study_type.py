@@ -302,22 +302,22 @@ class RefinementStudy(StudyType):
         return stage.srf_min, stage.srf_max, stage.srf_step
 
     def _grown(self, k: int, outcome, progress) -> _Level | None:
-        """Level k in a window grown by its width towards its FOS; None when it cannot grow."""
+        """Level k in a window grown by its width towards its FOS; None when it cannot grow.  A run
+        failed: the FOS lies below the window or its knee needs more runs below the first failure
+        (at least two stable ones and the curve's upturn), so the window grows down; none failed: up."""
         level = self.levels[k]
-        stable_below = [r for r in outcome.runs if r.status == "stable" and r.srf < outcome.status_high]
-        every_failed = math.isfinite(outcome.status_high) and len(stable_below) < 2  # no knee without 2 below
-        no_failure = math.isnan(outcome.status_high)
-        if k == 0 or level.moves >= MAX_WINDOW_MOVES or not (every_failed or no_failure):
+        if k == 0 or level.moves >= MAX_WINDOW_MOVES:
             return None
+        down = math.isfinite(outcome.status_high)
         stage = level.study.strength_reduction
         width = stage.srf_max - stage.srf_min
-        low, high = (stage.srf_min - width, stage.srf_max) if every_failed else (stage.srf_min, stage.srf_max + width)
+        low, high = (stage.srf_min - width, stage.srf_max) if down else (stage.srf_min, stage.srf_max + width)
         search = (max(round(low, 4), 0.01), round(high, 4), stage.srf_step)
-        progress.message(f"level {k}: the FOS lies {'below' if every_failed else 'above'} SRF "
-                         f"{stage.srf_min if every_failed else stage.srf_max:g}: searching [{search[0]:g}, {search[1]:g}]")
-        grown = dataclasses.replace(level, study=self._level_study(k, level.spacing_m, level.zones, search, level.seed),
-                                    moves=level.moves + 1)
-        return grown
+        why = (f"no knee in [{stage.srf_min:g}, {stage.srf_max:g}] (the curve needs more runs below the first "
+               f"failure, SRF {outcome.status_high:g})" if down else f"the FOS lies above SRF {stage.srf_max:g}")
+        progress.message(f"level {k}: {why}: searching [{search[0]:g}, {search[1]:g}]")
+        return dataclasses.replace(level, study=self._level_study(k, level.spacing_m, level.zones, search, level.seed),
+                                   moves=level.moves + 1)
 
     def _stop(self, k: int) -> str:
         """Why no level k is made ("" to make it)."""
