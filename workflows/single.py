@@ -48,6 +48,7 @@ class SingleStudy(StudyType):
         return self._stages_report(outcome, quiet, study_file)
 
     def _fos_report(self, outcome, quiet: bool) -> Report:
+        from workflows.fos.discretisation import note
         from workflows.fos.report import report_lines
 
         if quiet:
@@ -55,7 +56,9 @@ class SingleStudy(StudyType):
         header = (f"{self.study.name}: {outcome.n_particles} particles, {len(outcome.runs)} SRF runs, "
                   f"wall time {outcome.timings_s['total']:.1f} s")
         wrote = f"wrote {outcome.summary_path}" + "".join(f", {path.name}" for path in outcome.figures)
-        return Report([header, *report_lines(outcome), wrote])
+        lines = report_lines(outcome)
+        lines.insert(lines.index(outcome.verdict) + 1, note(self.study))
+        return Report([header, *lines, wrote])
 
     def _stages_report(self, outcome, quiet: bool, study_file) -> Report:
         warnings = [f"warning: stage {name!r} reached max_duration_s before converging (converged = 0)"

@@ -358,9 +358,17 @@ class ProbabilisticStudy(SweepStudy):
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
-                       *_edge_lines(outcome),
+                       *_edge_lines(outcome), _discretisation_line(self.study),
                        f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
                        + "".join(f", {path.name}" for path in outcome.figures), *self.removed])
+
+
+def _discretisation_line(study) -> str:
+    """The expected discretisation excess of each realisation's FOS (``fos.discretisation``): a FOS too
+    high makes pf too low."""
+    from workflows.fos.discretisation import note
+
+    return note(study, "each realisation's FOS") + "; a FOS too high makes pf too low"
 
 
 def _edge_lines(outcome) -> list[str]:

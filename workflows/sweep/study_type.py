@@ -223,7 +223,9 @@ class SweepStudy(StudyType):
                 if outcome.n_distinct < len(outcome.cases) else "")
         header = (f"{self.study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
                   f"wall time {outcome.timings_s['total']:.1f} s")
-        return Report([header, *table, wrote, *self.removed])
+        from workflows.fos.discretisation import note
+
+        return Report([header, *table, note(self.study, "each case's FOS"), wrote, *self.removed])
 
 
 def _read_case(study: Study, folder: Path, ran: bool) -> StageCaseResult:
