@@ -16,7 +16,7 @@ of Richards' equation (``spfem_core.transient_seepage``).
 
       S_e = (1 + x)^(-m),
       dS_e/dpsi = m n alpha (alpha |psi|)^(n-1) (1 + x)^(-m-1)                          (psi < 0),
-      k_r = S_e^(1/2) [1 - (1 - S_e^(1/m))^m]^2 = (1 + x)^(-m/2) [1 - (x / (1 + x))^m]^2.
+      k_r = S_e^(1/2) [1 - (1 - S_e^(1/m))^m]^2 = S_e^(1/2) [1 - (x / (1 + x))^m]^2.
 
   The last form is evaluated as written (1 - S_e^(1/m) = x / (1 + x) exactly, so no cancellation
   near saturation) and 1 - (x / (1 + x))^m as -expm1(m ln(x / (1 + x))), the logarithm as
@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -42,11 +43,27 @@ def _check_contents(residual: float, saturated: float, specific_storage_1_m: flo
         raise ValueError(f"specific storage: need a finite S_s >= 0 (1/m), got {specific_storage_1_m!r}")
 
 
+class CurveValues(NamedTuple):
+    """A curve's four values at the same pressure heads (arrays)."""
+
+    effective_saturation: np.ndarray
+    water_content: np.ndarray
+    moisture_capacity_1_m: np.ndarray
+    relative_conductivity: np.ndarray
+
+
 class _Curve:
     """theta and C from S_e and dS_e/dpsi (module doc)."""
 
     residual_water_content: float
     saturated_water_content: float
+
+    def values(self, pressure_head_m) -> CurveValues:
+        """S_e, theta, C and k_r at once (what the transient solver needs every iteration; the same numbers as
+        the four functions)."""
+        psi = np.asarray(pressure_head_m, dtype=float)
+        return CurveValues(self.effective_saturation(psi), self.water_content(psi), self.moisture_capacity_1_m(psi),
+                           self.relative_conductivity(psi))
 
     def water_content(self, pressure_head_m) -> np.ndarray:
         """theta(psi) = theta_r + (theta_s - theta_r) S_e(psi)."""
@@ -90,21 +107,37 @@ class VanGenuchten(_Curve):
         """S_e = (1 + (alpha |psi|)^n)^(-m) for psi < 0, 1 above."""
         return (1.0 + self._x(np.asarray(pressure_head_m, dtype=float))) ** -self.m
 
-    def _saturation_slope_1_m(self, psi: np.ndarray) -> np.ndarray:
+    def _slope(self, psi: np.ndarray, x: np.ndarray, se: np.ndarray) -> np.ndarray:
         # m n alpha (alpha |psi|)^(n-1) (1 + x)^(-m-1) = m n alpha [x / (1 + x)] (1 + x)^(-m) / (alpha |psi|)
         suction = self.alpha_1_m * np.maximum(-psi, 0.0)
-        x = self._x(psi)
-        ratio = np.where(x > 1.0, 1.0 / (1.0 + 1.0 / np.maximum(x, 1.0)), x / (1.0 + x))
-        return np.where(suction > 0.0, self.m * self.n * self.alpha_1_m * ratio * (1.0 + x) ** -self.m
+        small = np.minimum(x, 1.0)
+        ratio = np.where(x > 1.0, 1.0 / (1.0 + 1.0 / np.maximum(x, 1.0)), small / (1.0 + small))  # x / (1 + x)
+        return np.where(suction > 0.0, self.m * self.n * self.alpha_1_m * ratio * se
                         / np.where(suction > 0.0, suction, 1.0), 0.0)
 
-    def relative_conductivity(self, pressure_head_m) -> np.ndarray:
-        """k_r = (1 + x)^(-m/2) [1 - (x / (1 + x))^m]^2, x = (alpha |psi|)^n (Mualem; module doc)."""
-        x = self._x(np.asarray(pressure_head_m, dtype=float))
+    def _saturation_slope_1_m(self, psi: np.ndarray) -> np.ndarray:
+        x = self._x(psi)
+        return self._slope(psi, x, (1.0 + x) ** -self.m)
+
+    def _conductivity(self, x: np.ndarray, se: np.ndarray) -> np.ndarray:
         large, small = np.maximum(x, 1.0), np.where(x > 0.0, np.minimum(x, 1.0), 1.0)
         log_ratio = np.where(x >= 1.0, -np.log1p(1.0 / large), np.log(small) - np.log1p(small))  # ln(x / (1 + x))
         tail = np.where(x > 0.0, -np.expm1(self.m * log_ratio), 1.0)  # 1 - (x / (1 + x))^m
-        return (1.0 + x) ** (-0.5 * self.m) * tail * tail
+        return np.sqrt(se) * tail * tail
+
+    def relative_conductivity(self, pressure_head_m) -> np.ndarray:
+        """k_r = S_e^(1/2) [1 - (x / (1 + x))^m]^2, x = (alpha |psi|)^n (Mualem; module doc)."""
+        x = self._x(np.asarray(pressure_head_m, dtype=float))
+        return self._conductivity(x, (1.0 + x) ** -self.m)
+
+    def values(self, pressure_head_m) -> CurveValues:
+        """S_e, theta, C and k_r at once, x and S_e computed once."""
+        psi = np.asarray(pressure_head_m, dtype=float)
+        x = self._x(psi)
+        se = (1.0 + x) ** -self.m
+        span = self.saturated_water_content - self.residual_water_content
+        return CurveValues(se, self.residual_water_content + span * se, span * self._slope(psi, x, se),
+                           self._conductivity(x, se))
 
 
 @dataclass(frozen=True)

@@ -328,13 +328,13 @@ class _Materials:
         water, capacity, storage, saturation = (np.zeros(self.n) for _ in range(4))
         kr = np.empty(self.n_elem)
         for curve, elems, nodes, local, lumped in self.groups:
-            p = psi[nodes]
-            se = curve.effective_saturation(p)
-            water[nodes] += lumped * curve.water_content(p)
-            capacity[nodes] += lumped * curve.moisture_capacity_1_m(p)
-            storage[nodes] += lumped * curve.specific_storage_1_m * se
-            saturation[nodes] += lumped * se
-            kr[elems] = curve.relative_conductivity(p)[local].mean(axis=1)
+            values = curve.values(psi[nodes])
+            water[nodes] += lumped * values.water_content
+            capacity[nodes] += lumped * values.moisture_capacity_1_m
+            storage[nodes] += lumped * curve.specific_storage_1_m * values.effective_saturation
+            saturation[nodes] += lumped * values.effective_saturation
+            node_kr = values.relative_conductivity[local]
+            kr[elems] = (node_kr[:, 0] + node_kr[:, 1] + node_kr[:, 2]) / 3.0
         return water, capacity, storage, saturation, kr
 
 
@@ -414,10 +414,15 @@ class _Solver:
         self.conditions = _Conditions(problem)
         self.solves = self.factorizations = 0
         self._factors = None
-
-    def matrix(self, data: np.ndarray) -> sparse.csc_matrix:
         n = self.y.size
-        return sparse.csc_matrix((data, self.indices, self.indptr), shape=(n, n))
+        self._stiffness, self._jacobian = (sparse.csc_matrix((np.zeros(self.indices.size), self.indices, self.indptr),
+                                                             shape=(n, n)) for _ in range(2))
+
+    @staticmethod
+    def _on(matrix: sparse.csc_matrix, data: np.ndarray) -> sparse.csc_matrix:
+        """``matrix`` (the pattern) holding ``data`` (not copied)."""
+        matrix.data = data
+        return matrix
 
     def linear_solve(self, matrix: sparse.csc_matrix, rhs: np.ndarray) -> np.ndarray | None:
         """J delta = rhs (module doc, "Linear solves"); None when J is singular."""
@@ -452,7 +457,7 @@ class _Solver:
             water, capacity, storage, saturation, kr = self.materials.state(psi)
             stiffness = self.system.assembled_data(kr)
             stored = (water - water_old) + storage * (psi - psi_old)
-            residual = stored / dt + self.matrix(stiffness) @ (psi + self.y) - supplied
+            residual = stored / dt + self._on(self._stiffness, stiffness) @ (psi + self.y) - supplied
             held, switched = switch_atmospheric_nodes(held, may_hold, residual + supplied, supplied, psi,
                                                       s.head_tolerance_m)
             every_held = fixed | held
@@ -467,11 +472,12 @@ class _Solver:
             data = stiffness.copy()
             data[self.diagonal] += (capacity + storage) / dt
             delta_held = np.where(every_held, np.where(fixed, target - self.y, 0.0) - psi, 0.0)
-            rhs = -residual - self.matrix(data) @ delta_held
+            jacobian = self._on(self._jacobian, data)
+            rhs = -residual - jacobian @ delta_held
             rhs[every_held] = delta_held[every_held]
             data[every_held[self.indices] | every_held[self.column_of_entry]] = 0.0  # the held rows and columns
             data[self.diagonal[every_held]] = 1.0
-            delta = self.linear_solve(self.matrix(data), rhs)
+            delta = self.linear_solve(jacobian, rhs)
             if delta is None:
                 return None
             free = ~every_held

@@ -92,3 +92,14 @@ def test_the_suction_stress_is_terzaghis_below_the_water_table_and_lu_and_likos_
     closed = -suction_kpa / (1.0 + (2.0 / 9.81 * suction_kpa) ** 1.8) ** (0.8 / 1.8)
     np.testing.assert_allclose(stress[2:] / 1e3, closed, rtol=1e-12)
     assert np.all(stress[2:] < 0.0)
+
+
+@pytest.mark.parametrize("curve", CURVES, ids=lambda c: f"{type(c).__name__}-{c.alpha_1_m}")
+def test_the_values_at_once_are_the_four_functions(curve):
+    """``values`` (what the transient solver calls) gives S_e, theta, C and k_r as the separate functions do."""
+    psi = np.concatenate([SUCTIONS, -np.logspace(3, 300, 5), [0.0, 2.0]])
+    values = curve.values(psi)
+    np.testing.assert_allclose(values.effective_saturation, curve.effective_saturation(psi), rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(values.water_content, curve.water_content(psi), rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(values.moisture_capacity_1_m, curve.moisture_capacity_1_m(psi), rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(values.relative_conductivity, curve.relative_conductivity(psi), rtol=1e-14, atol=0.0)
