@@ -42,8 +42,8 @@ et al.'s point against the head form, whose error does not vanish with the itera
   overshoots and would oscillate for ever.  Even so a node that hovers at psi = 0 while its
   surface starts to pond has no Picard fixed point closer than about 1e-7 of its flux (k_r jumps by
   that much within 1e-11 m of saturation at n = 1.6): hence the default ``balance_tolerance``.
-- Each step starts from the last step's trend continued, psi^n + dt (psi^n - psi^n-1) / dt_n-1
-  (one or two iterations fewer than from psi^n).
+- Each step starts from the last step's trend continued, psi^n + dt (psi^n - psi^n-1) / dt_n-1:
+  fewer iterations a step, hence longer steps (docs/method.md, section 17).
 - **Linear solves**: J is factorized by scipy's SuperLU (minimum-degree ordering of J + J^T,
   diagonal pivots); later iterations and steps solve by conjugate gradients preconditioned with the
   last factors, to a relative residual of ``LINEAR_TOLERANCE``, and factorize again only when that

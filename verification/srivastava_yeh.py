@@ -14,8 +14,9 @@ is linear in each layer:
 K* = 1 at z = 0, q = qA at z = L, and K* and q continuous across an interface.
 
 **Steady profiles** (a flux q throughout): K* = q / K_s,i + (K*(z_i) - q / K_s,i) exp(-alpha (z - z_i)),
-K*(0) = 1, so in one layer psi = ln[q / K_s + (1 - q / K_s) exp(-alpha z)] / alpha: Lu & Griffiths'
-(2004) profile, there written with the upward flux -q and the suction u_a - u_w = -gamma_w psi.
+K*(0) = 1, so in one layer psi = ln[q / K_s + (1 - q / K_s) exp(-alpha z)] / alpha: the profile Lu &
+Griffiths (2004) write in suction u_a - u_w = -gamma_w psi with the flux positive upward (derived
+here from Darcy's law; the paper was not re-read).
 
 **The series.** u = K* - K*_A (K*_A the final steady profile) = exp(-alpha z / 2) w with
 dw/dt = D_i (w'' - alpha^2 w / 4), D_i = K_s,i / (alpha dtheta_i), w(0) = 0, w' + alpha w / 2 = 0 at

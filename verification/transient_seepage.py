@@ -1,7 +1,7 @@
 """Transient unsaturated seepage (``spfem_core.transient_seepage``) against closed forms, on the
 particles' own clouds and meshes (``spfem_core.cloud``, ``spfem_core.mesh``).
 
-    python -m verification.transient_seepage            # every table of docs/verification.md (about 4 min)
+    python -m verification.transient_seepage            # every table of docs/verification.md (about 40 s)
     python -m verification.transient_seepage --only profiles balance
 
 1. **Srivastava & Yeh (1991)**: infiltration toward a water table through a column of Gardner's
@@ -14,7 +14,7 @@ particles' own clouds and meshes (``spfem_core.cloud``, ``spfem_core.mesh``).
 2. **Lu & Griffiths (2004)**: the steady profile under a constant infiltration or evaporation
    rate (the same closed form, the flux throughout), reached by the transient solve, and the
    suction stress sigma_s = S_e gamma_w psi (Lu & Likos 2006; ``spfem_core.suction_stress``) with
-   van Genuchten's S_e at Gardner's alpha, as Lu & Griffiths take it.
+   van Genuchten's S_e at Gardner's alpha and n = 2 (a choice of this check).
 3. **Mass balance** of every run: the water in less the water out against the change of the
    stored water, including a column whose surface ponds under rain (the switch to psi = 0 and
    back) and a bank whose reservoir is drawn down (the face above the level a seepage face).
@@ -158,7 +158,7 @@ def step_convergence(column: Column, steps_s=(1200.0, 600.0, 300.0, 150.0, 75.0)
 
 
 LU_GRIFFITHS_N = 2.0
-"""van Genuchten's n of the suction stress's S_e, at Gardner's alpha (as Lu & Griffiths 2004 take it)."""
+"""van Genuchten's n of the suction stress's S_e, at Gardner's alpha (a choice of this check)."""
 
 
 def lu_griffiths(flux_m_s: float, spacing_m: float = 0.125, height_m: float = 5.0, alpha_1_m: float = 1.0,
