@@ -37,8 +37,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import sparse
 from scipy.sparse.linalg import spsolve
+
+from spfem_core.flow_system import (  # noqa: F401  (shape_gradients, conductivity_tensor: also read from here)
+    ElementConductivity,
+    conductivity_tensor,
+    darcy_velocity_m_s,
+    shape_gradients,
+    switch_atmospheric_nodes,
+)
 
 
 @dataclass(frozen=True)
@@ -71,25 +78,6 @@ class FlowSolution:
     def pressure_head_m(self, node_xy_m: np.ndarray) -> np.ndarray:
         """psi = h - y at the nodes."""
         return self.head_m - node_xy_m[:, 1]
-
-
-def shape_gradients(node_xy_m: np.ndarray, elem_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(B (e, 2, 3), area A (e,)) of linear triangles: grad N_a = (y_b - y_c, x_c - x_b) / (2 A)."""
-    xy = node_xy_m[elem_nodes]  # (e, 3, 2)
-    x, y = xy[..., 0], xy[..., 1]
-    b = np.stack([y[:, 1] - y[:, 2], y[:, 2] - y[:, 0], y[:, 0] - y[:, 1]], axis=1)
-    c = np.stack([x[:, 2] - x[:, 1], x[:, 0] - x[:, 2], x[:, 1] - x[:, 0]], axis=1)
-    area = 0.5 * (b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0])
-    return np.stack([b, c], axis=1) / (2.0 * area)[:, None, None], area
-
-
-def conductivity_tensor(k1_m_s, k2_m_s, angle_deg) -> np.ndarray:
-    """K = R diag(k1, k2) R^T, k1 along ``angle_deg`` from the horizontal (arrays broadcast; (..., 2, 2))."""
-    a = np.radians(np.asarray(angle_deg, dtype=float))
-    c, s = np.cos(a), np.sin(a)
-    k1, k2 = np.asarray(k1_m_s, dtype=float), np.asarray(k2_m_s, dtype=float)
-    return np.stack([np.stack([k1 * c * c + k2 * s * s, (k1 - k2) * c * s], axis=-1),
-                     np.stack([(k1 - k2) * c * s, k1 * s * s + k2 * c * c], axis=-1)], axis=-2)
 
 
 def relative_permeability(pressure_head_m: np.ndarray, residual: float, band_m: float) -> np.ndarray:
@@ -138,26 +126,6 @@ RELAXATION_GROWTH = 1.05
 """After an update that did not grow, the fraction taken grows by this factor, back towards 1."""
 
 
-class _System:
-    """The conductivity matrix of a problem, assembled again for each set of k_r."""
-
-    def __init__(self, problem: FlowProblem):
-        self.b, self.area = shape_gradients(problem.node_xy_m, problem.elem_nodes)
-        if np.any(self.area <= 0.0):
-            raise ValueError("seepage: every triangle must be counter-clockwise with a positive area")
-        # K_e (sat) = A B^T K B
-        self.k_sat_elem = self.area[:, None, None] * np.einsum("eia,eij,ejb->eab", self.b,
-                                                              problem.elem_conductivity_m_s, self.b)
-        nodes = problem.elem_nodes
-        self.rows = np.repeat(nodes, 3, axis=1).ravel()
-        self.cols = np.tile(nodes, (1, 3)).ravel()
-        self.n = problem.node_xy_m.shape[0]
-
-    def matrix(self, kr: np.ndarray) -> sparse.csr_matrix:
-        data = (kr[:, None, None] * self.k_sat_elem).ravel()
-        return sparse.csr_matrix((data, (self.rows, self.cols)), shape=(self.n, self.n))
-
-
 def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterations: int = 2000) -> FlowSolution:
     """The steady heads of ``problem`` (module doc): Picard iteration on k_r and the seepage face until
     the largest head change is below ``tolerance`` times the range of the fixed heads and no
@@ -170,7 +138,7 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
     if not fixed.any() and not face.any():
         raise ValueError("seepage: no boundary fixes a head (total head, pressure head, seepage face or ponded "
                          "water): the heads are undetermined")
-    system = _System(problem)
+    system = ElementConductivity(problem.node_xy_m, problem.elem_nodes, problem.elem_conductivity_m_s)
     head_range = np.ptp(np.concatenate([problem.node_fixed_head_m[fixed], y[face]]))
     scale = max(head_range, np.ptp(y), 1e-12)
     held_face = face.copy()  # start with every face node at atmospheric pressure
@@ -201,17 +169,14 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
         head = head + relaxation * (new - head)
         inflow = matrix @ head
         # the seepage face: release held nodes that take water in, hold released ones above atmospheric
-        release = held_face & (inflow - problem.node_inflow_m2_s > 0.0)
-        hold = face & ~held_face & (head > y)
-        held_face = (held_face & ~release) | hold
+        held_face, switched = switch_atmospheric_nodes(held_face, face, inflow, problem.node_inflow_m2_s, head - y)
         kr = element_relative_permeability(head - y, problem.elem_nodes, problem.residual_permeability,
                                            problem.unsaturated_band_m)
-        if change <= tolerance * scale and not release.any() and not hold.any():
+        if change <= tolerance * scale and not switched:
             converged = True
             break
     matrix = system.matrix(kr)
-    velocity = -np.einsum("eij,ejb,eb->ei", kr[:, None, None] * problem.elem_conductivity_m_s, system.b,
-                          head[problem.elem_nodes])
+    velocity = darcy_velocity_m_s(kr, problem.elem_conductivity_m_s, system.b, head[problem.elem_nodes])
     return FlowSolution(head, matrix @ head, kr, velocity, fixed | held_face, iteration, converged, changes)
 
 
