@@ -15,7 +15,6 @@ from spfem_core.mesh import triangulate
 from spfem_core.seepage import FlowProblem, solve_steady_flow
 from spfem_core.soil_water import Gardner, VanGenuchten
 from spfem_core.transient_seepage import (
-    FluxBoundary,
     HeadBoundary,
     History,
     TransientProblem,
