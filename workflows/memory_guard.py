@@ -65,7 +65,8 @@ def _spacing_fields(study: Study) -> tuple[float, np.ndarray]:
     y = np.arange(polygon[:, 1].min() + 0.5 * step, polygon[:, 1].max(), step)
     grid = np.column_stack([a.ravel() for a in np.meshgrid(x, y)])
     inside = grid[ray_casting_inside(grid, polygon)]
-    fields = [np.full(len(inside), h0)] + [spacing_field(inside, h0, [zone], geometry.grading) for zone in geometry.zones]
+    fields = [np.full(len(inside), h0)]
+    fields += [spacing_field(inside, h0, [zone], geometry.grading) for zone in geometry.zones]
     return step * step, np.array(fields)
 
 
@@ -91,8 +92,8 @@ def available_memory_bytes() -> float:
 
 
 def check_memory(study: Study, processes: int, limit_bytes: float | None = None) -> None:
-    """StudyError on the spacing to blame (:func:`spacing_to_blame`) when ``processes`` simulations of ``study`` would need
-    more than ``limit_bytes`` (default :func:`available_memory_bytes`)."""
+    """StudyError on the spacing to blame (:func:`spacing_to_blame`) when ``processes`` simulations of
+    ``study`` would need more than ``limit_bytes`` (default :func:`available_memory_bytes`)."""
     limit = available_memory_bytes() if limit_bytes is None else float(limit_bytes)
     n = estimated_particles(study)
     need = n * BYTES_PER_PARTICLE * processes

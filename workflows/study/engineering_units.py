@@ -96,8 +96,8 @@ def with_densities(raw: dict) -> tuple[dict, dict]:
             if not _checked(NUMBER, weight, field) > 0.0:
                 raise StudyError(field, f"must be a number > 0, got {show(weight)}")
             if not g_m_s2 > 0.0:
-                raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is {show(list(gravity))}: "
-                                 f"give {density_key} instead")
+                raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is "
+                                 f"{show(list(gravity))}: give {density_key} instead")
             material[density_key] = 1000.0 * weight / g_m_s2
             given_as[f"materials[{i}].{density_key}"] = field
         converted.append(material)
