@@ -228,7 +228,7 @@ def ray_casting_inside(points, polygon) -> np.ndarray:
     return inside
 
 
-def _sorted_edges(polygon) -> tuple[np.ndarray, np.ndarray]:
+def _edges(polygon) -> tuple[np.ndarray, np.ndarray]:
     """(start, end) of each edge as (m, 2) arrays, in the polygon's order."""
     xy = vertices_m(polygon)
     return xy, np.roll(xy, -1, axis=0)
@@ -237,7 +237,7 @@ def _sorted_edges(polygon) -> tuple[np.ndarray, np.ndarray]:
 def surface_height_m(polygon, x) -> np.ndarray:
     """y_top(x): the height of the polygon's highest edge above each abscissa ``x`` (NaN where none).
     Each abscissa meets only the edges that span it (:func:`_edges_over`)."""
-    start, end = _sorted_edges(polygon)
+    start, end = _edges(polygon)
     x = np.asarray(x, dtype=np.float64)
     lo, hi = np.minimum(start[:, 0], end[:, 0]), np.maximum(start[:, 0], end[:, 0])
     sloped = np.flatnonzero(hi > lo)
@@ -253,12 +253,13 @@ def surface_height_m(polygon, x) -> np.ndarray:
     return y.reshape(x.shape)
 
 
-def upper_boundary_heights(polygon) -> list[float]:
-    """Heights of the upper boundary y_top(x), the largest y of the boundary at x, at every vertex
-    abscissa, approached from the left and from the right (where y_top, piecewise linear with
-    jumps at vertical edges, takes its extreme values).  Vertical edges are seen through their
-    neighbours; each abscissa meets only the edges that span it (:func:`_edges_over`)."""
-    start, end = _sorted_edges(polygon)
+def upper_boundary(polygon) -> np.ndarray:
+    """The upper boundary y_top(x), the largest y of the boundary at x, as a polyline (k, 2): at every
+    vertex abscissa, from left to right, its height approached from the left, then from the right
+    (a vertical step where a vertical edge makes them differ; y_top is linear in between).
+    Vertical edges are seen through their neighbours; each abscissa meets only the edges that
+    span it (:func:`_edges_over`)."""
+    start, end = _edges(polygon)
     swap = start[:, 0] > end[:, 0]
     left_end, right_end = np.where(swap[:, None], end, start), np.where(swap[:, None], start, end)
     sloped = np.flatnonzero(left_end[:, 0] < right_end[:, 0])
@@ -268,13 +269,53 @@ def upper_boundary_heights(polygon) -> list[float]:
     for e, q in _edges_over(abscissae, x1, x2):
         x0 = abscissae[q]
         at_low, at_high = x0 == x1[e], x0 == x2[e]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            inside = y1[e] + (x0 - x1[e]) * (y2[e] - y1[e]) / (x2[e] - x1[e])
+        inside = y1[e] + (x0 - x1[e]) * (y2[e] - y1[e]) / (x2[e] - x1[e])
         y = np.where(at_low, y1[e], np.where(at_high, y2[e], inside))
         np.maximum.at(from_left, q[~at_low], y[~at_low])
         np.maximum.at(from_right, q[~at_high], y[~at_high])
-    pairs = np.column_stack([from_left, from_right]).ravel()
-    return pairs[np.isfinite(pairs)].tolist()
+    points = np.column_stack([np.repeat(abscissae, 2), np.column_stack([from_left, from_right]).ravel()])
+    return points[np.isfinite(points[:, 1])]
+
+
+def upper_boundary_heights(polygon) -> list[float]:
+    """Heights of the upper boundary at every vertex abscissa, approached from the left and from the
+    right (:func:`upper_boundary`), where y_top takes its extreme values."""
+    return upper_boundary(polygon)[:, 1].tolist()
+
+
+def narrow_peaks(polygon, width_m: float) -> np.ndarray:
+    """(x, y, w) rows, highest first, of the points of the upper boundary whose top ``width_m`` is
+    narrower than ``width_m``: the part of y_top(x) that stays at or above y - width_m around x is
+    w < width_m wide (bounded by where y_top falls below that level, or by the ends of the
+    boundary).  A spike of the ground narrower than the particle spacing is one: no particle
+    fills it.  Only points as high as their neighbours are tested, each against the boundary
+    within ``width_m`` of it."""
+    line = upper_boundary(polygon)
+    line = line[np.r_[True, (np.diff(line, axis=0) != 0.0).any(axis=1)]]  # a point once where y_top is continuous
+    x, y = line[:, 0], line[:, 1]
+    higher_than_neighbours = np.ones(len(line), dtype=bool)
+    higher_than_neighbours[1:] &= y[1:] >= y[:-1]
+    higher_than_neighbours[:-1] &= y[:-1] >= y[1:]
+    peaks = np.flatnonzero(higher_than_neighbours)
+    # segment s runs from point s to s + 1; those within width_m of a peak: first[k] ... first[k] + counts[k] - 1
+    first = np.searchsorted(x[1:], x[peaks] - width_m, side="left")
+    counts = np.maximum(np.searchsorted(x[:-1], x[peaks] + width_m, side="right") - first, 0)
+    # bounded by the ends of the boundary within width_m, else at least width_m away on that side
+    left = np.where(x[0] > x[peaks] - width_m, x[0], -np.inf)
+    right = np.where(x[-1] < x[peaks] + width_m, x[-1], np.inf)
+    for k0, k1 in _batches(counts):
+        k = np.repeat(np.arange(k0, k1), counts[k0:k1])
+        s = _ranges(first[k0:k1], counts[k0:k1])
+        level = y[peaks[k]] - width_m
+        crosses = (y[s] >= level) != (y[s + 1] >= level)
+        k, s, level = k[crosses], s[crosses], level[crosses]
+        x_cross = x[s] + (level - y[s]) / (y[s + 1] - y[s]) * (x[s + 1] - x[s])
+        before = s < peaks[k]  # the segments before the peak's point bound it on the left
+        np.maximum.at(left, k[before], x_cross[before])
+        np.minimum.at(right, k[~before], x_cross[~before])
+    narrow = np.flatnonzero(right - left < width_m)
+    narrow = narrow[np.argsort(-y[peaks[narrow]], kind="stable")]
+    return np.column_stack([x[peaks[narrow]], y[peaks[narrow]], (right - left)[narrow]])
 
 
 def relief_m(polygon) -> float:

@@ -132,3 +132,27 @@ def test_a_surveyed_ground_line_of_10000_points_is_checked_at_once():
     assert time.perf_counter() - start < 2.0
     polygon[5:7] = [(69.9, 40.0), (69.9, 10.0)]  # a spike down through the base, near the right end
     assert "edges 0 and 5 cross" in geometry.polygon_problem(polygon)
+
+
+def _section(ground, base_y_m=-5.0):
+    return [(ground[0][0], base_y_m), (ground[-1][0], base_y_m), *ground[::-1]]
+
+
+@pytest.mark.parametrize("ground, narrow", [
+    ([(0.0, 0.0), (10.0, 10.0), (20.0, 0.0)], []),  # a 1:1 ridge: 2 m wide 1 m below its top
+    ([(0.0, 0.0), (10.0, 19.9), (20.0, 0.0)], []),  # 20 / 19.9 m wide 1 m below its top
+    ([(0.0, 0.0), (10.0, 30.0), (20.0, 0.0)], [(10.0, 30.0, 2.0 / 3.0)]),  # flanks at 3:1
+    ([(0.0, 0.0), (5.0, 0.0), (5.2, 100.0), (5.4, 0.0), (9.0, 0.0)], [(5.2, 100.0, 0.004)]),  # a spike
+    ([(0.0, 30.0), (0.5, 0.0), (20.0, 0.0)], [(0.0, 30.0, 1.0 / 60.0)]),  # at the end of the boundary
+    ([(0.0, 10.0), (20.0, 10.0)], []),  # flat: the ends are no peaks
+])
+def test_narrow_peaks_are_those_narrower_than_the_width_one_width_below_their_top(ground, narrow):
+    np.testing.assert_allclose(geometry.narrow_peaks(_section(ground), 1.0).reshape(-1, 3), np.reshape(narrow, (-1, 3)))
+
+
+def test_a_peak_wider_than_its_own_width_is_narrow_only_for_a_wider_one():
+    """A flat-topped spike 0.2 m wide: narrow at 0.3 m, not at 0.05 m (a wedge is narrow at any width)."""
+    spike = _section([(0.0, 0.0), (5.0, 0.0), (5.1, 2.0), (5.3, 2.0), (5.4, 0.0), (9.0, 0.0)])
+    assert geometry.narrow_peaks(spike, 0.3).shape[0] > 0 and geometry.narrow_peaks(spike, 0.05).shape[0] == 0
+    wedge = _section([(0.0, 0.0), (5.0, 0.0), (5.2, 2.0), (5.4, 0.0), (9.0, 0.0)])
+    assert geometry.narrow_peaks(wedge, 0.3).shape[0] > 0 and geometry.narrow_peaks(wedge, 0.05).shape[0] > 0

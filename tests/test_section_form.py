@@ -130,3 +130,40 @@ def test_own_supports_replace_the_default(lines_raw):
     lines_raw["boundary"] = [{"name": "base", "y_max_m": 20.0, "vx_m_s": 0.0, "vy_m_s": 0.0}]
     study = parse_study(to_toml(lines_raw))
     assert [b.name for b in study.boundary] == ["base"]
+
+
+@pytest.mark.parametrize("peak, refused", [
+    ([[60.0, 35.0], [60.2, 135.0], [60.4, 35.0]], True),  # a survey's spike, 0.4 m wide at its foot
+    ([[60.0, 35.0], [60.2, 39.0], [60.4, 35.0]], True),  # 4 m high: too small to count in the slope's height
+    ([[60.0, 35.0], [60.001, 45.0], [60.2, 45.0], [60.201, 35.0]], True),  # a wall 0.2 m thick
+    ([[58.0, 35.0], [60.0, 37.0], [62.0, 35.0]], False),  # a 1:1 ridge: as wide as high
+])
+def test_a_ground_peak_narrower_than_the_spacing_is_refused_naming_the_ground(lines_raw, peak, refused):
+    """A spike no particle can fill used to set the slope's height (and so the response time, which
+    refused stages[1].duration_s, or silently the failure displacement): it is the ground line's."""
+    section = lines_raw["geometry"]["section"]
+    section["ground_m"] = section["ground_m"][:3] + peak + [[70.0, 35.0]]
+    lines_raw["geometry"]["spacing_m"] = 1.0
+    if not refused:
+        assert parse_study(to_toml(lines_raw)).slope_height_m == 12.0
+        return
+    with pytest.raises(StudyError, match=r"the peak at \(60[0-9.]*, [0-9.]+\) m is narrower than the particle spacing 1 m"):
+        parse_study(to_toml(lines_raw))
+    with pytest.raises(StudyError) as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == "geometry.section.ground_m"
+
+
+def test_a_peak_in_a_refined_zone_is_measured_at_the_zone_spacing(lines_raw, polygons):
+    """A polygon's spike names geometry.polygon_m; a refined zone fine enough to fill it accepts it."""
+    raw = tomllib.loads((PUBLISHED / "acads_1c.toml").read_text())
+    ground = [[70.0, 35.0], [60.4, 35.0], [60.3, 37.0], [60.1, 37.0], [60.0, 35.0]]  # a 0.2 m wide top
+    polygon = raw["geometry"]["polygon_m"]
+    at = polygon.index([70.0, 35.0])
+    raw["geometry"]["polygon_m"] = polygon[:at] + ground + polygon[at + 1:]
+    with pytest.raises(StudyError, match="narrower than the particle spacing 0.3 m") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "geometry.polygon_m"
+    raw["geometry"]["refined"] = [{"name": "spike", "region_m": [[59.0, 34.0], [61.0, 34.0], [61.0, 38.0], [59.0, 38.0]],
+                                   "spacing_m": 0.05}]
+    assert parse_study(to_toml(raw)).geometry.refined[0].spacing_m == 0.05
