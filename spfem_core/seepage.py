@@ -158,6 +158,16 @@ class _System:
         return sparse.csr_matrix((data, (self.rows, self.cols)), shape=(self.n, self.n))
 
 
+def head_scale_m(problem: FlowProblem) -> float:
+    """The length the iteration's tolerance is relative to: the larger of the range of the fixed heads
+    (and of the seepage faces' elevations) and the mesh's height."""
+    y = problem.node_xy_m[:, 1]
+    fixed = np.isfinite(problem.node_fixed_head_m)
+    face = problem.node_seepage_face & ~fixed
+    heads = np.concatenate([problem.node_fixed_head_m[fixed], y[face]])
+    return float(max(np.ptp(heads) if heads.size else 0.0, np.ptp(y), 1e-12))
+
+
 def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterations: int = 2000) -> FlowSolution:
     """The steady heads of ``problem`` (module doc): Picard iteration on k_r and the seepage face until
     the largest head change is below ``tolerance`` times the range of the fixed heads and no
@@ -171,8 +181,7 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
         raise ValueError("seepage: no boundary fixes a head (total head, pressure head, seepage face or ponded "
                          "water): the heads are undetermined")
     system = _System(problem)
-    head_range = np.ptp(np.concatenate([problem.node_fixed_head_m[fixed], y[face]]))
-    scale = max(head_range, np.ptp(y), 1e-12)
+    scale = head_scale_m(problem)
     held_face = face.copy()  # start with every face node at atmospheric pressure
     head = np.where(fixed, problem.node_fixed_head_m, np.max(np.concatenate(
         [problem.node_fixed_head_m[fixed], y[face]])))

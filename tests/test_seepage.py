@@ -146,6 +146,33 @@ def test_a_seepage_study_that_cannot_be_solved_names_the_field(change, field):
     assert error.value.field == field
 
 
+def test_a_tolerance_finer_than_double_precision_is_refused_naming_it():
+    """1e-300 of the head range asks for changes a billion billion times below the spacing of doubles
+    at the heads: refused as the tolerance it is, before a mesh is made, not after max_iterations."""
+    text = rectangular_dam_text(0.5).replace("[seepage]\n", "[seepage]\ntolerance = 1e-300\n")
+    with pytest.raises(StudyError, match="finer than double precision resolves heads of 12 m") as error:
+        parse_study(text)
+    assert error.value.field == "seepage.tolerance" and "give at least 1e-12" in error.value.problem
+    assert parse_study(text.replace("1e-300", "1e-15")).seepage.tolerance == 1e-15  # resolvable: tried
+
+
+def test_an_iteration_stalled_at_round_off_blames_the_tolerance(monkeypatch):
+    """A tolerance above the spacing of doubles but within the round-off of the solve: the changes stall
+    there (the solver asked for exact convergence), and the message names the tolerance, not
+    max_iterations; a tolerance far above the round-off keeps the max_iterations message."""
+    from workflows.seepage import flow
+
+    monkeypatch.setattr(flow, "solve_steady_flow", lambda problem, tolerance, max_iterations:
+                        solve_steady_flow(problem, 0.0, max_iterations))
+    text = rectangular_dam_text(0.5).replace("[seepage]\n", "[seepage]\nmax_iterations = 100\ntolerance = 3e-16\n")
+    with pytest.raises(StudyError, match="finer than the round-off of the heads") as error:
+        build_scene(parse_study(text))
+    assert error.value.field == "seepage.tolerance"
+    with pytest.raises(StudyError, match="did not settle in 100 iterations") as error:
+        build_scene(parse_study(text.replace("3e-16", "1e-6")))
+    assert error.value.field == "seepage.max_iterations"
+
+
 def test_no_head_anywhere_is_refused_and_a_flux_must_find_an_edge():
     no_head = rectangular_dam_text(0.5).replace('condition = "total_head"', 'condition = "no_flow"').replace(
         'condition = "seepage_face"', 'condition = "no_flow"').replace("total_head_m = 10.0\n", "").replace(

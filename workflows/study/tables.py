@@ -636,6 +636,10 @@ class Study(Record):
             if material.permeability_m_s is None:
                 raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
                                  "the study has [seepage]")
+        try:
+            self.seepage.check_in_study(self.geometry.polygon_m, None if water is None else water.pond_level_m)
+        except StudyError as error:
+            raise StudyError(f"seepage.{error.field}", error.problem) from None
 
     def _check_frames(self):
         snapshotted = [s for s in self.stages if s.snapshotted]
