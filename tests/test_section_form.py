@@ -166,3 +166,39 @@ def test_a_peak_in_a_refined_zone_is_measured_at_the_zone_spacing(lines_raw, pol
     zone = [[59.0, 34.0], [61.0, 34.0], [61.0, 38.0], [59.0, 38.0]]
     raw["geometry"]["refined"] = [{"name": "spike", "region_m": zone, "spacing_m": 0.05}]
     assert parse_study(to_toml(raw)).geometry.refined[0].spacing_m == 0.05
+
+
+UPPER = [[30.0, 25.0], [40.0, 27.0], [50.0, 29.0], [54.0, 31.0], [70.0, 31.0]]
+
+
+@pytest.mark.parametrize("layer, region", [
+    # a lens pinching out at x = 60 whose lines run on together to the right side, and from 30 to 40
+    ({"below_m": UPPER, "above_m": [[30.0, 25.0], [40.0, 27.0], [52.0, 24.0], [60.0, 31.0], [70.0, 31.0]]},
+     [(40.0, 27.0), (50.0, 29.0), (54.0, 31.0), (60.0, 31.0), (52.0, 24.0)]),
+    # a lens whose lines meet at both ends
+    ({"below_m": [[35.0, 26.0], [45.0, 29.0], [55.0, 31.0]], "above_m": [[35.0, 26.0], [45.0, 25.0], [55.0, 31.0]]},
+     [(35.0, 26.0), (45.0, 29.0), (55.0, 31.0), (45.0, 25.0)]),
+    # a line dipping under the base (y = 20): the region closes below it
+    ({"below_m": [[20.0, 24.0], [40.0, 15.0], [70.0, 24.0]]},
+     [(20.0, 24.0), (40.0, 15.0), (70.0, 24.0), (70.0, 14.0), (20.0, 14.0)]),
+    # and one above the ground's top (y = 35)
+    ({"above_m": [[20.0, 24.0], [40.0, 40.0], [70.0, 24.0]]},
+     [(20.0, 24.0), (40.0, 40.0), (70.0, 24.0), (70.0, 41.0), (20.0, 41.0)]),
+])
+def test_lines_that_meet_or_leave_the_section_make_the_region_they_draw(lines_raw, layer, region):
+    """These were refused as a self-crossing materials[1].region_m, a field the study never wrote."""
+    lines_raw["geometry"]["section"]["layers"][0] = {"material": "soil_2", **layer}
+    study = parse_study(to_toml(lines_raw))
+    assert study.materials[1].region_m == tuple(region)
+    assert (build_scene(study).node_material == 1).sum() > 10
+
+
+@pytest.mark.parametrize("above_m, words", [
+    ([[30.0, 25.0], [40.0, 24.0], [50.0, 29.0], [60.0, 28.0], [70.0, 31.0]], "meet at x = 50 m and part again"),
+    (UPPER, "coincide wherever they share x"),
+])
+def test_lines_that_meet_and_part_again_are_refused_naming_the_layer(lines_raw, above_m, words):
+    lines_raw["geometry"]["section"]["layers"][0].update(below_m=UPPER, above_m=above_m)
+    with pytest.raises(StudyError, match=words) as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == "geometry.section.layers[0]"

@@ -222,8 +222,9 @@ foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
 **Section drawn as lines.**  A `[geometry.section]` table draws the section as engineers do:
 the ground surface as a line from left to right (its ends are the section's sides), the level
 of the fixed base, and each layer by the line it lies below (`below_m`), above (`above_m`) or
-between.  The code closes them into the polygon and the materials' regions; a material that no
-layer places and that gives no `region_m` fills the rest.  When the study gives no
+between (the two may meet, as a lens pinching out; a line may dip under the base).  The code
+closes them into the polygon and the materials' regions; a material that no layer places and
+that gives no `region_m` fills the rest.  When the study gives no
 `[[boundary]]`, the base is fixed (`base`) and both sides are rollers (`left`, `right`).  A peak
 of the ground (or of a polygon's top) less than one spacing wide one spacing below its top, a
 survey's spike, is refused: no particle fills it, yet it would count in the slope's height.
