@@ -202,3 +202,10 @@ def test_lines_that_meet_and_part_again_are_refused_naming_the_layer(lines_raw, 
     with pytest.raises(StudyError, match=words) as error:
         parse_study(to_toml(lines_raw))
     assert error.value.field == "geometry.section.layers[0]"
+
+
+def test_a_layer_that_places_no_particle_is_named_as_the_layer(lines_raw):
+    lines_raw["geometry"]["section"]["layers"][0] = {"material": "soil_2", "below_m": [[20.0, 10.0], [70.0, 10.0]]}
+    with pytest.raises(StudyError, match="'soil_2' holds no particle: its region lies outside") as error:
+        build_scene(parse_study(to_toml(lines_raw)))
+    assert error.value.field == "geometry.section.layers[0]"
