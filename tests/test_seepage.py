@@ -173,6 +173,18 @@ def test_an_iteration_stalled_at_round_off_blames_the_tolerance(monkeypatch):
     assert error.value.field == "seepage.max_iterations"
 
 
+@pytest.mark.parametrize("condition, flux_m_s", [("inflow", 1e3), ("inflow", -2e-4), ("infiltration", 1.0)])
+def test_a_flux_no_ground_can_carry_is_refused_before_the_flow_is_solved(condition, flux_m_s):
+    """1e3 m/s into ground of 1e-5 m/s needs a gradient of 1e8 where it enters: it was solved, and the
+    first step of the gravity stage diverged.  Above ten times the largest permeability (a gradient of
+    10, ten times soil's critical gradient) the flux is refused, naming it; at the limit it is taken."""
+    entry = f'[[seepage.boundary]]\nname = "spring"\ncondition = "{condition}"\ny_max_m = 0.0\nflux_m_s = '
+    with pytest.raises(StudyError, match="would need a hydraulic gradient of at least") as error:
+        parse_study(rectangular_dam_text(0.5) + entry + f"{flux_m_s}\n")
+    assert error.value.field == "seepage.boundary[3].flux_m_s" and "give at most 0.0001 m/s" in error.value.problem
+    assert parse_study(rectangular_dam_text(0.5) + entry + "1e-4\n").seepage.boundary[3].flux_m_s == 1e-4
+
+
 def test_no_head_anywhere_is_refused_and_a_flux_must_find_an_edge():
     no_head = rectangular_dam_text(0.5).replace('condition = "total_head"', 'condition = "no_flow"').replace(
         'condition = "seepage_face"', 'condition = "no_flow"').replace("total_head_m = 10.0\n", "").replace(

@@ -20,6 +20,13 @@ CONDITIONS = ("total_head", "pressure_head", "seepage_face", "inflow", "infiltra
 NEEDS = {"total_head": "total_head_m", "inflow": "flux_m_s", "infiltration": "flux_m_s"}
 """The field each condition needs (``pressure_head`` takes pressure_head_m, default 0)."""
 
+MAX_GRADIENT = 10.0
+"""The largest hydraulic gradient a flux may need where it crosses the boundary: ten times the
+critical gradient of soil (its buoyant unit weight over the water's, about 1), at which water
+leaving the ground lifts it (a quick condition) and rain heavier than the ground conducts stands
+on it instead of entering.  Water crossing the boundary at q needs i >= q / k there (Darcy:
+q = k i), k at most the largest saturated permeability of the study's materials."""
+
 ROUND_OFF_SPACINGS = 1000
 """A head change within this many spacings of doubles at the heads is round-off: an iteration
 asked to go below it may never stop (a tolerance suggested is at least this far above)."""
@@ -41,7 +48,8 @@ class SeepageBoundary(Box):
     pressure_head_m: float | None = number("m", "*condition = pressure_head:* h - y; default 0 (atmospheric)",
                                            default=None)
     flux_m_s: float | None = number("m s-1", "*condition = inflow or infiltration:* the water entering per unit "
-                                    "area (negative: leaving)", default=None)
+                                    "area (negative: leaving); at most 10 times the largest permeability of the "
+                                    "materials (a hydraulic gradient of 10 where it crosses)", default=None)
 
     def check(self):
         for name in ("total_head_m", "pressure_head_m", "flux_m_s"):
@@ -77,10 +85,19 @@ class Seepage(Record):
     max_iterations: int = integer("most iterations of the free surface and seepage faces", default=2000, ge=1,
                                   le=20_000)
 
-    def check_in_study(self, polygon_m, pond_level_m: float | None) -> None:
-        """StudyError on ``tolerance`` when it asks for head changes below the spacing of doubles at
+    def check_in_study(self, polygon_m, pond_level_m: float | None, largest_permeability_m_s: float) -> None:
+        """StudyError on a flux that needs a hydraulic gradient above ``MAX_GRADIENT`` where it crosses
+        the boundary; on ``tolerance`` when it asks for head changes below the spacing of doubles at
         the section's heads, eps max|h| (the heads at least the elevations and the fixed heads the
         study gives; the changes relative to their range): no iteration could stop there."""
+        limit_m_s = MAX_GRADIENT * largest_permeability_m_s
+        for i, entry in enumerate(self.boundary):
+            if entry.flux_m_s is not None and abs(entry.flux_m_s) > limit_m_s:
+                raise StudyError(f"boundary[{i}].flux_m_s", (
+                    f"{entry.flux_m_s:g} m/s would need a hydraulic gradient of at least "
+                    f"{abs(entry.flux_m_s) / largest_permeability_m_s:.3g} where it crosses the boundary (Darcy "
+                    f"q = k i, k at most {largest_permeability_m_s:g} m/s in this study): above {MAX_GRADIENT:g}, "
+                    f"ten times the critical gradient of soil, no ground carries it; give at most {limit_m_s:.3g} m/s"))
         ys = [y for _, y in polygon_m]
         heads = [*ys, *(h for h in (pond_level_m, *(b.total_head_m for b in self.boundary)) if h is not None)]
         largest_m = max(abs(h) for h in heads) + max([abs(b.pressure_head_m or 0.0) for b in self.boundary],

@@ -637,7 +637,9 @@ class Study(Record):
                 raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
                                  "the study has [seepage]")
         try:
-            self.seepage.check_in_study(self.geometry.polygon_m, None if water is None else water.pond_level_m)
+            largest_permeability = max(m.permeability_m_s * max(1.0, m.permeability_ratio) for m in self.materials)
+            self.seepage.check_in_study(self.geometry.polygon_m, None if water is None else water.pond_level_m,
+                                        largest_permeability)
         except StudyError as error:
             raise StudyError(f"seepage.{error.field}", error.problem) from None
 
