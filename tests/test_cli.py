@@ -3,6 +3,7 @@ study runs end to end into a complete run.nc."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -75,6 +76,16 @@ def test_python_dash_m_entry_point(tmp_path):
 def test_usage_errors_are_one_line_and_exit_2(args, line):
     run = subprocess.run([sys.executable, "-m", "workflows.cli", *args], capture_output=True, text=True, cwd=REPO)
     assert run.returncode == 2 and run.stderr.startswith(line) and run.stderr.count("\n") == 1, run.stderr
+
+
+def test_help_names_check_and_version_prints_the_version_the_files_carry():
+    from spfem_core import __version__
+
+    run = subprocess.run([sys.executable, "-m", "workflows.cli", "--help"], capture_output=True, text=True, cwd=REPO,
+                         env={**os.environ, "COLUMNS": "200"})
+    assert run.returncode == 0 and "spfem-fos check STUDY.toml" in run.stdout and "--version" in run.stdout
+    run = subprocess.run([sys.executable, "-m", "workflows.cli", "--version"], capture_output=True, text=True, cwd=REPO)
+    assert (run.returncode, run.stdout, run.stderr) == (0, f"spfem-fos {__version__}\n", "")
 
 
 # ---------------------------------------------------------------------------------------

@@ -1,6 +1,8 @@
 """The ``spfem-fos`` command: run a study file and write its results.
 
     spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS] [--max-memory GIB]
+    spfem-fos check STUDY.toml [--out DIR] [--workers N]
+    spfem-fos --version
     python -m workflows.cli STUDY.toml ...
 
 The study's type (:mod:`workflows.study_types`: a single study, or a ``[sweep]`` of cases) makes
@@ -192,7 +194,18 @@ def _read(study_file: Path):
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
 
 
-@app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).")
+def _print_version(value: bool) -> None:
+    """``--version``: the version the result files and the report carry (``spfem_core.__version__``)."""
+    if value:
+        from spfem_core import __version__  # imports no numba
+
+        typer.echo(f"spfem-fos {__version__}")
+        raise typer.Exit()
+
+
+@app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).",
+             epilog="To check a study without running it (section.png, particles, memory, run time): "
+             "spfem-fos check STUDY.toml [--out DIR] [--workers N]; see spfem-fos check --help.")
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
     out: Annotated[
@@ -215,6 +228,10 @@ def main(
         typer.Option("--max-memory", metavar="GIB", help="refuse a study whose particles would need more memory than "
                      "this (default: what the machine has available)", show_default=False),
     ] = None,
+    version: Annotated[
+        bool, typer.Option("--version", help="print the version of spfem-fos and exit", is_eager=True,
+                           callback=_print_version),
+    ] = False,
 ) -> None:
     study = _read(study_file)
     if scheduler is not None and not scheduler.strip():
