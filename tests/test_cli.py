@@ -114,7 +114,7 @@ def test_tiny_beam_end_to_end(tmp_path):
     result = invoke(study, "--out", out)
     assert result.exit_code == 0, result.output
     assert f"wrote {out / 'run.nc'}" in result.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["report.html", "run.nc"]  # the beam stage draws no figure
+    assert sorted(p.name for p in out.iterdir()) == [".spfem-fos.study", "report.html", "run.nc"]  # no figure
     with xr.open_dataset(out / "run.nc") as ds:
         for name in REQUIRED_VARIABLES:
             assert name in ds.variables, name

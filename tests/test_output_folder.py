@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 from workflows.cli import app
 from workflows.fos.run_store import remove_stale_runs
-from workflows.output.folder_lock import LOCK_NAME, folder_lock
+from workflows.output.folder_lock import LOCK_NAME, STUDY_NAME_FILE, folder_lock, folder_study
 from workflows.output.writing import share_file, write_bytes
 from workflows.study import StudyError
 
@@ -61,6 +61,48 @@ def test_a_folder_in_use_is_refused_and_given_back(tmp_path):
         assert error.value.field == "--out" and "in use by study 'first'" in str(error.value)
         assert json.loads((out / LOCK_NAME).read_text()) == holder  # still the first's
     assert not out.exists()  # made for the lock, nothing written: removed again
+
+
+def test_a_folder_holding_another_studys_results_is_refused_unless_forced(tmp_path):
+    """A different study run into an earlier study's folder removed its runs and realisations as
+    stale; it is refused before anything is removed, --force lets it replace them, and the same
+    study (its folder marked, or known by its result files from before the mark) resumes."""
+    out = tmp_path / "out"
+    with folder_lock(out, "first"):
+        (out / "srf_1.1000.nc").write_text("the first study's run")
+    assert folder_study(out) == "first"
+    with pytest.raises(StudyError, match="holds the results of study 'first', and this is study 'second'") as error:
+        with folder_lock(out, "second"):
+            pass
+    assert error.value.field == "--out" and "another --out, or --force" in error.value.problem
+    assert (out / "srf_1.1000.nc").is_file() and not (out / LOCK_NAME).exists()
+    with folder_lock(out, "first"):  # the same study resumes
+        pass
+    with folder_lock(out, "second", force=True):
+        pass
+    assert folder_study(out) == "second"
+    (out / STUDY_NAME_FILE).unlink()  # a folder from before the mark: known by its result files
+    netcdf(out / "summary.nc", spfem_fos_version="0.1.0", study_name="first")
+    with pytest.raises(StudyError, match="holds the results of study 'first'"):
+        with folder_lock(out, "second"):
+            pass
+
+
+def test_check_refuses_another_studys_folder_with_the_runs_line(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    with folder_lock(out, "other"):
+        (out / "srf_1.1000.nc").write_text("the other study's run")
+    lines = []
+    for command in (["check", str(QUICKSTART), "--out", str(out)], [str(QUICKSTART), "--out", str(out), "--quiet"]):
+        run = subprocess.run([sys.executable, "-m", "workflows.cli", *command], capture_output=True, text=True,
+                             cwd=REPO)
+        assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+        lines.append(run.stderr)
+    assert lines[0] == lines[1] == (f"error: {QUICKSTART}: --out: {out} holds the results of study 'other', and this "
+                                    "is study 'quickstart': its runs would replace them; give another --out, or "
+                                    "--force to replace them\n")
+    assert sorted(p.name for p in out.iterdir()) == [STUDY_NAME_FILE, "srf_1.1000.nc"]
 
 
 def test_a_stale_lock_is_taken_over(tmp_path):

@@ -12,7 +12,8 @@ stages in order (:mod:`workflows.stages`); a sweep brings its cases together in 
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
-folder that cannot be made or that another study holds: one line on stderr, nothing written;
+folder that cannot be made, that another study holds, or that holds another study's results
+without --force: one line on stderr, nothing written;
 or an output folder that failed, or a cluster lost, during the run: finished runs kept), 130 interrupted by Ctrl-C
 (SIGINT) and 143 by SIGTERM: finished runs are kept, the cluster is shut down, and the same
 command resumes.
@@ -212,7 +213,8 @@ def main(
         Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result: the FOS line (a sweep: its table)")] = False,
-    force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
+    force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date (and into a "
+                                        "folder holding another study's results, replacing them)")] = False,
     workers: Annotated[
         Optional[int], typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread "
                                     "each; default 2, at most the cores)", show_default=False)
@@ -341,9 +343,11 @@ def check(
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
     from workflows.check import check_study
     from workflows.memory_guard import check_memory
+    from workflows.output.folder_lock import check_folder_study
 
     try:
         check_memory(study, processes=1)
+        check_folder_study(out_dir, study.name, force=False)  # as the run refuses it without --force
         result = check_study(study, out_dir, workers)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None

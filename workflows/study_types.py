@@ -71,7 +71,7 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
     def on_case(case_id, outcome):
         kind.case_concluded(case_id, outcome, progress)
 
-    with folder_lock(out_dir, study.name, progress.message):
+    with folder_lock(out_dir, study.name, progress.message, force=options.force):
         cases = kind.cases()  # it writes, and may remove what an earlier invocation made: with the lock held
         with _round_session(kind, study, options) as session:
             outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)

@@ -6,6 +6,12 @@ when it ends, however it ends.  The lock file names the process that holds it; a
 process no longer runs on this machine (killed with -9, a crashed machine rebooted) is stale, and
 the next study takes it over and says so.  A lock taken on another machine (a shared file
 system) cannot be checked: the message names the machine and the file to delete.
+
+One study per output folder, too: ``OUT/.spfem-fos.study`` names the study whose results the
+folder holds.  The same study run again resumes and reuses what still applies (and removes what it
+no longer makes); a study of another name is refused before it removes anything, unless
+``--force`` (``spfem-fos check`` refuses it alike).  A folder written before this file existed is
+known by the ``study_name`` of the result files of ours at its top.
 """
 
 from __future__ import annotations
@@ -18,9 +24,10 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from workflows.fields import StudyError
-from workflows.output.writing import make_output_folder
+from workflows.output.writing import make_output_folder, write_bytes
 
 LOCK_NAME = ".spfem-fos.lock"
+STUDY_NAME_FILE = ".spfem-fos.study"
 
 
 def _running(pid: int) -> bool:
@@ -42,11 +49,39 @@ def _holder(path: Path) -> dict | None:
         return None
 
 
+def folder_study(out_dir: Path) -> str | None:
+    """The name of the study whose results ``out_dir`` holds (module doc); None if none is known."""
+    try:
+        return str(json.loads((Path(out_dir) / STUDY_NAME_FILE).read_text())["study"])
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    import netCDF4  # only for a folder without the file: written before it existed
+
+    for path in sorted(Path(out_dir).glob("*.nc")):
+        try:
+            with netCDF4.Dataset(path) as nc:
+                if {"spfem_fos_version", "study_name"} <= set(nc.ncattrs()):
+                    return str(nc.getncattr("study_name"))
+        except OSError:
+            continue
+    return None
+
+
+def check_folder_study(out_dir: Path, study_name: str, force: bool) -> None:
+    """StudyError on ``--out`` when ``out_dir`` holds another study's results and ``force`` is not set."""
+    other = folder_study(out_dir) if Path(out_dir).is_dir() else None
+    if other is not None and other != study_name and not force:
+        raise StudyError("--out", f"{out_dir} holds the results of study {other!r}, and this is study "
+                         f"{study_name!r}: its runs would replace them; give another --out, or --force to "
+                         "replace them")
+
+
 @contextmanager
-def folder_lock(out_dir: Path, study_name: str, say=lambda text: None):
+def folder_lock(out_dir: Path, study_name: str, say=lambda text: None, force: bool = False):
     """Hold ``out_dir``'s lock for the block (made with the folder if needed; a folder made here
-    and left empty is removed again).  StudyError on ``--out`` when a running study holds it;
-    ``say(text)`` reports a stale lock taken over."""
+    and left empty is removed again), and mark the folder as ``study_name``'s.  StudyError on
+    ``--out`` when a running study holds it, or when it holds another study's results and
+    ``force`` is not set (:func:`check_folder_study`); ``say(text)`` reports a stale lock taken over."""
     out_dir = Path(out_dir)
     made = not out_dir.exists()
     make_output_folder(out_dir)
@@ -80,13 +115,19 @@ def folder_lock(out_dir: Path, study_name: str, say=lambda text: None):
         break
     else:
         raise StudyError("--out", f"{out_dir}: could not take its lock {path}; another study is starting there")
+    study_file = out_dir / STUDY_NAME_FILE
     try:
+        check_folder_study(out_dir, study_name, force)
+        if folder_study(out_dir) != study_name:
+            write_bytes(json.dumps({"study": study_name}).encode(), study_file)
         yield
     finally:
         if (_holder(path) or {}).get("pid") == mine["pid"]:
             path.unlink(missing_ok=True)
         if made:
             try:
+                if [p.name for p in out_dir.iterdir()] == [STUDY_NAME_FILE]:
+                    study_file.unlink()
                 out_dir.rmdir()  # only if empty: nothing was written
             except OSError:
                 pass
