@@ -102,6 +102,25 @@ def _point_segment_distance_m(p, a, b) -> np.ndarray:
     return np.hypot(*(ap - t[:, None] * ab).T)
 
 
+def points_near_edges(points, polygon, distance_m: float) -> np.ndarray:
+    """Whether each point (n, 2) lies closer than ``distance_m`` to an edge of ``polygon``: as
+    ``distance_to_edges_m(points, polygon) < distance_m``, each point tested only against the edges
+    whose box, grown by ``distance_m``, holds it (a sweep along x): a long surveyed ground line
+    costs what its neighbourhood does, not every edge for every point."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    start, end = _edges(polygon)
+    low, high = np.minimum(start, end) - distance_m, np.maximum(start, end) + distance_m
+    order = np.argsort(points[:, 0], kind="stable")
+    by_x = points[order]
+    near = np.zeros(points.shape[0], dtype=bool)
+    for e, q in _edges_over(by_x[:, 0], low[:, 0], high[:, 0]):
+        beside = (by_x[q, 1] >= low[e, 1]) & (by_x[q, 1] <= high[e, 1])
+        e, q = e[beside], q[beside]
+        close = _point_segment_distance_m(by_x[q], start[e], end[e]) < distance_m
+        near[order[q[close]]] = True
+    return near
+
+
 def _segments_touch(p0, p1, q0, q1, tol_m: float) -> np.ndarray:
     """Row by row of (k, 2) arrays: True where the segments p0-p1 and q0-q1 cross (each one's ends
     strictly on either side of the other's line) or come within ``tol_m`` of each other (the

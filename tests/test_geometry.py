@@ -93,8 +93,8 @@ def _upper_boundary_by_brute_force(xy) -> list[float]:
 @pytest.mark.parametrize("pairs_per_batch", [geometry.PAIRS_PER_BATCH, 2])
 def test_the_sweeps_find_what_testing_every_pair_finds(monkeypatch, pairs_per_batch):
     """Random polygons, many of them on an integer grid (touching, collinear and vertical edges):
-    the first crossing, the upper boundary and y_top(x) as every pair of edges gives them, in
-    batches of any size."""
+    the first crossing, the upper boundary, y_top(x) and the points near an edge as every pair of
+    edges gives them, in batches of any size."""
     monkeypatch.setattr(geometry, "PAIRS_PER_BATCH", pairs_per_batch)
     rng = np.random.default_rng(7)
     crossings = 0
@@ -113,6 +113,10 @@ def test_the_sweeps_find_what_testing_every_pair_finds(monkeypatch, pairs_per_ba
         top = [max([y1 + (x0 - x1) / (x2 - x1) * (y2 - y1) for (x1, y1), (x2, y2) in edges
                     if min(x1, x2) <= x0 <= max(x1, x2) and x1 != x2], default=np.nan) for x0 in x]
         np.testing.assert_array_equal(geometry.surface_height_m(polygon, x), top)
+        points = np.vstack([rng.uniform(-1.0, 5.0, (40, 2)), rng.integers(-1, 6, (20, 2)) / 2.0])
+        for distance_m in (0.01, 0.5, 2.0):
+            np.testing.assert_array_equal(geometry.points_near_edges(points, polygon, distance_m),
+                                          geometry.distance_to_edges_m(points, polygon) < distance_m)
     assert crossings > 100
 
 
