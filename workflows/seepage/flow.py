@@ -31,8 +31,8 @@ from spfem_core.mesh import boundary_edges, triangulate
 from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, head_scale_m, solve_steady_flow
 from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
-from workflows.seepage.table import ROUND_OFF_SPACINGS
 from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.seepage.table import ROUND_OFF_SPACINGS
 
 POND = "pond"
 """The name of ponded water's condition in the results."""
