@@ -18,9 +18,9 @@ from typer.testing import CliRunner
 
 from workflows.cli import app
 from workflows.fos.run_store import remove_stale_runs
-from workflows.output.folder_lock import LOCK_NAME, STUDY_NAME_FILE, folder_lock, folder_study
+from workflows.output.folder_lock import LOCK_NAME, STUDY_NAME_FILE, folder_lock, folder_study, study_digest
 from workflows.output.writing import share_file, write_bytes
-from workflows.study import StudyError
+from workflows.study import StudyError, parse_study
 
 REPO = Path(__file__).resolve().parents[1]
 QUICKSTART = REPO / "studies" / "quickstart.toml"
@@ -66,25 +66,34 @@ def test_a_folder_in_use_is_refused_and_given_back(tmp_path):
 def test_a_folder_holding_another_studys_results_is_refused_unless_forced(tmp_path):
     """A different study run into an earlier study's folder removed its runs and realisations as
     stale; it is refused before anything is removed, --force lets it replace them, and the same
-    study (its folder marked, or known by its result files from before the mark) resumes."""
+    study resumes: changed (the same name), or renamed (the same digest of what it computes), its
+    folder marked or known by its result files from before the mark."""
     out = tmp_path / "out"
-    with folder_lock(out, "first"):
+    with folder_lock(out, "first", digest="d1"):
         (out / "srf_1.1000.nc").write_text("the first study's run")
-    assert folder_study(out) == "first"
+    assert folder_study(out) == ("first", "d1")
     with pytest.raises(StudyError, match="holds the results of study 'first', and this is study 'second'") as error:
-        with folder_lock(out, "second"):
+        with folder_lock(out, "second", digest="d2"):
             pass
     assert error.value.field == "--out" and "another --out, or --force" in error.value.problem
     assert (out / "srf_1.1000.nc").is_file() and not (out / LOCK_NAME).exists()
-    with folder_lock(out, "first"):  # the same study resumes
+    with folder_lock(out, "first", digest="d3"):  # the same study, changed
         pass
-    with folder_lock(out, "second", force=True):
+    with folder_lock(out, "renamed", digest="d3"):  # and renamed
         pass
-    assert folder_study(out) == "second"
+    with folder_lock(out, "second", digest="d2", force=True):
+        pass
+    assert folder_study(out) == ("second", "d2")
     (out / STUDY_NAME_FILE).unlink()  # a folder from before the mark: known by its result files
-    netcdf(out / "summary.nc", spfem_fos_version="0.1.0", study_name="first")
-    with pytest.raises(StudyError, match="holds the results of study 'first'"):
-        with folder_lock(out, "second"):
+    text = QUICKSTART.read_text()
+    netcdf(out / "summary.nc", spfem_fos_version="0.1.0", study_name="quickstart", study=text)
+    renamed = parse_study(text.replace('name = "quickstart"', 'name = "renamed"'))
+    assert folder_study(out) == ("quickstart", study_digest(renamed))
+    with folder_lock(out, "renamed", digest=study_digest(renamed)):
+        pass
+    (out / STUDY_NAME_FILE).unlink()
+    with pytest.raises(StudyError, match="holds the results of study 'quickstart'"):
+        with folder_lock(out, "other", digest="d4"):
             pass
 
 

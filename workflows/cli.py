@@ -343,11 +343,11 @@ def check(
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
     from workflows.check import check_study
     from workflows.memory_guard import check_memory
-    from workflows.output.folder_lock import check_folder_study
+    from workflows.output.folder_lock import check_folder_study, study_digest
 
     try:
         check_memory(study, processes=1)
-        check_folder_study(out_dir, study.name, force=False)  # as the run refuses it without --force
+        check_folder_study(out_dir, study.name, False, study_digest(study))  # as the run refuses it
         result = check_study(study, out_dir, workers)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
