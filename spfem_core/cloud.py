@@ -24,7 +24,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from spfem_core.geometry import corner_vertices, distance_to_edges_m, polygon_problem, ray_casting_inside
+from spfem_core.geometry import (
+    corner_vertices,
+    distance_to_edges_m,
+    points_near_edges,
+    polygon_problem,
+    ray_casting_inside,
+)
 
 MAX_JITTER = 0.3
 """Interior jitter must be below this fraction of h (keeps particles >= 0.2 h off the edges)."""
@@ -203,8 +209,7 @@ def _interior_lattice(polygon_m: np.ndarray, h: float) -> np.ndarray:
     lattice_m = low_m + h * np.column_stack([i.ravel(), j.ravel()]).astype(np.float64)
     keep = ray_casting_inside(lattice_m, polygon_m)
     lattice_m = lattice_m[keep]
-    keep = distance_to_edges_m(lattice_m, polygon_m) >= 0.5 * h * (1.0 - 1e-9)
-    return lattice_m[keep]
+    return lattice_m[~points_near_edges(lattice_m, polygon_m, 0.5 * h * (1.0 - 1e-9))]
 
 
 def _morton_order(node_xy_m: np.ndarray, h: float) -> np.ndarray:

@@ -65,35 +65,107 @@ def distance_to_edges_m(points, polygon, closed: bool = True) -> np.ndarray:
     return distance
 
 
-def _segments_touch(p0, p1, q0, q1, tol_m: float) -> bool:
-    """True when the segments p0-p1 and q0-q1 cross or come within ``tol_m`` of each other."""
+PAIRS_PER_BATCH = 1 << 20
+"""Pairs (of two edges, or of an edge and an abscissa) handled at once by the sweeps below: it
+bounds their memory whatever the polygon."""
+
+
+def _batches(counts: np.ndarray):
+    """(k0, k1) ranges of ``counts`` that sum to about ``PAIRS_PER_BATCH`` (at least one entry each)."""
+    k0, total = 0, np.cumsum(counts)
+    while k0 < counts.size:
+        before = total[k0 - 1] if k0 else 0
+        k1 = max(k0 + 1, int(np.searchsorted(total, before + PAIRS_PER_BATCH, side="right")))
+        yield k0, k1
+        k0 = k1
+
+
+def _ranges(starts: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """starts[0], ..., starts[0] + counts[0] - 1, starts[1], ...: the ranges concatenated."""
+    return np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+
+
+def _edges_over(x_sorted: np.ndarray, x_low: np.ndarray, x_high: np.ndarray):
+    """Batches of (edge, query) index pairs with x_low[edge] <= x_sorted[query] <= x_high[edge]: the
+    queries each edge spans, found by bisection (a sweep along x)."""
+    first = np.searchsorted(x_sorted, x_low, side="left")
+    counts = np.maximum(np.searchsorted(x_sorted, x_high, side="right") - first, 0)
+    for e0, e1 in _batches(counts):
+        yield np.repeat(np.arange(e0, e1), counts[e0:e1]), _ranges(first[e0:e1], counts[e0:e1])
+
+
+def _point_segment_distance_m(p, a, b) -> np.ndarray:
+    """|p - a - clip(t, 0, 1)(b - a)|, t = (p - a).(b - a) / |b - a|^2, row by row of (k, 2) arrays."""
+    ab, ap = b - a, p - a
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    t = np.clip(np.einsum("ij,ij->i", ap, ab) / np.where(length2 > 0.0, length2, 1.0), 0.0, 1.0)
+    return np.hypot(*(ap - t[:, None] * ab).T)
+
+
+def points_near_edges(points, polygon, distance_m: float) -> np.ndarray:
+    """Whether each point (n, 2) lies closer than ``distance_m`` to an edge of ``polygon``: as
+    ``distance_to_edges_m(points, polygon) < distance_m``, each point tested only against the edges
+    whose box, grown by ``distance_m``, holds it (a sweep along x): a long surveyed ground line
+    costs what its neighbourhood does, not every edge for every point."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    start, end = _edges(polygon)
+    low, high = np.minimum(start, end) - distance_m, np.maximum(start, end) + distance_m
+    order = np.argsort(points[:, 0], kind="stable")
+    by_x = points[order]
+    near = np.zeros(points.shape[0], dtype=bool)
+    for e, q in _edges_over(by_x[:, 0], low[:, 0], high[:, 0]):
+        beside = (by_x[q, 1] >= low[e, 1]) & (by_x[q, 1] <= high[e, 1])
+        e, q = e[beside], q[beside]
+        close = _point_segment_distance_m(by_x[q], start[e], end[e]) < distance_m
+        near[order[q[close]]] = True
+    return near
+
+
+def _segments_touch(p0, p1, q0, q1, tol_m: float) -> np.ndarray:
+    """Row by row of (k, 2) arrays: True where the segments p0-p1 and q0-q1 cross (each one's ends
+    strictly on either side of the other's line) or come within ``tol_m`` of each other (the
+    nearest of an end of one to the other segment)."""
 
     def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+        return (a[:, 0] - o[:, 0]) * (b[:, 1] - o[:, 1]) - (a[:, 1] - o[:, 1]) * (b[:, 0] - o[:, 0])
 
-    d1, d2 = cross(q0, q1, p0), cross(q0, q1, p1)
-    d3, d4 = cross(p0, p1, q0), cross(p0, p1, q1)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
-        return True  # a proper crossing
-    gap = min(distance_to_edges_m([p0, p1], [q0, q1], closed=False).min(),
-              distance_to_edges_m([q0, q1], [p0, p1], closed=False).min())
-    return gap <= tol_m
+    crossing = (cross(q0, q1, p0) * cross(q0, q1, p1) < 0.0) & (cross(p0, p1, q0) * cross(p0, p1, q1) < 0.0)
+    gap = np.minimum.reduce([_point_segment_distance_m(p0, q0, q1), _point_segment_distance_m(p1, q0, q1),
+                             _point_segment_distance_m(q0, p0, p1), _point_segment_distance_m(q1, p0, p1)])
+    return crossing | (gap <= tol_m)
 
 
 def first_self_intersection(polygon) -> tuple[int, int] | None:
-    """The first pair (i, j) of non-adjacent edges that cross or touch (edge i runs from vertex i
-    to vertex i + 1); None for a simple polygon.  O(m^2): polygons are small."""
+    """The first pair (i, j), i < j, of non-adjacent edges that cross or touch (edge i runs from
+    vertex i to vertex i + 1; the first: the smallest i, then j); None for a simple polygon.
+
+    A sweep along x: the edges sorted by their lowest x, each is tested (vectorised) against the
+    edges that start before it ends, whose boxes (grown by the tolerance) overlap its own in y too.
+    On a ground line, whose edges follow each other in x, that is a few pairs per edge: a 10,000
+    vertex polygon takes a fraction of a second."""
     xy = vertices_m(polygon)
     m = xy.shape[0]
-    end = np.roll(xy, -1, axis=0)
+    start, end = xy, np.roll(xy, -1, axis=0)
     tol = ON_EDGE_REL_TOL * size_m(xy)
-    for i in range(m):
-        for j in range(i + 2, m):
-            if i == 0 and j == m - 1:
-                continue  # adjacent through the closing vertex
-            if _segments_touch(xy[i], end[i], xy[j], end[j], tol):
-                return i, j
-    return None
+    low, high = np.minimum(start, end) - tol, np.maximum(start, end) + tol
+    order = np.argsort(low[:, 0], kind="stable")
+    # the edges after sorted position a that start (in x) before edge order[a] ends: a+1 ... last[a]-1
+    last = np.searchsorted(low[order, 0], high[order, 0], side="right")
+    counts = np.maximum(last - np.arange(m) - 1, 0)
+    first = None
+    for a0, a1 in _batches(counts):
+        a = np.repeat(np.arange(a0, a1), counts[a0:a1])
+        b = _ranges(np.arange(a0, a1) + 1, counts[a0:a1])
+        i, j = np.minimum(order[a], order[b]), np.maximum(order[a], order[b])
+        keep = (j - i > 1) & ~((i == 0) & (j == m - 1))  # not adjacent, nor through the closing vertex
+        keep &= (low[i, 1] <= high[j, 1]) & (low[j, 1] <= high[i, 1])
+        i, j = i[keep], j[keep]
+        hit = _segments_touch(start[i], end[i], start[j], end[j], tol)
+        if hit.any():
+            k = np.lexsort((j[hit], i[hit]))[0]
+            pair = (int(i[hit][k]), int(j[hit][k]))
+            first = pair if first is None or pair < first else first
+    return first
 
 
 def corner_vertices(polygon) -> np.ndarray:
@@ -175,39 +247,94 @@ def ray_casting_inside(points, polygon) -> np.ndarray:
     return inside
 
 
-def surface_height_m(polygon, x) -> np.ndarray:
-    """y_top(x): the height of the polygon's highest edge above each abscissa ``x`` (NaN where none)."""
+def _edges(polygon) -> tuple[np.ndarray, np.ndarray]:
+    """(start, end) of each edge as (m, 2) arrays, in the polygon's order."""
     xy = vertices_m(polygon)
-    start, end = xy, np.roll(xy, -1, axis=0)
-    x = np.asarray(x, dtype=np.float64)[:, None]
+    return xy, np.roll(xy, -1, axis=0)
+
+
+def surface_height_m(polygon, x) -> np.ndarray:
+    """y_top(x): the height of the polygon's highest edge above each abscissa ``x`` (NaN where none).
+    Each abscissa meets only the edges that span it (:func:`_edges_over`)."""
+    start, end = _edges(polygon)
+    x = np.asarray(x, dtype=np.float64)
     lo, hi = np.minimum(start[:, 0], end[:, 0]), np.maximum(start[:, 0], end[:, 0])
-    spans = (x >= lo) & (x <= hi) & (hi > lo)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = (x - start[:, 0]) / (end[:, 0] - start[:, 0])
-        y = start[:, 1] + t * (end[:, 1] - start[:, 1])
-    y = np.where(spans, y, -np.inf).max(axis=1)
-    return np.where(np.isfinite(y), y, np.nan)
+    sloped = np.flatnonzero(hi > lo)
+    order = np.argsort(x.ravel(), kind="stable")
+    x_sorted = x.ravel()[order]
+    top = np.full(x_sorted.size, -np.inf)
+    for e, q in _edges_over(x_sorted, lo[sloped], hi[sloped]):
+        a, b = start[sloped[e]], end[sloped[e]]
+        t = (x_sorted[q] - a[:, 0]) / (b[:, 0] - a[:, 0])
+        np.maximum.at(top, q, a[:, 1] + t * (b[:, 1] - a[:, 1]))
+    y = np.empty(x_sorted.size)
+    y[order] = np.where(np.isfinite(top), top, np.nan)
+    return y.reshape(x.shape)
+
+
+def upper_boundary(polygon) -> np.ndarray:
+    """The upper boundary y_top(x), the largest y of the boundary at x, as a polyline (k, 2): at every
+    vertex abscissa, from left to right, its height approached from the left, then from the right
+    (a vertical step where a vertical edge makes them differ; y_top is linear in between).
+    Vertical edges are seen through their neighbours; each abscissa meets only the edges that
+    span it (:func:`_edges_over`)."""
+    start, end = _edges(polygon)
+    swap = start[:, 0] > end[:, 0]
+    left_end, right_end = np.where(swap[:, None], end, start), np.where(swap[:, None], start, end)
+    sloped = np.flatnonzero(left_end[:, 0] < right_end[:, 0])
+    (x1, y1), (x2, y2) = left_end[sloped].T, right_end[sloped].T
+    abscissae = np.unique(start[:, 0])
+    from_left, from_right = np.full(abscissae.size, -np.inf), np.full(abscissae.size, -np.inf)
+    for e, q in _edges_over(abscissae, x1, x2):
+        x0 = abscissae[q]
+        at_low, at_high = x0 == x1[e], x0 == x2[e]
+        inside = y1[e] + (x0 - x1[e]) * (y2[e] - y1[e]) / (x2[e] - x1[e])
+        y = np.where(at_low, y1[e], np.where(at_high, y2[e], inside))
+        np.maximum.at(from_left, q[~at_low], y[~at_low])
+        np.maximum.at(from_right, q[~at_high], y[~at_high])
+    points = np.column_stack([np.repeat(abscissae, 2), np.column_stack([from_left, from_right]).ravel()])
+    return points[np.isfinite(points[:, 1])]
 
 
 def upper_boundary_heights(polygon) -> list[float]:
-    """Heights of the upper boundary y_top(x), the largest y of the boundary at x, at every vertex
-    abscissa, approached from the left and from the right (where y_top, piecewise linear with
-    jumps at vertical edges, takes its extreme values)."""
-    vertices = [tuple(v) for v in vertices_m(polygon).tolist()]
-    edges = [(a, b) if a[0] <= b[0] else (b, a) for a, b in zip(vertices, vertices[1:] + vertices[:1])]
-    heights = []
-    for x0 in sorted({x for x, _ in vertices}):
-        left, right = [], []
-        for (x1, y1), (x2, y2) in edges:
-            if x1 == x2 or not x1 <= x0 <= x2:
-                continue  # vertical edges are seen through their neighbours
-            y = y1 if x0 == x1 else y2 if x0 == x2 else y1 + (x0 - x1) * (y2 - y1) / (x2 - x1)
-            if x1 < x0:
-                left.append(y)
-            if x2 > x0:
-                right.append(y)
-        heights += [max(side) for side in (left, right) if side]
-    return heights
+    """Heights of the upper boundary at every vertex abscissa, approached from the left and from the
+    right (:func:`upper_boundary`), where y_top takes its extreme values."""
+    return upper_boundary(polygon)[:, 1].tolist()
+
+
+def narrow_peaks(polygon, width_m: float) -> np.ndarray:
+    """(x, y, w) rows, highest first, of the points of the upper boundary whose top ``width_m`` is
+    narrower than ``width_m``: the part of y_top(x) that stays at or above y - width_m around x is
+    w < width_m wide (bounded by where y_top falls below that level, or by the ends of the
+    boundary).  A spike of the ground narrower than the particle spacing is one: no particle
+    fills it.  Only points as high as their neighbours are tested, each against the boundary
+    within ``width_m`` of it."""
+    line = upper_boundary(polygon)
+    line = line[np.r_[True, (np.diff(line, axis=0) != 0.0).any(axis=1)]]  # a point once where y_top is continuous
+    x, y = line[:, 0], line[:, 1]
+    higher_than_neighbours = np.ones(len(line), dtype=bool)
+    higher_than_neighbours[1:] &= y[1:] >= y[:-1]
+    higher_than_neighbours[:-1] &= y[:-1] >= y[1:]
+    peaks = np.flatnonzero(higher_than_neighbours)
+    # segment s runs from point s to s + 1; those within width_m of a peak: first[k] ... first[k] + counts[k] - 1
+    first = np.searchsorted(x[1:], x[peaks] - width_m, side="left")
+    counts = np.maximum(np.searchsorted(x[:-1], x[peaks] + width_m, side="right") - first, 0)
+    # bounded by the ends of the boundary within width_m, else at least width_m away on that side
+    left = np.where(x[0] > x[peaks] - width_m, x[0], -np.inf)
+    right = np.where(x[-1] < x[peaks] + width_m, x[-1], np.inf)
+    for k0, k1 in _batches(counts):
+        k = np.repeat(np.arange(k0, k1), counts[k0:k1])
+        s = _ranges(first[k0:k1], counts[k0:k1])
+        level = y[peaks[k]] - width_m
+        crosses = (y[s] >= level) != (y[s + 1] >= level)
+        k, s, level = k[crosses], s[crosses], level[crosses]
+        x_cross = x[s] + (level - y[s]) / (y[s + 1] - y[s]) * (x[s + 1] - x[s])
+        before = s < peaks[k]  # the segments before the peak's point bound it on the left
+        np.maximum.at(left, k[before], x_cross[before])
+        np.minimum.at(right, k[~before], x_cross[~before])
+    narrow = np.flatnonzero(right - left < width_m)
+    narrow = narrow[np.argsort(-y[peaks[narrow]], kind="stable")]
+    return np.column_stack([x[peaks[narrow]], y[peaks[narrow]], (right - left)[narrow]])
 
 
 def relief_m(polygon) -> float:

@@ -89,15 +89,22 @@ def relative_permeability(pressure_head_m: np.ndarray, residual: float, band_m: 
 
 def _partial_expectation(low, mid, high, t):
     """E[(P - t)+] of P triangular on [low, high] with its mode at mid (arrays, low <= mid <= high): the
-    distribution of a linear field's values over a triangle's area, its vertex values low, mid, high."""
-    span = np.maximum(high - low, 1e-300)
-    upper = np.maximum(high - mid, 1e-300)
-    lower = np.maximum(mid - low, 1e-300)
-    above = (high - t) ** 3 / (3.0 * span * upper)  # mid <= t <= high
-    within = (high - mid) ** 2 / (3.0 * span) + (mid - t) - ((mid - low) ** 3 - (t - low) ** 3) / (3.0 * span * lower)
-    return np.where(t >= high, 0.0,
-                    np.where(t >= mid, np.where(high > mid, above, 0.0),
-                             np.where(t >= low, within, (low + mid + high) / 3.0 - t)))
+    distribution of a linear field's values over a triangle's area, its vertex values low, mid, high.
+    Each piece is evaluated only where it applies (its denominators are positive there: no overflow
+    from the pieces that do not, whatever t)."""
+    low, mid, high = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (low, mid, high)))
+    t = np.broadcast_to(np.asarray(t, dtype=float), low.shape)
+    result = np.zeros(low.shape)  # t >= high
+    below = t < low
+    result[below] = (low[below] + mid[below] + high[below]) / 3.0 - t[below]
+    upper = (t >= mid) & (t < high)  # so high > mid
+    h, m, lo, tt = high[upper], mid[upper], low[upper], t[upper]
+    result[upper] = (h - tt) ** 3 / (3.0 * (h - lo) * (h - m))
+    within = (t >= low) & (t < mid)  # so mid > low
+    h, m, lo, tt = high[within], mid[within], low[within], t[within]
+    span = h - lo
+    result[within] = (h - m) ** 2 / (3.0 * span) + (m - tt) - ((m - lo) ** 3 - (tt - lo) ** 3) / (3.0 * span * (m - lo))
+    return result
 
 
 def element_relative_permeability(node_pressure_head_m: np.ndarray, elem_nodes: np.ndarray, residual: float,
@@ -110,11 +117,12 @@ def element_relative_permeability(node_pressure_head_m: np.ndarray, elem_nodes: 
     low, mid, high = psi[:, 0], psi[:, 1], psi[:, 2]
     if band_m > 0.0:
         front = (_partial_expectation(low, mid, high, -band_m) - _partial_expectation(low, mid, high, 0.0)) / band_m
-    else:  # P(psi >= 0) = 1 - F(0)
-        span = np.maximum(high - low, 1e-300)
-        cdf = np.where(0.0 <= low, 0.0, np.where(0.0 >= high, 1.0, np.where(
-            0.0 <= mid, low * low / (span * np.maximum(mid - low, 1e-300)),
-            1.0 - high * high / (span * np.maximum(high - mid, 1e-300)))))
+    else:  # P(psi >= 0) = 1 - F(0), each piece of F evaluated where it applies
+        cdf = np.where((low < 0.0) & (0.0 >= high), 1.0, 0.0)  # 0 where 0 <= low
+        rising = (low < 0.0) & (0.0 < high) & (0.0 <= mid)  # so mid > low
+        cdf[rising] = low[rising] ** 2 / ((high[rising] - low[rising]) * (mid[rising] - low[rising]))
+        falling = (mid < 0.0) & (0.0 < high)  # so high > mid
+        cdf[falling] = 1.0 - high[falling] ** 2 / ((high[falling] - low[falling]) * (high[falling] - mid[falling]))
         front = 1.0 - cdf
     return residual + (1.0 - residual) * np.clip(front, 0.0, 1.0)
 
@@ -124,6 +132,16 @@ MIN_RELAXATION = 0.02
 (studies/seepage_perched.toml) oscillating for ever, 0.02 settles it in about 560 iterations."""
 RELAXATION_GROWTH = 1.05
 """After an update that did not grow, the fraction taken grows by this factor, back towards 1."""
+
+
+def head_scale_m(problem: FlowProblem) -> float:
+    """The length the iteration's tolerance is relative to: the larger of the range of the fixed heads
+    (and of the seepage faces' elevations) and the mesh's height."""
+    y = problem.node_xy_m[:, 1]
+    fixed = np.isfinite(problem.node_fixed_head_m)
+    face = problem.node_seepage_face & ~fixed
+    heads = np.concatenate([problem.node_fixed_head_m[fixed], y[face]])
+    return float(max(np.ptp(heads) if heads.size else 0.0, np.ptp(y), 1e-12))
 
 
 def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterations: int = 2000) -> FlowSolution:
@@ -139,8 +157,7 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
         raise ValueError("seepage: no boundary fixes a head (total head, pressure head, seepage face or ponded "
                          "water): the heads are undetermined")
     system = ElementConductivity(problem.node_xy_m, problem.elem_nodes, problem.elem_conductivity_m_s)
-    head_range = np.ptp(np.concatenate([problem.node_fixed_head_m[fixed], y[face]]))
-    scale = max(head_range, np.ptp(y), 1e-12)
+    scale = head_scale_m(problem)
     held_face = face.copy()  # start with every face node at atmospheric pressure
     head = np.where(fixed, problem.node_fixed_head_m, np.max(np.concatenate(
         [problem.node_fixed_head_m[fixed], y[face]])))

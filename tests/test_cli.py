@@ -3,6 +3,7 @@ study runs end to end into a complete run.nc."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -77,6 +78,16 @@ def test_usage_errors_are_one_line_and_exit_2(args, line):
     assert run.returncode == 2 and run.stderr.startswith(line) and run.stderr.count("\n") == 1, run.stderr
 
 
+def test_help_names_check_and_version_prints_the_version_the_files_carry():
+    from spfem_core import __version__
+
+    run = subprocess.run([sys.executable, "-m", "workflows.cli", "--help"], capture_output=True, text=True, cwd=REPO,
+                         env={**os.environ, "COLUMNS": "200"})
+    assert run.returncode == 0 and "spfem-fos check STUDY.toml" in run.stdout and "--version" in run.stdout
+    run = subprocess.run([sys.executable, "-m", "workflows.cli", "--version"], capture_output=True, text=True, cwd=REPO)
+    assert (run.returncode, run.stdout, run.stderr) == (0, f"spfem-fos {__version__}\n", "")
+
+
 # ---------------------------------------------------------------------------------------
 # With the core
 # ---------------------------------------------------------------------------------------
@@ -103,7 +114,7 @@ def test_tiny_beam_end_to_end(tmp_path):
     result = invoke(study, "--out", out)
     assert result.exit_code == 0, result.output
     assert f"wrote {out / 'run.nc'}" in result.stdout
-    assert sorted(p.name for p in out.iterdir()) == ["report.html", "run.nc"]  # the beam stage draws no figure
+    assert sorted(p.name for p in out.iterdir()) == [".spfem-fos.study", "report.html", "run.nc"]  # no figure
     with xr.open_dataset(out / "run.nc") as ds:
         for name in REQUIRED_VARIABLES:
             assert name in ds.variables, name

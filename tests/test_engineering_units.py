@@ -4,6 +4,7 @@ field as written."""
 
 from __future__ import annotations
 
+import math
 import tomllib
 
 import jsonschema
@@ -106,6 +107,11 @@ def test_the_json_schema_takes_either_form_but_not_both_nor_neither():
         ({"unit_weight_kn_m3": 0.0}, "materials[0].unit_weight_kn_m3", "> 0"),
         ({"cohesion_gpa": 1.0}, "materials[0].cohesion_gpa", "unknown field"),
         ({"friction_kpa": 1.0}, "materials[0].friction_kpa", "unknown field"),
+        # an integer too large for a float: refused as cohesion_pa refuses it, not an OverflowError
+        ({"cohesion_kpa": 10**400}, "materials[0].cohesion_kpa", "must be finite, got an integer of 401 digits"),
+        ({"youngs_modulus_mpa": -(10**400)}, "materials[0].youngs_modulus_mpa", "must be finite"),
+        ({"unit_weight_kn_m3": 10**400}, "materials[0].unit_weight_kn_m3", "must be finite"),
+        ({"saturated_unit_weight_kn_m3": 10**400}, "materials[0].saturated_unit_weight_kn_m3", "must be finite"),
     ],
 )
 def test_errors_name_the_field_as_written(change, field, words):
@@ -130,6 +136,17 @@ def test_a_unit_weight_needs_gravity():
     with pytest.raises(StudyError, match="needs gravity") as error:
         parse_study(to_toml(raw))
     assert error.value.field == "materials[0].unit_weight_kn_m3"
+
+
+@pytest.mark.parametrize("gravity, words", [([0.0, math.nan], "must be finite, got nan"),
+                                            ([0.0, "down"], "must be a number"),
+                                            ([1e200, -1e200], "must be at most")])
+def test_a_unit_weight_with_a_bad_gravity_names_the_gravity(gravity, words):
+    raw = _engineering()
+    raw["loads"]["gravity_m_s2"] = gravity
+    with pytest.raises(StudyError, match=words) as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "loads.gravity_m_s2"
 
 
 def test_a_sweep_of_the_si_field_replaces_the_engineering_one():

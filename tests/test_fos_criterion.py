@@ -183,6 +183,26 @@ def test_search_without_a_failure_stops_and_says_so():
     assert math.isnan(search.knee().fos) and "no run failed" in search.stop_reason
 
 
+def test_an_srf_max_off_the_step_grid_is_the_last_sweep_value_and_the_verdict_says_what_stopped():
+    """srf_min 1, srf_step 0.3, srf_max 2: 2 was never run, and the verdict line blamed max_runs after 4
+    runs.  The sweep now ends on srf_max; the verdict names max_runs only when the search stopped there."""
+    from types import SimpleNamespace
+
+    from workflows.fos.report import verdict_line
+
+    assert sweep_values(1.0, 2.0, 0.3) == [1.0, 1.3, 1.6, 1.9, 2.0]
+    for max_runs, words in ((40, "FOS > 2: no run failed up to srf_max = 2 (raise srf_max)"),
+                            (3, "FOS > 1.6: no run failed, and the search stopped at max_runs = 3 after 3 runs")):
+        stage = SimpleNamespace(srf_max=2.0, max_runs=max_runs)
+        search = SrfSearch(1.0, 2.0, 0.3, tolerance=0.01, floor_m=FLOOR_M, n_parallel=2, max_runs=max_runs)
+        drive(search, lambda f: slope_response(f, 9.0), 9.0)
+        runs = [SimpleNamespace(srf=o.srf, status=o.status) for _, o in sorted(search.outcomes.items())]
+        status = status_bracket([r.srf for r in runs], [r.status for r in runs])
+        line = verdict_line(search.knee(), status, True, runs, stage, search.stop_reason)
+        assert line.startswith(words), line
+    assert sorted(search.outcomes) == [1.0, 1.3, 1.6]
+
+
 def test_search_respects_max_runs():
     search = SrfSearch(1.0, 2.0, 0.1, tolerance=1e-4, floor_m=FLOOR_M, n_parallel=2, max_runs=8)
     drive(search, lambda f: slope_response(f), 1.3712)

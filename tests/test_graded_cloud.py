@@ -4,6 +4,7 @@ density scaling, and a refined band giving the FOS of the uniform fine cloud wit
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from spfem_core.cloud import graded_particles_in_polygon, particles_in_polygon, 
 from spfem_core.geometry import signed_area_m2
 from spfem_core.mesh import triangulate
 from workflows.cases import RunOptions
-from workflows.memory_guard import estimated_particles
+from workflows.memory_guard import check_memory, estimated_particles
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
@@ -80,6 +81,16 @@ def test_the_particle_estimate_of_a_refined_study_is_close_to_the_count():
     count = build_scene(study).n_particles
     assert estimated_particles(study) == pytest.approx(count, rel=0.15)
     assert count < build_scene(parse_study(QUICKSTART.replace("spacing_m = 1.0", "spacing_m = 0.5"))).n_particles / 2
+
+
+@pytest.mark.parametrize("zone_spacing_m, blamed", [(1e-4, "geometry.refined[0].spacing_m: 0.0001 m"),
+                                                     (0.9, "geometry.spacing_m: 1 m")])
+def test_a_study_too_large_names_the_spacing_that_makes_most_particles(zone_spacing_m, blamed):
+    """A refined zone at 1e-4 m makes billions of particles: the refusal names the zone's spacing, not
+    geometry.spacing_m; a zone hardly finer than the cloud leaves the blame on geometry.spacing_m."""
+    study = parse_study(QUICKSTART + BAND.replace("spacing_m = 0.5", f"spacing_m = {zone_spacing_m}"))
+    with pytest.raises(StudyError, match=f"^{re.escape(blamed)} gives about"):
+        check_memory(study, processes=1, limit_bytes=1000.0)
 
 
 @pytest.mark.parametrize("block, field, message", [

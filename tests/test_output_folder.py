@@ -18,9 +18,9 @@ from typer.testing import CliRunner
 
 from workflows.cli import app
 from workflows.fos.run_store import remove_stale_runs
-from workflows.output.folder_lock import LOCK_NAME, folder_lock
+from workflows.output.folder_lock import LOCK_NAME, STUDY_NAME_FILE, folder_lock, folder_study, study_digest
 from workflows.output.writing import share_file, write_bytes
-from workflows.study import StudyError
+from workflows.study import StudyError, parse_study
 
 REPO = Path(__file__).resolve().parents[1]
 QUICKSTART = REPO / "studies" / "quickstart.toml"
@@ -61,6 +61,57 @@ def test_a_folder_in_use_is_refused_and_given_back(tmp_path):
         assert error.value.field == "--out" and "in use by study 'first'" in str(error.value)
         assert json.loads((out / LOCK_NAME).read_text()) == holder  # still the first's
     assert not out.exists()  # made for the lock, nothing written: removed again
+
+
+def test_a_folder_holding_another_studys_results_is_refused_unless_forced(tmp_path):
+    """A different study run into an earlier study's folder removed its runs and realisations as
+    stale; it is refused before anything is removed, --force lets it replace them, and the same
+    study resumes: changed (the same name), or renamed (the same digest of what it computes), its
+    folder marked or known by its result files from before the mark."""
+    out = tmp_path / "out"
+    with folder_lock(out, "first", digest="d1"):
+        (out / "srf_1.1000.nc").write_text("the first study's run")
+    assert folder_study(out) == ("first", "d1")
+    with pytest.raises(StudyError, match="holds the results of study 'first', and this is study 'second'") as error:
+        with folder_lock(out, "second", digest="d2"):
+            pass
+    assert error.value.field == "--out" and "another --out, or --force" in error.value.problem
+    assert (out / "srf_1.1000.nc").is_file() and not (out / LOCK_NAME).exists()
+    with folder_lock(out, "first", digest="d3"):  # the same study, changed
+        pass
+    with folder_lock(out, "renamed", digest="d3"):  # and renamed
+        pass
+    with folder_lock(out, "second", digest="d2", force=True):
+        pass
+    assert folder_study(out) == ("second", "d2")
+    (out / STUDY_NAME_FILE).unlink()  # a folder from before the mark: known by its result files
+    text = QUICKSTART.read_text()
+    netcdf(out / "summary.nc", spfem_fos_version="0.1.0", study_name="quickstart", study=text)
+    renamed = parse_study(text.replace('name = "quickstart"', 'name = "renamed"'))
+    assert folder_study(out) == ("quickstart", study_digest(renamed))
+    with folder_lock(out, "renamed", digest=study_digest(renamed)):
+        pass
+    (out / STUDY_NAME_FILE).unlink()
+    with pytest.raises(StudyError, match="holds the results of study 'quickstart'"):
+        with folder_lock(out, "other", digest="d4"):
+            pass
+
+
+def test_check_refuses_another_studys_folder_with_the_runs_line(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out"
+    with folder_lock(out, "other"):
+        (out / "srf_1.1000.nc").write_text("the other study's run")
+    lines = []
+    for command in (["check", str(QUICKSTART), "--out", str(out)], [str(QUICKSTART), "--out", str(out), "--quiet"]):
+        run = subprocess.run([sys.executable, "-m", "workflows.cli", *command], capture_output=True, text=True,
+                             cwd=REPO)
+        assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+        lines.append(run.stderr)
+    assert lines[0] == lines[1] == (f"error: {QUICKSTART}: --out: {out} holds the results of study 'other', and this "
+                                    "is study 'quickstart': its runs would replace them; give another --out, or "
+                                    "--force to replace them\n")
+    assert sorted(p.name for p in out.iterdir()) == [STUDY_NAME_FILE, "srf_1.1000.nc"]
 
 
 def test_a_stale_lock_is_taken_over(tmp_path):

@@ -130,3 +130,82 @@ def test_own_supports_replace_the_default(lines_raw):
     lines_raw["boundary"] = [{"name": "base", "y_max_m": 20.0, "vx_m_s": 0.0, "vy_m_s": 0.0}]
     study = parse_study(to_toml(lines_raw))
     assert [b.name for b in study.boundary] == ["base"]
+
+
+@pytest.mark.parametrize("peak, refused", [
+    ([[60.0, 35.0], [60.2, 135.0], [60.4, 35.0]], True),  # a survey's spike, 0.4 m wide at its foot
+    ([[60.0, 35.0], [60.2, 39.0], [60.4, 35.0]], True),  # 4 m high: too small to count in the slope's height
+    ([[60.0, 35.0], [60.001, 45.0], [60.2, 45.0], [60.201, 35.0]], True),  # a wall 0.2 m thick
+    ([[58.0, 35.0], [60.0, 37.0], [62.0, 35.0]], False),  # a 1:1 ridge: as wide as high
+])
+def test_a_ground_peak_narrower_than_the_spacing_is_refused_naming_the_ground(lines_raw, peak, refused):
+    """A spike no particle can fill used to set the slope's height (and so the response time, which
+    refused stages[1].duration_s, or silently the failure displacement): it is the ground line's."""
+    section = lines_raw["geometry"]["section"]
+    section["ground_m"] = section["ground_m"][:3] + peak + [[70.0, 35.0]]
+    lines_raw["geometry"]["spacing_m"] = 1.0
+    if not refused:
+        assert parse_study(to_toml(lines_raw)).slope_height_m == 12.0
+        return
+    words = r"the peak at \(60[0-9.]*, [0-9.]+\) m is narrower than the particle spacing 1 m"
+    with pytest.raises(StudyError, match=words) as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == "geometry.section.ground_m"
+
+
+def test_a_peak_in_a_refined_zone_is_measured_at_the_zone_spacing(lines_raw, polygons):
+    """A polygon's spike names geometry.polygon_m; a refined zone fine enough to fill it accepts it."""
+    raw = tomllib.loads((PUBLISHED / "acads_1c.toml").read_text())
+    ground = [[70.0, 35.0], [60.4, 35.0], [60.3, 37.0], [60.1, 37.0], [60.0, 35.0]]  # a 0.2 m wide top
+    polygon = raw["geometry"]["polygon_m"]
+    at = polygon.index([70.0, 35.0])
+    raw["geometry"]["polygon_m"] = polygon[:at] + ground + polygon[at + 1:]
+    with pytest.raises(StudyError, match="narrower than the particle spacing 0.3 m") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "geometry.polygon_m"
+    zone = [[59.0, 34.0], [61.0, 34.0], [61.0, 38.0], [59.0, 38.0]]
+    raw["geometry"]["refined"] = [{"name": "spike", "region_m": zone, "spacing_m": 0.05}]
+    assert parse_study(to_toml(raw)).geometry.refined[0].spacing_m == 0.05
+
+
+UPPER = [[30.0, 25.0], [40.0, 27.0], [50.0, 29.0], [54.0, 31.0], [70.0, 31.0]]
+
+
+@pytest.mark.parametrize("layer, region", [
+    # a lens pinching out at x = 60 whose lines run on together to the right side, and from 30 to 40
+    ({"below_m": UPPER, "above_m": [[30.0, 25.0], [40.0, 27.0], [52.0, 24.0], [60.0, 31.0], [70.0, 31.0]]},
+     [(40.0, 27.0), (50.0, 29.0), (54.0, 31.0), (60.0, 31.0), (52.0, 24.0)]),
+    # a lens whose lines meet at both ends
+    ({"below_m": [[35.0, 26.0], [45.0, 29.0], [55.0, 31.0]], "above_m": [[35.0, 26.0], [45.0, 25.0], [55.0, 31.0]]},
+     [(35.0, 26.0), (45.0, 29.0), (55.0, 31.0), (45.0, 25.0)]),
+    # a line dipping under the base (y = 20): the region closes below it
+    ({"below_m": [[20.0, 24.0], [40.0, 15.0], [70.0, 24.0]]},
+     [(20.0, 24.0), (40.0, 15.0), (70.0, 24.0), (70.0, 14.0), (20.0, 14.0)]),
+    # and one above the ground's top (y = 35)
+    ({"above_m": [[20.0, 24.0], [40.0, 40.0], [70.0, 24.0]]},
+     [(20.0, 24.0), (40.0, 40.0), (70.0, 24.0), (70.0, 41.0), (20.0, 41.0)]),
+])
+def test_lines_that_meet_or_leave_the_section_make_the_region_they_draw(lines_raw, layer, region):
+    """These were refused as a self-crossing materials[1].region_m, a field the study never wrote."""
+    lines_raw["geometry"]["section"]["layers"][0] = {"material": "soil_2", **layer}
+    study = parse_study(to_toml(lines_raw))
+    assert study.materials[1].region_m == tuple(region)
+    assert (build_scene(study).node_material == 1).sum() > 10
+
+
+@pytest.mark.parametrize("above_m, words", [
+    ([[30.0, 25.0], [40.0, 24.0], [50.0, 29.0], [60.0, 28.0], [70.0, 31.0]], "meet at x = 50 m and part again"),
+    (UPPER, "coincide wherever they share x"),
+])
+def test_lines_that_meet_and_part_again_are_refused_naming_the_layer(lines_raw, above_m, words):
+    lines_raw["geometry"]["section"]["layers"][0].update(below_m=UPPER, above_m=above_m)
+    with pytest.raises(StudyError, match=words) as error:
+        parse_study(to_toml(lines_raw))
+    assert error.value.field == "geometry.section.layers[0]"
+
+
+def test_a_layer_that_places_no_particle_is_named_as_the_layer(lines_raw):
+    lines_raw["geometry"]["section"]["layers"][0] = {"material": "soil_2", "below_m": [[20.0, 10.0], [70.0, 10.0]]}
+    with pytest.raises(StudyError, match="'soil_2' holds no particle: its region lies outside") as error:
+        build_scene(parse_study(to_toml(lines_raw)))
+    assert error.value.field == "geometry.section.layers[0]"

@@ -61,6 +61,27 @@ def test_a_triangle_the_water_table_crosses_conducts_in_proportion_to_its_satura
     assert element_relative_permeability(np.array([-2.0, -3.0, -4.0]), elem, 1e-3, 0.5)[0] == 1e-3
 
 
+@pytest.mark.parametrize("band_m", [0.0, 1.0, 1e6])
+def test_the_mean_relative_permeability_makes_no_overflow_whatever_the_band(band_m):
+    """Triangles with two equal pressure heads (a zero-width piece of the triangular distribution),
+    flat ones, and random ones: each piece of the mean is evaluated only where it applies, so a band of
+    1e6 m (whose pieces divided by 1e-300 where they do not apply) warns of nothing (warnings are
+    errors here), and k_r is the mean of k_r(psi) over the triangle, by sampling."""
+    rng = np.random.default_rng(5)
+    psi = rng.normal(0.0, 3.0, (300, 3))
+    psi[::3, 1] = psi[::3, 2]
+    psi[1::3, 0] = psi[1::3, 1]
+    psi[::10] = 0.0
+    kr = element_relative_permeability(psi.ravel(), np.arange(psi.size).reshape(-1, 3), 1e-3, band_m)
+    a, b = rng.random((2, 4000))
+    fold = a + b > 1.0
+    a, b = np.where(fold, 1.0 - a, a), np.where(fold, 1.0 - b, b)  # uniform over the triangle
+    values = psi[:, :1] + a * (psi[:, 1:2] - psi[:, :1]) + b * (psi[:, 2:3] - psi[:, :1])
+    pointwise = np.where(values >= 0.0, 1.0, 1e-3) if band_m == 0.0 else \
+        np.clip(1e-3 + (1.0 - 1e-3) * (1.0 + values / band_m), 1e-3, 1.0)
+    np.testing.assert_allclose(kr, pointwise.mean(axis=1), atol=0.03)
+
+
 def test_radial_flow_converges_to_the_closed_form_at_second_order():
     """A quarter annulus r = 2-10 m: the discharge error falls about 4 times per halving of h (at
     least 3.4 times), below 5e-4 at h = 0.25 m."""
@@ -144,6 +165,45 @@ def test_a_seepage_study_that_cannot_be_solved_names_the_field(change, field):
     with pytest.raises(StudyError) as error:
         build_scene(parse_study(text))
     assert error.value.field == field
+
+
+def test_a_tolerance_finer_than_double_precision_is_refused_naming_it():
+    """1e-300 of the head range asks for changes a billion billion times below the spacing of doubles
+    at the heads: refused as the tolerance it is, before a mesh is made, not after max_iterations."""
+    text = rectangular_dam_text(0.5).replace("[seepage]\n", "[seepage]\ntolerance = 1e-300\n")
+    with pytest.raises(StudyError, match="finer than double precision resolves heads of 12 m") as error:
+        parse_study(text)
+    assert error.value.field == "seepage.tolerance" and "give at least 1e-12" in error.value.problem
+    assert parse_study(text.replace("1e-300", "1e-15")).seepage.tolerance == 1e-15  # resolvable: tried
+
+
+def test_an_iteration_stalled_at_round_off_blames_the_tolerance(monkeypatch):
+    """A tolerance above the spacing of doubles but within the round-off of the solve: the changes stall
+    there (the solver asked for exact convergence), and the message names the tolerance, not
+    max_iterations; a tolerance far above the round-off keeps the max_iterations message."""
+    from workflows.seepage import flow
+
+    monkeypatch.setattr(flow, "solve_steady_flow", lambda problem, tolerance, max_iterations:
+                        solve_steady_flow(problem, 0.0, max_iterations))
+    text = rectangular_dam_text(0.5).replace("[seepage]\n", "[seepage]\nmax_iterations = 100\ntolerance = 3e-16\n")
+    with pytest.raises(StudyError, match="finer than the round-off of the heads") as error:
+        build_scene(parse_study(text))
+    assert error.value.field == "seepage.tolerance"
+    with pytest.raises(StudyError, match="did not settle in 100 iterations") as error:
+        build_scene(parse_study(text.replace("3e-16", "1e-6")))
+    assert error.value.field == "seepage.max_iterations"
+
+
+@pytest.mark.parametrize("condition, flux_m_s", [("inflow", 1e3), ("inflow", -2e-4), ("infiltration", 1.0)])
+def test_a_flux_no_ground_can_carry_is_refused_before_the_flow_is_solved(condition, flux_m_s):
+    """1e3 m/s into ground of 1e-5 m/s needs a gradient of 1e8 where it enters: it was solved, and the
+    first step of the gravity stage diverged.  Above ten times the largest permeability (a gradient of
+    10, ten times soil's critical gradient) the flux is refused, naming it; at the limit it is taken."""
+    entry = f'[[seepage.boundary]]\nname = "spring"\ncondition = "{condition}"\ny_max_m = 0.0\nflux_m_s = '
+    with pytest.raises(StudyError, match="would need a hydraulic gradient of at least") as error:
+        parse_study(rectangular_dam_text(0.5) + entry + f"{flux_m_s}\n")
+    assert error.value.field == "seepage.boundary[3].flux_m_s" and "give at most 0.0001 m/s" in error.value.problem
+    assert parse_study(rectangular_dam_text(0.5) + entry + "1e-4\n").seepage.boundary[3].flux_m_s == 1e-4
 
 
 def test_no_head_anywhere_is_refused_and_a_flux_must_find_an_edge():

@@ -1,6 +1,8 @@
 """The ``spfem-fos`` command: run a study file and write its results.
 
     spfem-fos STUDY.toml [--out DIR] [--quiet] [--force] [--workers N | --scheduler ADDRESS] [--max-memory GIB]
+    spfem-fos check STUDY.toml [--out DIR] [--workers N]
+    spfem-fos --version
     python -m workflows.cli STUDY.toml ...
 
 The study's type (:mod:`workflows.study_types`: a single study, or a ``[sweep]`` of cases) makes
@@ -10,7 +12,8 @@ stages in order (:mod:`workflows.stages`); a sweep brings its cases together in 
 
 Exit codes: 0 done (or already up to date), 1 the run diverged, 2 the study cannot be run
 (missing or unreadable file, invalid study or option, too large for the memory, an output
-folder that cannot be made or that another study holds: one line on stderr, nothing written;
+folder that cannot be made, that another study holds, or that holds another study's results
+without --force: one line on stderr, nothing written;
 or an output folder that failed, or a cluster lost, during the run: finished runs kept), 130 interrupted by Ctrl-C
 (SIGINT) and 143 by SIGTERM: finished runs are kept, the cluster is shut down, and the same
 command resumes.
@@ -192,14 +195,26 @@ def _read(study_file: Path):
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
 
 
-@app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).")
+def _print_version(value: bool) -> None:
+    """``--version``: the version the result files and the report carry (``spfem_core.__version__``)."""
+    if value:
+        from spfem_core import __version__  # imports no numba
+
+        typer.echo(f"spfem-fos {__version__}")
+        raise typer.Exit()
+
+
+@app.command(help="Run the study file STUDY.toml and write its results (OUT/run.nc for a single stage).",
+             epilog="To check a study without running it (section.png, particles, memory, run time): "
+             "spfem-fos check STUDY.toml [--out DIR] [--workers N]; see spfem-fos check --help.")
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
     out: Annotated[
         Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result: the FOS line (a sweep: its table)")] = False,
-    force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date")] = False,
+    force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date (and into a "
+                                        "folder holding another study's results, replacing them)")] = False,
     workers: Annotated[
         Optional[int], typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread "
                                     "each; default 2, at most the cores)", show_default=False)
@@ -215,6 +230,10 @@ def main(
         typer.Option("--max-memory", metavar="GIB", help="refuse a study whose particles would need more memory than "
                      "this (default: what the machine has available)", show_default=False),
     ] = None,
+    version: Annotated[
+        bool, typer.Option("--version", help="print the version of spfem-fos and exit", is_eager=True,
+                           callback=_print_version),
+    ] = False,
 ) -> None:
     study = _read(study_file)
     if scheduler is not None and not scheduler.strip():
@@ -324,9 +343,11 @@ def check(
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
     from workflows.check import check_study
     from workflows.memory_guard import check_memory
+    from workflows.output.folder_lock import check_folder_study, study_digest
 
     try:
         check_memory(study, processes=1)
+        check_folder_study(out_dir, study.name, False, study_digest(study))  # as the run refuses it
         result = check_study(study, out_dir, workers)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None

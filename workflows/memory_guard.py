@@ -8,7 +8,8 @@ memory on the reference slope at 240k and 60k particles, ``python -m
 benchmarks.memory_per_particle``), and an FOS
 study holds one in its own process and one in each local worker.  A study whose estimate
 exceeds the limit (by default the memory the machine has available now) is refused with one
-line that names ``geometry.spacing_m``.
+line that names the spacing that makes most of its particles: ``geometry.spacing_m`` or a refined
+zone's.
 """
 
 from __future__ import annotations
@@ -40,22 +41,49 @@ def estimated_particles(study: Study) -> float:
 
 
 def _graded_estimate(study: Study) -> float:
+    geometry = study.geometry
+    polygon = np.array(geometry.polygon_m)
+    finest = geometry.finest_spacing_m
+    if not finest > 0.0 or not np.isfinite((np.ptp(polygon, axis=0) / finest).prod()):
+        return math.inf
+    cell_m2, fields = _spacing_fields(study)
+    perimeter = float(np.hypot(*np.diff(np.vstack([polygon, polygon[:1]]), axis=0).T).sum())
+    return float(np.sum(cell_m2 / fields.min(axis=0) ** 2)) + perimeter / finest
+
+
+def _spacing_fields(study: Study) -> tuple[float, np.ndarray]:
+    """(the area of a cell of the grid, h(x) on the grid inside the polygon for the coarse spacing
+    and for each refined zone alone, a row each: h(x) of the cloud is their minimum)."""
     from spfem_core.cloud import spacing_field  # numpy only
     from spfem_core.geometry import ray_casting_inside
 
     geometry = study.geometry
     polygon = np.array(geometry.polygon_m)
-    h0, finest = geometry.spacing_m, geometry.finest_spacing_m
-    if not finest > 0.0 or not np.isfinite((np.ptp(polygon, axis=0) / finest).prod()):
-        return math.inf
+    h0 = geometry.spacing_m
     step = min(h0, np.ptp(polygon, axis=0).min() / 20.0)
     x = np.arange(polygon[:, 0].min() + 0.5 * step, polygon[:, 0].max(), step)
     y = np.arange(polygon[:, 1].min() + 0.5 * step, polygon[:, 1].max(), step)
     grid = np.column_stack([a.ravel() for a in np.meshgrid(x, y)])
     inside = grid[ray_casting_inside(grid, polygon)]
-    field = spacing_field(inside, h0, geometry.zones, geometry.grading)
-    perimeter = float(np.hypot(*np.diff(np.vstack([polygon, polygon[:1]]), axis=0).T).sum())
-    return float(np.sum(step * step / field**2)) + perimeter / finest
+    fields = [np.full(len(inside), h0)]
+    fields += [spacing_field(inside, h0, [zone], geometry.grading) for zone in geometry.zones]
+    return step * step, np.array(fields)
+
+
+def spacing_to_blame(study: Study) -> tuple[str, float]:
+    """(field, spacing) of the spacing that makes most of the particles: ``geometry.spacing_m``, or a
+    refined zone's (``geometry.refined[i].spacing_m``, the finest zone's if the count overflows)."""
+    geometry = study.geometry
+    fields = [("geometry.spacing_m", geometry.spacing_m)] + [
+        (f"geometry.refined[{i}].spacing_m", zone.spacing_m) for i, zone in enumerate(geometry.refined)]
+    if not geometry.refined:
+        return fields[0]
+    if not math.isfinite(_graded_estimate(study)):
+        return min(fields, key=lambda field: field[1])
+    _, spacings = _spacing_fields(study)
+    governing = np.argmin(spacings, axis=0)  # the coarse spacing where no zone makes it finer
+    particles = [np.sum(1.0 / spacings[k, governing == k] ** 2) for k in range(len(fields))]
+    return fields[int(np.argmax(particles))]
 
 
 def available_memory_bytes() -> float:
@@ -64,8 +92,8 @@ def available_memory_bytes() -> float:
 
 
 def check_memory(study: Study, processes: int, limit_bytes: float | None = None) -> None:
-    """StudyError on ``geometry.spacing_m`` when ``processes`` simulations of ``study`` would need
-    more than ``limit_bytes`` (default :func:`available_memory_bytes`)."""
+    """StudyError on the spacing to blame (:func:`spacing_to_blame`) when ``processes`` simulations of
+    ``study`` would need more than ``limit_bytes`` (default :func:`available_memory_bytes`)."""
     limit = available_memory_bytes() if limit_bytes is None else float(limit_bytes)
     n = estimated_particles(study)
     need = n * BYTES_PER_PARTICLE * processes
@@ -74,9 +102,10 @@ def check_memory(study: Study, processes: int, limit_bytes: float | None = None)
     size = (f"about {n:.2g} particles, which need about {need / GIB:.3g} GiB" if math.isfinite(need)
             else "more particles than can be counted")
     where = "this machine has available" if limit_bytes is None else "allowed by --max-memory"
+    field, spacing_m = spacing_to_blame(study)
     raise StudyError(
-        "geometry.spacing_m",
-        f"{study.geometry.spacing_m:g} m gives {size} ({BYTES_PER_PARTICLE / 1000:.1f} kB per particle in each of "
+        field,
+        f"{spacing_m:g} m gives {size} ({BYTES_PER_PARTICLE / 1000:.1f} kB per particle in each of "
         f"{processes} processes), more than the {limit / GIB:.3g} GiB {where}; use a larger spacing "
         "(or --max-memory GIB to change the limit)",
     )

@@ -141,8 +141,7 @@ def build_scene(study: Study) -> Scene:
     counts = np.bincount(node_material, minlength=len(study.materials))
     for i, material in enumerate(study.materials):
         if counts[i] == 0:
-            raise StudyError(f"materials[{i}]", f"{material.name!r} holds no particle: its region lies outside "
-                             "geometry.polygon_m (or the materials after it cover it); fix or remove it")
+            raise _no_particle(study, i)
     for i, stage in enumerate(study.stages):
         active = supports(study, scene, stage.boundary)
         field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
@@ -155,6 +154,27 @@ def build_scene(study: Study) -> Scene:
             raise StudyError(field, f"the supports of stage {stage.name!r} leave the body free to {free}: it "
                              "would fall or drift as a whole; fix a base (vx_m_s = vy_m_s = 0) or add rollers")
     return scene
+
+
+def _no_particle(study: Study, index: int) -> StudyError:
+    """The error of a material that holds no particle, on the field that placed it (its region_m, or
+    the section's layer), with why: its region lies outside the domain, or inside it but thinner
+    than the spacing there (or under the materials after it)."""
+    material = study.materials[index]
+    field = f"materials[{index}]"
+    section = study.geometry.section
+    for j, layer in enumerate(section.layers if section is not None else ()):
+        if layer.material == material.name:
+            field = f"geometry.section.layers[{j}]"
+    region, polygon = np.array(material.region_m), np.array(study.geometry.polygon_m)
+    if not (points_in_polygon(region, polygon).any() or points_in_polygon(polygon, region).any()):
+        why = "its region lies outside geometry.polygon_m"
+    else:
+        geometry = study.geometry
+        spacing = (f"{geometry.spacing_m:g} m" if not geometry.refined else
+                   f"{geometry.finest_spacing_m:g} to {geometry.spacing_m:g} m")
+        why = f"its region is thinner than the particle spacing there ({spacing}), or the materials after it cover it"
+    return StudyError(field, f"{material.name!r} holds no particle: {why}; fix or remove it")
 
 
 WALL_GAP_TOLERANCE = 1e-3

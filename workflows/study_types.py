@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
-from workflows.output.folder_lock import folder_lock
+from workflows.output.folder_lock import folder_lock, study_digest
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.sweep import ProbabilisticSweepStudy
 from workflows.progress import Progress
@@ -71,7 +71,7 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
     def on_case(case_id, outcome):
         kind.case_concluded(case_id, outcome, progress)
 
-    with folder_lock(out_dir, study.name, progress.message):
+    with folder_lock(out_dir, study.name, progress.message, force=options.force, digest=study_digest(study)):
         cases = kind.cases()  # it writes, and may remove what an earlier invocation made: with the lock held
         with _round_session(kind, study, options) as session:
             outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)

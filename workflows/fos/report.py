@@ -8,8 +8,9 @@ from workflows.fos.slip_surface import CROSS_CHECK_MARGIN
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 
-def verdict_line(knee, status, agree, runs, stage) -> str:
-    """One line: the FOS or why there is none, and any warning (``runs``: the ``task.RunRecord``s by SRF)."""
+def verdict_line(knee, status, agree, runs, stage, stop_reason: str = "") -> str:
+    """One line: the FOS or why there is none, and any warning (``runs``: the ``task.RunRecord``s by SRF;
+    ``stop_reason``: why the search stopped, ``search.SrfSearch.stop_reason``)."""
     if not runs:
         return "no SRF run was made"
     failed_at_or_below_1 = [r.srf for r in runs if r.status == FAILED and r.srf <= 1.0]
@@ -18,11 +19,13 @@ def verdict_line(knee, status, agree, runs, stage) -> str:
         if all(r.status == FAILED for r in runs if r.status != DIVERGED):
             parts.append(f"FOS < {runs[0].srf:g}: every run failed")
         elif all(r.status == STABLE for r in runs if r.status != DIVERGED):
-            if runs[-1].srf < stage.srf_max - 1e-9:
-                parts.append(f"FOS > {runs[-1].srf:g}: no run failed, and the search stopped at max_runs = "
-                             f"{stage.max_runs} before srf_max = {stage.srf_max:g} (raise max_runs or srf_step)")
+            highest = max(r.srf for r in runs if r.status == STABLE)
+            if stop_reason.startswith("stopped at max_runs"):
+                parts.append(f"FOS > {highest:g}: no run failed, and the search stopped at max_runs = "
+                             f"{stage.max_runs} after {len(runs)} runs, before srf_max = {stage.srf_max:g} (raise "
+                             "max_runs or srf_step)")
             else:
-                parts.append(f"FOS > {runs[-1].srf:g}: no run failed (raise srf_max)")
+                parts.append(f"FOS > {highest:g}: no run failed up to srf_max = {stage.srf_max:g} (raise srf_max)")
         else:
             parts.append(f"no FOS: {knee.reason}")
     else:

@@ -3,8 +3,8 @@
 The search knows nothing of dask or files: it is told which runs finished with which
 maximum displacement and verdict, and says which SRF values to start next.
 
-1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max`` in ascending order.  Once a
-   run has failed, sweep values above it are not started (they cannot move the knee, which
+1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max``, and ``srf_max``, in ascending
+   order.  Once a run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
 2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
    failure while it has fewer than ``MIN_KNEE_RUNS`` runs up to that failure), the FOS bracket (the steepest rise after the
@@ -64,9 +64,11 @@ class RunOutcome:
 
 
 def sweep_values(srf_min: float, srf_max: float, srf_step: float) -> list[float]:
-    """srf_min, srf_min + step, ... up to srf_max (inclusive within 1e-9), rounded to 1e-4."""
+    """srf_min, srf_min + step, ... up to srf_max (inclusive within 1e-9), then srf_max itself when
+    the step does not land on it (srf_min 1, step 0.3, srf_max 2: 1, 1.3, 1.6, 1.9, 2), rounded to
+    1e-4: the sweep always reaches the srf_max the study asks for."""
     n = int(math.floor((srf_max - srf_min) / srf_step + 1e-9))
-    return sorted({round(srf_min + i * srf_step, 4) for i in range(n + 1)})
+    return sorted({round(srf_min + i * srf_step, 4) for i in range(n + 1)} | {round(srf_max, 4)})
 
 
 class SrfSearch:

@@ -91,7 +91,7 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
         out_dir=out_dir, summary_path=out_dir / SUMMARY_NAME, fos=knee.fos, fos_low=knee.fos_low,
         fos_high=knee.fos_high, criterion=knee.reason, knee_srf=knee.knee_srf, status_low=status.fos_low,
         status_high=status.fos_high, criteria_agree=agree, non_monotone=list(status.non_monotone),
-        verdict=verdict_line(knee, status, agree, ordered, stage), runs=ordered,
+        verdict=verdict_line(knee, status, agree, ordered, stage, search.stop_reason), runs=ordered,
         skipped={f: r for f, r in search.skipped.items() if f not in runs}, gravity_reused=case.gravity_reused,
         timings_s=timings, n_particles=case.n_particles, guesses=(case.n_guessed, case.n_guesses_used),
         stiffness_factor=stage.stiffness_factor(build_material_table(study), study),

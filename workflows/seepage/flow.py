@@ -21,16 +21,18 @@ file put it (docs/method.md, section 15).
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from spfem_core.mesh import boundary_edges, triangulate
-from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, solve_steady_flow
+from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, head_scale_m, solve_steady_flow
 from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
 from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.seepage.table import ROUND_OFF_SPACINGS
 
 POND = "pond"
 """The name of ponded water's condition in the results."""
@@ -187,6 +189,15 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
         raise StudyError("seepage.boundary", f"{error} (give a total_head, pressure_head or seepage_face "
                          "condition, or [water] pond_level_m)") from None
     if not solution.converged:
+        largest_m = float(np.max(np.abs(solution.head_m)))
+        round_off_m = ROUND_OFF_SPACINGS * math.ulp(largest_m)
+        if solution.head_change_m[-1] <= round_off_m and seepage.tolerance * head_scale_m(problem) < round_off_m:
+            suggested = 10.0 ** math.ceil(math.log10(round_off_m / head_scale_m(problem)))
+            raise StudyError("seepage.tolerance", (
+                f"{seepage.tolerance:g} is finer than the round-off of the heads: after {solution.iterations} "
+                f"iterations they change by {solution.head_change_m[-1]:.2g} m, within {ROUND_OFF_SPACINGS} spacings "
+                f"of doubles at heads of {largest_m:.3g} m, and no more iterations go below it; give at least "
+                f"{suggested:g} (the default is 1e-6)"))
         raise StudyError("seepage.max_iterations", (
             f"the free surface did not settle in {solution.iterations} iterations (last head change "
             f"{solution.head_change_m[-1]:.3g} m); raise max_iterations, or give unsaturated_band_m (about "

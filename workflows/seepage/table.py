@@ -9,6 +9,8 @@ where the total head is the pond's level.
 
 from __future__ import annotations
 
+import math
+import sys
 from dataclasses import dataclass
 
 from workflows.box import Box
@@ -17,6 +19,17 @@ from workflows.fields import Record, StudyError, integer, name_field, number, ta
 CONDITIONS = ("total_head", "pressure_head", "seepage_face", "inflow", "infiltration", "no_flow")
 NEEDS = {"total_head": "total_head_m", "inflow": "flux_m_s", "infiltration": "flux_m_s"}
 """The field each condition needs (``pressure_head`` takes pressure_head_m, default 0)."""
+
+MAX_GRADIENT = 10.0
+"""The largest hydraulic gradient a flux may need where it crosses the boundary: ten times the
+critical gradient of soil (its buoyant unit weight over the water's, about 1), at which water
+leaving the ground lifts it (a quick condition) and rain heavier than the ground conducts stands
+on it instead of entering.  Water crossing the boundary at q needs i >= q / k there (Darcy:
+q = k i), k at most the largest saturated permeability of the study's materials."""
+
+ROUND_OFF_SPACINGS = 1000
+"""A head change within this many spacings of doubles at the heads is round-off: an iteration
+asked to go below it may never stop (a tolerance suggested is at least this far above)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -35,7 +48,8 @@ class SeepageBoundary(Box):
     pressure_head_m: float | None = number("m", "*condition = pressure_head:* h - y; default 0 (atmospheric)",
                                            default=None)
     flux_m_s: float | None = number("m s-1", "*condition = inflow or infiltration:* the water entering per unit "
-                                    "area (negative: leaving)", default=None)
+                                    "area (negative: leaving); at most 10 times the largest permeability of the "
+                                    "materials (a hydraulic gradient of 10 where it crosses)", default=None)
 
     def check(self):
         for name in ("total_head_m", "pressure_head_m", "flux_m_s"):
@@ -66,6 +80,34 @@ class Seepage(Record):
         "head); 0: a sharp free surface. Give about 1 m for infiltration through dry ground", default=0.0, ge=0.0,
     )
     tolerance: float = number("1", "the iteration stops once no head changes by more than this times the range "
-                              "of the fixed heads", default=1e-6, gt=0.0, lt=1e-2)
+                              "of the fixed heads (one below the spacing of doubles at the heads is refused)",
+                              default=1e-6, gt=0.0, lt=1e-2)
     max_iterations: int = integer("most iterations of the free surface and seepage faces", default=2000, ge=1,
                                   le=20_000)
+
+    def check_in_study(self, polygon_m, pond_level_m: float | None, largest_permeability_m_s: float) -> None:
+        """StudyError on a flux that needs a hydraulic gradient above ``MAX_GRADIENT`` where it crosses
+        the boundary; on ``tolerance`` when it asks for head changes below the spacing of doubles at
+        the section's heads, eps max|h| (the heads at least the elevations and the fixed heads the
+        study gives; the changes relative to their range): no iteration could stop there."""
+        limit_m_s = MAX_GRADIENT * largest_permeability_m_s
+        for i, entry in enumerate(self.boundary):
+            if entry.flux_m_s is not None and abs(entry.flux_m_s) > limit_m_s:
+                raise StudyError(f"boundary[{i}].flux_m_s", (
+                    f"{entry.flux_m_s:g} m/s would need a hydraulic gradient of at least "
+                    f"{abs(entry.flux_m_s) / largest_permeability_m_s:.3g} where it crosses the boundary (Darcy "
+                    f"q = k i, k at most {largest_permeability_m_s:g} m/s in this study): above {MAX_GRADIENT:g}, "
+                    f"ten times the critical gradient of soil, no ground carries it; give at most {limit_m_s:.3g} m/s"))
+        ys = [y for _, y in polygon_m]
+        heads = [*ys, *(h for h in (pond_level_m, *(b.total_head_m for b in self.boundary)) if h is not None)]
+        largest_m = max(abs(h) for h in heads) + max([abs(b.pressure_head_m or 0.0) for b in self.boundary],
+                                                     default=0.0)
+        scale_m = max(max(heads) - min(heads), 1e-12)
+        floor = sys.float_info.epsilon * largest_m / scale_m
+        if self.tolerance < floor:
+            suggested = 10.0 ** math.ceil(math.log10(ROUND_OFF_SPACINGS * floor))
+            raise StudyError("tolerance", f"{self.tolerance:g} asks for head changes below "
+                             f"{self.tolerance * scale_m:.2g} m, finer than double precision resolves heads of "
+                             f"{largest_m:.3g} m "
+                             f"({math.ulp(largest_m):.2g} m): the iteration could never stop; give at least "
+                             f"{suggested:g} (the default is 1e-6)")

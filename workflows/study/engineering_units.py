@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 
-from workflows.fields import StudyError, show
+from workflows.fields import Spec, StudyError, check_value, show
 
 PRESSURE_SUFFIXES = {"_kpa": 1e3, "_mpa": 1e6}
 """Name ending of a pressure field in kPa or MPa, and its value in Pa per unit."""
@@ -22,13 +22,21 @@ UNIT_WEIGHTS = {"unit_weight_kn_m3": "density_kg_m3", "saturated_unit_weight_kn_
 
 DEFAULT_GRAVITY_M_S2 = (0.0, -9.81)  # workflows.loads.Loads.gravity_m_s2's default
 
+NUMBER, POINT = Spec("number"), Spec("point")
+"""A value given in other units is checked as a number (a point) of the study is, before it is
+converted: finite and not too large (an integer of 400 digits times 1e3 would overflow)."""
+
 
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+def _checked(spec: Spec, value, field: str):
+    """``value`` as the study's ``spec`` checks it (a float, or a pair of them); StudyError on ``field``."""
+    try:
+        return check_value(spec, value)
+    except ValueError as error:
+        raise StudyError(field, str(error)) from None
 
 
 def pressure_field(key: str, declared: dict) -> tuple[str, float] | None:
@@ -61,9 +69,7 @@ def in_pascals(raw: dict, declared: dict, path: str) -> tuple[dict, dict]:
         other = canonical if canonical in raw else given_as.get(canonical)
         if other is not None:
             raise StudyError(_join(path, key), f"give {key} or {other}, not both")
-        if not _is_number(value):
-            raise StudyError(_join(path, key), f"must be a number, got {show(value)}")
-        table[canonical], given_as[canonical] = value * factor, key
+        table[canonical], given_as[canonical] = _checked(NUMBER, value, _join(path, key)) * factor, key
     return table, given_as
 
 
@@ -76,9 +82,8 @@ def with_densities(raw: dict) -> tuple[dict, dict]:
     ):
         return raw, {}
     loads = raw.get("loads") if isinstance(raw.get("loads"), dict) else {}
-    gravity = loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
-    g_m_s2 = math.hypot(*gravity) if isinstance(gravity, (list, tuple)) and len(gravity) == 2 and all(
-        _is_number(v) for v in gravity) else None
+    gravity = _checked(POINT, loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2), "loads.gravity_m_s2")
+    g_m_s2 = math.hypot(*gravity)
     converted, given_as = [], {}
     for i, material in enumerate(materials):
         material = dict(material) if isinstance(material, dict) else material
@@ -88,13 +93,11 @@ def with_densities(raw: dict) -> tuple[dict, dict]:
             field, weight = f"materials[{i}].{weight_key}", material.pop(weight_key)
             if density_key in material:
                 raise StudyError(field, f"give {weight_key} or {density_key}, not both")
-            if not _is_number(weight) or not weight > 0.0:
+            if not _checked(NUMBER, weight, field) > 0.0:
                 raise StudyError(field, f"must be a number > 0, got {show(weight)}")
-            if g_m_s2 is None:
-                continue  # loads.gravity_m_s2 is invalid: its own check names it
-            if not (g_m_s2 > 0.0 and math.isfinite(g_m_s2)):
-                raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is {show(gravity)}: "
-                                 f"give {density_key} instead")
+            if not g_m_s2 > 0.0:
+                raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is "
+                                 f"{show(list(gravity))}: give {density_key} instead")
             material[density_key] = 1000.0 * weight / g_m_s2
             given_as[f"materials[{i}].{density_key}"] = field
         converted.append(material)

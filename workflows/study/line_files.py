@@ -10,11 +10,16 @@ when the study is loaded, and the study stored with the results is the one with 
 written out (``study.toml_text.to_toml``): the results do not depend on files beside them, and the
 workers never read them.  A line drawn from right to left in a DXF file is turned round; the
 line checks (x increasing, at least 2 points) are the study's, naming the field.
+
+A DXF line is read as CAD draws it: in world coordinates (a polyline's object coordinate system
+turned into them), its arcs (bulges) as chords within ``ARC_TOLERANCE`` of the arc, in metres (a
+drawing in other units is refused, naming them).
 """
 
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 from workflows.fields import StudyError
@@ -64,6 +69,14 @@ def read_line(folder: Path, name: str, field: str) -> list[list[float]]:
     return _csv_line(path, field)
 
 
+SHOWN_CHARACTERS = 60
+"""At most this much of a row that is not a point is quoted in the message."""
+
+
+def _shortened(text: str) -> str:
+    return text if len(text) <= SHOWN_CHARACTERS else f"{text[:SHOWN_CHARACTERS]}... ({len(text)} characters)"
+
+
 def _csv_line(path: Path, field: str) -> list[list[float]]:
     """Rows x, y of a CSV file (comma, semicolon or tab), a first row that is not numbers skipped."""
     try:
@@ -75,41 +88,140 @@ def _csv_line(path: Path, field: str) -> list[list[float]]:
     except csv.Error:
         dialect = csv.excel
     points = []
-    for number, row in enumerate(csv.reader(text.splitlines(), dialect), start=1):
-        cells = [cell.strip() for cell in row if cell.strip()]
-        if not cells:
-            continue
-        try:
-            x, y = (float(cell) for cell in cells)
-        except ValueError:
-            if number == 1 and not points:
-                continue  # a header
-            raise StudyError(field, f"{path.name} line {number}: expected two numbers x, y, got {row}") from None
-        points.append([x, y])
+    reader = csv.reader(text.splitlines(), dialect)
+    try:
+        for number, row in enumerate(reader, start=1):
+            cells = [cell.strip() for cell in row if cell.strip()]
+            if not cells:
+                continue
+            try:
+                x, y = (float(cell) for cell in cells)
+            except ValueError:
+                if number == 1 and not points:
+                    continue  # a header
+                raise StudyError(field, f"{path.name} line {number}: expected two numbers x, y, got "
+                                 f"{_shortened(repr(row))}") from None
+            points.append([x, y])
+    except csv.Error as error:  # a row the csv module cannot split (a field longer than its limit)
+        raise StudyError(field, f"{path.name} line {reader.line_num}: {error}") from None
     if len(points) < 2:
         raise StudyError(field, f"{path.name}: a line needs at least 2 points, got {len(points)}")
     return points
 
 
-def _dxf_line(path: Path, layer: str, field: str) -> list[list[float]]:
-    """The one polyline (LWPOLYLINE, POLYLINE or LINE) on ``layer`` of a DXF file, left to right."""
+DXF_LINE_TYPES = ("LWPOLYLINE", "POLYLINE", "LINE")
+
+ARC_TOLERANCE = 1e-4
+"""An arc of a DXF polyline (a vertex's bulge) is read as chords whose sagitta (the largest
+distance between a chord and its arc) is at most this fraction of the line's size, the larger
+side of its bounding box, arcs included: 1 cm on a 100 m section, far below any particle spacing
+a section of that size runs at."""
+
+DXF_METRES = 6
+"""``$INSUNITS`` of a drawing in metres; 0 (unitless) is read as metres too."""
+
+
+def _read_dxf(path: Path, field: str):
+    """The ezdxf document of ``path``; StudyError on ``field`` if it is not a DXF file ezdxf can read.
+
+    Besides its ``DXFError`` (a bad structure), ezdxf's reader raises ``StopIteration`` when a
+    file ends before its header does (a truncated file), and ``ValueError`` or ``OverflowError``
+    when a number in it does not convert (``abc``, ``1e999`` where an integer belongs)."""
     import ezdxf  # only for a study that reads a DXF file
 
     try:
-        document = ezdxf.readfile(path)
+        return ezdxf.readfile(path)
+    except StopIteration:
+        raise StudyError(field, f"cannot read {path.name} as DXF: the file ends before its header does "
+                         "(cut short?)") from None
     except (OSError, ezdxf.DXFError) as error:
         raise StudyError(field, f"cannot read {path.name} as DXF: {error}") from None
-    lines = []
-    for entity in document.modelspace().query(f'LWPOLYLINE POLYLINE LINE[layer=="{layer}"]'):
-        if entity.dxftype() == "LINE":
-            lines.append([list(entity.dxf.start)[:2], list(entity.dxf.end)[:2]])
-        elif entity.dxftype() == "LWPOLYLINE":
-            lines.append([[float(x), float(y)] for x, y in entity.get_points("xy")])
-        else:
-            lines.append([[float(v.dxf.location[0]), float(v.dxf.location[1])] for v in entity.vertices])
-    if len(lines) != 1:
+    except (ValueError, OverflowError) as error:  # a UnicodeDecodeError too
+        raise StudyError(field, f"cannot read {path.name} as DXF: a value in it does not convert ({error})") from None
+
+
+def _dxf_line(path: Path, layer: str, field: str) -> list[list[float]]:
+    """The one polyline (LWPOLYLINE, POLYLINE or LINE) on ``layer`` of a DXF file (the layer's name
+    compared without regard to case, as CAD does), in world coordinates (x, y), left to right, its
+    arcs as chords (``ARC_TOLERANCE``).  A drawing in units other than metres is refused:
+    ``$INSUNITS`` is often the template's rather than the drawing's, and a conversion would
+    rescale such a section silently."""
+    from ezdxf import units
+
+    document = _read_dxf(path, field)
+    code = document.header.get("$INSUNITS", 0)
+    if code not in (0, DXF_METRES):
+        try:
+            name = units.unit_name(code).lower()
+        except (IndexError, TypeError):
+            name = "unknown units"
+        raise StudyError(field, f"{path.name} is drawn in {name} ($INSUNITS = {code}) and lines are read in metres: "
+                         f"scale the drawing to metres and set its units to metres ($INSUNITS = {DXF_METRES}), or "
+                         "only set its units if its numbers are metres already")
+    entities = [entity for entity in document.modelspace() if entity.dxftype() in DXF_LINE_TYPES
+                and entity.dxf.layer.casefold() == layer.casefold()]
+    if len(entities) != 1:
         known = sorted({entity.dxf.layer for entity in document.modelspace()})
-        what = "no line" if not lines else f"{len(lines)} lines"
+        what = "no line" if not entities else f"{len(entities)} lines"
         raise StudyError(field, f"{path.name}: {what} on layer {layer!r}, one is needed (layers: {known})")
-    points = [[float(x), float(y)] for x, y in lines[0]]
+    entity = entities[0]
+    if entity.dxftype() == "POLYLINE" and (entity.is_polygon_mesh or entity.is_poly_face_mesh):
+        raise StudyError(field, f"{path.name}: the POLYLINE on layer {layer!r} is a mesh, not a line")
+    points = _world_points(entity)
+    if len(points) < 2:
+        raise StudyError(field, f"{path.name}: the {entity.dxftype()} on layer {layer!r} has {len(points)} "
+                         "vertices; a line needs at least 2")
     return points[::-1] if points[-1][0] < points[0][0] else points
+
+
+def _world_points(entity) -> list[list[float]]:
+    """The points (x, y) of a LINE, LWPOLYLINE or POLYLINE in world coordinates: a 2D polyline's
+    vertices and arcs are in its object coordinate system (OCS, set by its extrusion: (0, 0, -1)
+    for one mirrored in CAD), turned into world coordinates; a 3D polyline's are in world
+    coordinates already; the spline frame's control points of a spline-fit POLYLINE are skipped
+    (the line is its fit vertices)."""
+    from ezdxf.lldxf.const import VTX_SPLINE_FRAME_CONTROL_POINT
+    from ezdxf.math import Vec3
+
+    if entity.dxftype() == "LINE":
+        return [[float(entity.dxf.start[0]), float(entity.dxf.start[1])],
+                [float(entity.dxf.end[0]), float(entity.dxf.end[1])]]
+    if entity.dxftype() == "LWPOLYLINE":
+        vertices = [(float(x), float(y), float(b)) for x, y, b in entity.get_points("xyb")]
+        closed, elevation = entity.closed, float(entity.dxf.elevation)
+    else:
+        kept = [v for v in entity.vertices if not v.dxf.flags & VTX_SPLINE_FRAME_CONTROL_POINT]
+        if entity.is_3d_polyline:
+            return [[float(v.dxf.location[0]), float(v.dxf.location[1])] for v in kept]
+        vertices = [(float(v.dxf.location[0]), float(v.dxf.location[1]), float(v.dxf.bulge)) for v in kept]
+        closed, elevation = entity.is_closed, float(Vec3(entity.dxf.elevation).z)
+    if closed and vertices:
+        vertices.append((*vertices[0][:2], 0.0))
+    ocs = entity.ocs()
+    return [[float(p.x), float(p.y)] for p in ocs.points_to_wcs(Vec3(x, y, elevation) for x, y in _with_arcs(vertices))]
+
+
+def _with_arcs(vertices: list[tuple[float, float, float]]) -> list[tuple[float, float]]:
+    """The points of a polyline of (x, y, bulge) vertices, each arc (a bulge b != 0 from its vertex
+    to the next: an included angle of 4 atan b) as chords of sagitta at most ``ARC_TOLERANCE``
+    times the line's size."""
+    from ezdxf.math import BoundingBox2d, ConstructionArc, Vec2, bulge_to_arc
+
+    arcs = {}
+    for i, ((x0, y0, bulge), (x1, y1, _)) in enumerate(zip(vertices, vertices[1:])):
+        if bulge != 0.0 and (x0, y0) != (x1, y1):
+            center, start_rad, end_rad, radius = bulge_to_arc(Vec2(x0, y0), Vec2(x1, y1), bulge)
+            arcs[i] = ConstructionArc(center, radius, math.degrees(start_rad), math.degrees(end_rad))
+    box = BoundingBox2d((x, y) for x, y, _ in vertices)
+    for arc in arcs.values():
+        box.extend(arc.bounding_box)
+    sagitta = ARC_TOLERANCE * max(box.size.x, box.size.y) if box.has_data else 0.0
+    points = []
+    for i, (x, y, _) in enumerate(vertices):
+        points.append((x, y))
+        if i in arcs:
+            chords = [(p.x, p.y) for p in arcs[i].flattening(sagitta)]
+            if math.dist(chords[0], (x, y)) > math.dist(chords[-1], (x, y)):  # clockwise: drawn from its end
+                chords = chords[::-1]
+            points.extend(chords[1:-1])
+    return points

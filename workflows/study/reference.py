@@ -222,9 +222,12 @@ foundation_depth_m = 5.0   # default H / 2; 0: a firm base at the toe
 **Section drawn as lines.**  A `[geometry.section]` table draws the section as engineers do:
 the ground surface as a line from left to right (its ends are the section's sides), the level
 of the fixed base, and each layer by the line it lies below (`below_m`), above (`above_m`) or
-between.  The code closes them into the polygon and the materials' regions; a material that no
-layer places and that gives no `region_m` fills the rest.  When the study gives no
-`[[boundary]]`, the base is fixed (`base`) and both sides are rollers (`left`, `right`).
+between (the two may meet, as a lens pinching out; a line may dip under the base).  The code
+closes them into the polygon and the materials' regions; a material that no layer places and
+that gives no `region_m` fills the rest.  When the study gives no
+`[[boundary]]`, the base is fixed (`base`) and both sides are rollers (`left`, `right`).  A peak
+of the ground (or of a polygon's top) less than one spacing wide one spacing below its top, a
+survey's spike, is refused: no particle fills it, yet it would count in the slope's height.
 
 ```toml
 [geometry.section]
@@ -247,9 +250,12 @@ are in SI units.  A sweep axis names the SI field (`materials.soil.cohesion_pa`)
 **Lines from files.**  Every line field (`[[x, y], ...]` or file in the table below: the
 section's lines and the phreatic lines) may name a file instead, relative to the study file:
 `"ground.csv"` (two columns x, y in m, a header row skipped; comma, semicolon or tab) or
-`"section.dxf#GROUND"` (the one LWPOLYLINE, POLYLINE or LINE on the DXF layer `GROUND`, drawn in
-either direction).  The points are read when the study is loaded, and the study text kept with
-the results has them written out.
+`"section.dxf#GROUND"` (the one LWPOLYLINE, POLYLINE or LINE on the DXF layer `GROUND`, any case,
+drawn in either direction, in world coordinates as CAD shows it, mirrored or not; its arcs as
+chords no further than 1e-4 of the line's width or height from the arc, 1 cm on a 100 m section;
+a drawing whose `$INSUNITS` is not metres (6) or unitless (0) is refused: scale it to metres).
+The points are read when the study is loaded, and the study text kept with the results has them
+written out.
 
 **Water and loads.**  `[water]` sets the pore pressure u in the ground from a piezometric line
 (`phreatic_line_m`, or a horizontal `phreatic_level_m`; a material may have its own

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spfem_core.geometry import points_in_polygon, relief_m
+from spfem_core.geometry import narrow_peaks, points_in_polygon, relief_m
 from spfem_core.settings import DEFAULT_ALPHA, DEFAULT_CFL, DEFAULT_MIN_ANGLE_DEG, DEFAULT_STABILISATION_BETA
 from workflows.box import Box
 from workflows.collapse.experiment import GRANULAR_COLUMN_M
@@ -233,6 +233,23 @@ class Geometry(Record):
             if zone.spacing_m > self.spacing_m:
                 raise StudyError(f"refined[{i}].spacing_m", f"{zone.spacing_m:g} m is coarser than geometry.spacing_m "
                                  f"= {self.spacing_m:g} m: a zone refines")
+        self._check_peaks()
+
+    def _check_peaks(self):
+        """StudyError on the ground line (``section.ground_m``, else ``polygon_m``) where a peak of the
+        upper boundary is narrower than the spacing there, one spacing below its top
+        (``spfem_core.geometry.narrow_peaks``): no particle fills it, yet it would count as ground
+        (the slope's height, the response time).  The spacing of a peak in a refined zone is the
+        finest such zone's, else ``spacing_m``."""
+        field = "section.ground_m" if self.section is not None else "polygon_m"
+        for spacing_m in sorted({self.spacing_m, *(zone.spacing_m for zone in self.refined)}):
+            for x, y, width in narrow_peaks(self.polygon_m, spacing_m):
+                zones = [zone.spacing_m for zone in self.refined if points_in_polygon([(x, y)], zone.region_m)[0]]
+                if min([self.spacing_m, *zones]) == spacing_m:
+                    raise StudyError(field, f"the peak at ({x:.6g}, {y:.6g}) m is narrower than the particle spacing "
+                                     f"{spacing_m:g} m ({width:.2g} m wide {spacing_m:g} m below its top): no particle "
+                                     f"can fill it, yet it would count in the slope's height; remove it, or make it at "
+                                     f"least {spacing_m:g} m wide {spacing_m:g} m below its top")
 
 
 POSITION_RESOLUTION = 1e-8
@@ -626,6 +643,12 @@ class Study(Record):
             if material.permeability_m_s is None:
                 raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
                                  "the study has [seepage]")
+        try:
+            largest_permeability = max(m.permeability_m_s * max(1.0, m.permeability_ratio) for m in self.materials)
+            self.seepage.check_in_study(self.geometry.polygon_m, None if water is None else water.pond_level_m,
+                                        largest_permeability)
+        except StudyError as error:
+            raise StudyError(f"seepage.{error.field}", error.problem) from None
 
     def _check_frames(self):
         snapshotted = [s for s in self.stages if s.snapshotted]
