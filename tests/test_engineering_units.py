@@ -145,3 +145,20 @@ def test_a_unit_weight_takes_the_default_gravity():
     del raw["loads"]["gravity_m_s2"]
     raw["materials"][0]["unit_weight_kn_m3"] = 9.81
     assert parse_study(to_toml(raw)).materials[0].density_kg_m3 == pytest.approx(1000.0)
+
+
+def test_a_sweep_takes_a_field_in_kpa_and_its_results_say_so():
+    """[sweep] over materials.soil.cohesion_kpa: values in kPa checked against the field's range in kPa,
+    each case the SI study, and study.nc's coordinate in kPa."""
+    from workflows.sweep.results import sweep_coordinates
+
+    raw = _engineering()
+    raw["sweep"] = {"axes": [{"path": "materials.soil.cohesion_kpa", "values": [5.0, 15.0]}]}
+    study = parse_study(to_toml(raw))
+    cases = sweep_cases(study)
+    assert [case.study.materials[0].cohesion_pa for case in cases] == [5e3, 15e3]
+    assert sweep_coordinates(study, cases)[2]["cohesion_kpa"][2]["units"] == "kPa"
+    raw["sweep"]["axes"][0]["values"] = [-1.0, 15.0]
+    with pytest.raises(StudyError, match="must be >= 0, got -1") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "sweep.axes[0].values[0]"
