@@ -74,7 +74,8 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
         return rho
     if a.distribution == "lognormal" and b.distribution == "lognormal":
         va, vb = a.std / a.mean, b.std / b.mean
-        value = math.log1p(rho * va * vb) / math.sqrt(math.log1p(va * va) * math.log1p(vb * vb))
+        value = (math.log1p(rho * va * vb) / math.sqrt(math.log1p(va * va) * math.log1p(vb * vb))
+                 if rho * va * vb > -1.0 else -math.inf)
         if not -1.0 < value < 1.0:
             raise ValueError(f"a correlation of {rho:g} is out of reach of these two lognormals")
         return value

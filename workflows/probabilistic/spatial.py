@@ -33,6 +33,7 @@ import numpy as np
 
 from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
 from workflows.probabilistic.random_field import MODELS, ParticleField, lognormal_parameters
+from workflows.probabilistic.table import spread_problem
 
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
@@ -122,6 +123,9 @@ class RandomField(Record):
             spec = specs(type(material))[entry.property]
             if entry.distribution == "lognormal" and not mean > 0.0:
                 raise StudyError(f"{where}.mean", f"a lognormal field needs a mean > 0, got {mean:g}")
+            problem = spread_problem(mean, std, entry.cov is not None)
+            if problem is not None:
+                raise StudyError(f"{where}.{problem[0]}", f"{entry.material}'s {entry.property}: {problem[1]}")
             self._check_range(where, entry, spec, mean, std)
             if entry.correlated_with is not None:
                 partner = next((p for p in self.properties if p.name == entry.correlated_with), None)
