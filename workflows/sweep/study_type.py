@@ -112,8 +112,12 @@ class SweepStudy(StudyType):
                 except StudyError as error:
                     raise case_error(case.case_id, error) from None
         largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
-        processes = (options.workers if not options.scheduler else 1) if self.fos else 1
-        check_memory(largest.study, processes=processes, limit_bytes=options.max_memory_bytes)
+        check_memory(largest.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
+
+    def processes(self, options: RunOptions) -> int:
+        """Each local worker of a strength-reduction sweep (its cases' gravity runs as tasks); one
+        process for a sweep of stages."""
+        return (options.workers if not options.scheduler else 1) if self.fos else 1
 
     def cases(self) -> list[Case]:
         """A folder and ``case.toml`` per case to compute (module doc, steps 1-2); ``study.nc`` of an
