@@ -32,7 +32,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
-from workflows.probabilistic.random_field import MODELS, ParticleField, lognormal_parameters
+from workflows.probabilistic.random_field import (
+    MAX_EMBEDDING,
+    MODELS,
+    EmbeddingError,
+    ParticleField,
+    ParticleGrid,
+    largest_theta_scale,
+    lognormal_parameters,
+)
 from workflows.probabilistic.table import spread_problem
 
 FIELD_STREAM = 7
@@ -140,6 +148,14 @@ class RandomField(Record):
             raise StudyError("random_field.properties", "a field can be the partner of one correlated field only "
                              f"({', '.join(partners)})")
 
+    def embeddings_key(self, study) -> tuple:
+        """What the fields' circulant embeddings depend on (equal keys: one check of them serves both): the
+        particles of each field's material (the geometry and the materials' regions), the correlation
+        model and scales of fluctuation."""
+        regions = tuple((material.name, material.region_m) for material in study.materials)
+        return study.geometry, regions, tuple((entry.material, entry.correlation_model, entry.thetas_m())
+                                              for entry in self.properties)
+
     @staticmethod
     def moments(entry: FieldProperty, material) -> tuple[float, float]:
         """(mean, std) of the entry's point value: given, or from the material's value and the cov."""
@@ -166,6 +182,23 @@ class RandomField(Record):
                                  f"{std:g} leaves {entry.property} {op} {bound:g} with probability {outside:.2g}; "
                                  "use a lognormal field or a smaller std")
 
+    def _too_long(self, k: int, grid: ParticleGrid) -> StudyError:
+        """The refusal of entry ``k``'s scales of fluctuation, too long for the circulant embedding on the
+        grid of its material's particles: the field named, the longest scales this section holds."""
+        entry = self.properties[k]
+        theta_x_m, theta_y_m = entry.thetas_m()
+        scale = largest_theta_scale(entry.correlation_model, theta_x_m, theta_y_m, grid)
+        lx, ly = grid.extent_m
+        field = "theta_y_m" if entry.theta_y_m is not None and theta_y_m / ly > theta_x_m / lx else "theta_x_m"
+        longest = (f"theta_x_m up to {scale * theta_x_m:.2g} m" if entry.theta_y_m is None else
+                   f"theta_x_m up to {scale * theta_x_m:.2g} m with theta_y_m {scale * theta_y_m:.2g} m (in this "
+                   "ratio)")
+        return StudyError(f"random_field.properties[{k}].{field}", (
+            f"{entry.name!r}: a {entry.correlation_model} field with theta = ({theta_x_m:g}, {theta_y_m:g}) m over "
+            f"{entry.material!r} ({lx:.3g} m by {ly:.3g} m) has no circulant embedding of up to {MAX_EMBEDDING} "
+            f"times its grid; this section holds {longest}; a longer scale of fluctuation needs another method "
+            "(not yet)"))
+
     def node_properties(self, materials, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
                         node_material: np.ndarray) -> dict[str, np.ndarray]:
         """property -> (n,) values at the particles (NaN: a particle of another material) of the study's
@@ -183,8 +216,12 @@ class RandomField(Record):
                 continue
             structure = (row, entry.correlation_model, entry.thetas_m())
             if structure not in fields:
-                fields[structure] = ParticleField(entry.correlation_model, *entry.thetas_m(), node_xy_m[mine, 0],
-                                                  node_xy_m[mine, 1], node_spacing_m[mine])
+                try:
+                    fields[structure] = ParticleField(entry.correlation_model, *entry.thetas_m(), node_xy_m[mine, 0],
+                                                      node_xy_m[mine, 1], node_spacing_m[mine])
+                except EmbeddingError:
+                    raise self._too_long(k, ParticleGrid.of(node_xy_m[mine, 0], node_xy_m[mine, 1],
+                                                            node_spacing_m[mine])) from None
             stream = np.random.SeedSequence([self.seed, self.realisation], spawn_key=(FIELD_STREAM, zlib.crc32(entry.name.encode())))
             g = fields[structure].draw(np.random.default_rng(stream))[0]
             if entry.correlated_with is not None:
