@@ -192,3 +192,61 @@ def test_a_scale_of_fluctuation_longer_than_the_section_holds_is_one_line_before
     longest_m = float(lines[0].problem.split("holds theta_x_m up to ")[1].split(" m")[0])
     assert 20.0 < longest_m < 60.0  # of the order of the section's 60 m
     build_scene(parse_study(text.replace(f"theta_x_m = {theta_m}", f"theta_x_m = {longest_m}")))
+
+
+DILATION_FIELD = ('name = "psi"\nmaterial = "soil"\nproperty = "dilation_deg"\ndistribution = "lognormal"\n'
+                  'mean = 10.0\ncov = 0.5\ntheta_x_m = 4.0\n')
+FRICTION_FIELD = ('name = "phi"\nmaterial = "soil"\nproperty = "friction_deg"\ndistribution = "normal"\n'
+                  'std = 3.0\ntheta_x_m = 4.0\n')
+
+
+@pytest.mark.parametrize("entries, field, probability", [
+    # psi lognormal (10, 5) against phi 20: P(ln psi > ln 20)
+    ((DILATION_FIELD,), "random_field.properties[0].distribution",
+     0.5 * math.erfc((math.log(20.0) - lognormal_parameters(10.0, 0.5)[0]) / lognormal_parameters(10.0, 0.5)[1]
+                     / math.sqrt(2.0))),
+    # phi normal (20, 3) below a dilation of 15: P(phi < 15)
+    ((FRICTION_FIELD,), "random_field.properties[0].distribution", 0.5 * math.erfc(5.0 / 3.0 / math.sqrt(2.0))),
+])
+def test_a_field_that_breaks_dilation_at_most_friction_is_refused_with_its_probability(entries, field, probability,
+                                                                                       tmp_path):
+    """A dilation field that exceeds the friction angle at some particles (or a friction field below a
+    fixed dilation): check passed it and the run ended in MaterialTable's ValueError with case folders
+    written; now check and the run refuse it alike, naming the field and the probability at a point."""
+    text = with_fields(*entries)
+    if entries == (FRICTION_FIELD,):
+        text = text.replace("dilation_deg = 0.0", "dilation_deg = 15.0")
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == field and "dilation_deg exceeds its friction_deg" in error.value.problem
+    stated = float(error.value.problem.split("with probability ")[1].split(" ")[0])
+    assert stated == pytest.approx(probability, rel=0.01)
+
+
+def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
+    """P(psi > phi) for correlated normal, lognormal and mixed pairs against 400,000 correlated draws."""
+    from workflows.probabilistic.spatial import order_broken_probability
+
+    rng = np.random.default_rng(0)
+    rho = 0.6
+    g_u = rng.standard_normal(400_000)
+    g_l = rho * g_u + math.sqrt(1.0 - rho * rho) * rng.standard_normal(g_u.size)
+    mu, sigma = lognormal_parameters(10.0, 0.5)
+    for lower, upper, x_l, x_u in (
+            (("normal", 10.0, 5.0), ("normal", 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
+            (("lognormal", 10.0, 5.0), ("normal", 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
+        expected = float(np.mean(x_l > x_u))
+        assert order_broken_probability(lower, upper, rho) == pytest.approx(expected, abs=4e-4)
+
+
+def test_the_rare_particles_whose_dilation_would_exceed_their_friction_take_their_friction():
+    """Below the refusal's probability, a particle whose fields break psi <= phi gets psi = phi, the
+    others keep their own values (here a friction field with values below the material's dilation at
+    a few particles)."""
+    from workflows.probabilistic.spatial import RandomField
+
+    study = parse_study(QUICKSTART.replace("dilation_deg = 0.0", "dilation_deg = 5.0"))
+    node_material = np.zeros(6, dtype=np.int64)
+    out = {"friction_deg": np.array([20.0, 4.0, 30.0, 5.0, 2.0, 25.0])}
+    RandomField._ordered(study.materials, node_material, out)
+    np.testing.assert_array_equal(out["dilation_deg"], [np.nan, 4.0, np.nan, np.nan, 2.0, np.nan])

@@ -51,7 +51,64 @@ SEEPAGE_PROPERTY = "permeability_m_s"
 takes (``workflows.seepage.flow``), with ``[seepage]``."""
 OUTSIDE_RANGE_LIMIT = 1e-6
 """A normal field whose point value leaves its field's allowed range with a probability above this is
-refused (lognormal instead); below it, values beyond the bound are set to the bound."""
+refused (lognormal instead); below it, values beyond the bound are set to the bound.  So is a field
+that breaks an order of its material's properties (:data:`ORDERED`) with a probability above it."""
+ORDERED = (("dilation_deg", "friction_deg"), ("residual_friction_deg", "friction_deg"),
+           ("residual_cohesion_pa", "cohesion_pa"))
+"""Properties of one material that must not exceed another at any particle (the core refuses
+psi > phi, and a residual strength above the peak): (lower, upper).  A random field of either is
+refused where a point breaks the order with a probability above :data:`OUTSIDE_RANGE_LIMIT`; below
+it, the lower property is set to the upper at the rare particles that do (psi = phi there)."""
+
+
+def _normal_cdf(z: float) -> float:
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+
+
+def order_broken_probability(lower: tuple, upper: tuple, rho: float = 0.0) -> float:
+    """P(X_lower > X_upper) at a point, each side ("normal" or "lognormal", mean, std) of a field (its
+    standard Gaussian G, ``rho`` the correlation of the two G's) or ("value", x, 0): for two normals
+    Phi((m_l - m_u) / sqrt(s_l^2 + s_u^2 - 2 rho s_l s_u)); otherwise the integral over G_u of
+    P(G_l > t_l(x_u(G_u)) | G_u), G_l given G_u normal of mean rho G_u and variance 1 - rho^2
+    (quadrature)."""
+
+    def gaussian_of(side, x):  # the G whose value is x (-inf for x <= 0 of a lognormal)
+        kind, mean, std = side
+        if kind == "lognormal":
+            mu, sigma = lognormal_parameters(mean, std / mean)
+            return (math.log(x) - mu) / sigma if x > 0.0 else -math.inf
+        return (x - mean) / std
+
+    def value_of(side, g):
+        kind, mean, std = side
+        if kind == "lognormal":
+            mu, sigma = lognormal_parameters(mean, std / mean)
+            return math.exp(mu + sigma * g)
+        return mean + std * g
+
+    if lower[0] == "value" and upper[0] == "value":
+        return float(lower[1] > upper[1])
+    if lower[0] == "value":  # P(X_u < x_l)
+        return _normal_cdf(gaussian_of(upper, lower[1]))
+    if upper[0] == "value":  # P(X_l > x_u)
+        return _normal_cdf(-gaussian_of(lower, upper[1]))
+    if lower[0] == upper[0] == "normal":
+        spread = math.sqrt(max(lower[2] ** 2 + upper[2] ** 2 - 2.0 * rho * lower[2] * upper[2], 0.0))
+        return _normal_cdf((lower[1] - upper[1]) / spread) if spread > 0.0 else float(lower[1] > upper[1])
+    from scipy import integrate  # only for a lognormal pair
+
+    given = math.sqrt(1.0 - rho * rho)
+
+    def integrand(g: float) -> float:
+        density = math.exp(-0.5 * g * g) / math.sqrt(2.0 * math.pi)
+        return density * _normal_cdf((rho * g - gaussian_of(lower, value_of(upper, g))) / given)
+
+    return float(integrate.quad(integrand, -np.inf, np.inf, epsabs=1e-12, limit=200)[0])
+
+
+def _law_text(side: tuple, prop: str) -> str:
+    kind, mean, std = side
+    return f"{prop} {mean:g}" if kind == "value" else f"a {kind} {prop} field of mean {mean:g} and std {std:g}"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -147,6 +204,41 @@ class RandomField(Record):
         if len(set(partners)) < len(partners):
             raise StudyError("random_field.properties", "a field can be the partner of one correlated field only "
                              f"({', '.join(partners)})")
+        self._check_order(materials)
+
+    def _check_order(self, materials: dict) -> None:
+        """StudyError naming a field that breaks an order of its material's properties (:data:`ORDERED`:
+        dilation at most friction, a residual strength at most the peak) at a point with a probability
+        above :data:`OUTSIDE_RANGE_LIMIT` (:func:`order_broken_probability`)."""
+        index = {(entry.material, entry.property): k for k, entry in enumerate(self.properties)}
+        for name, material in materials.items():
+            for lower, upper in ORDERED:
+                ks = [index.get((name, prop)) for prop in (lower, upper)]
+                if ks == [None, None] or any(getattr(material, prop, None) is None for prop in (lower, upper)):
+                    continue  # no field, or a property the material leaves to the other (a residual: the peak)
+                sides = [self._point_law(k, material, prop) for k, prop in zip(ks, (lower, upper))]
+                rho = 0.0
+                if None not in ks:
+                    a, b = (self.properties[k] for k in ks)
+                    rho = a.correlation if a.correlated_with == b.name else (
+                        b.correlation if b.correlated_with == a.name else 0.0)
+                probability = order_broken_probability(*sides, rho)
+                if probability > OUTSIDE_RANGE_LIMIT:
+                    k = ks[0] if ks[0] is not None else ks[1]
+                    entry = self.properties[k]
+                    raise StudyError(f"random_field.properties[{k}].distribution", (
+                        f"{name}'s {lower} exceeds its {upper} at a point with probability {probability:.2g} "
+                        f"({_law_text(sides[0], lower)} against {_law_text(sides[1], upper)}); the soil needs "
+                        f"{lower} <= {upper} everywhere (the core refuses the particles that do not): narrow "
+                        f"the field{'s' if None not in ks else ''}, or move {entry.property}'s mean away"))
+
+    def _point_law(self, k: int | None, material, prop: str) -> tuple:
+        """("normal" or "lognormal", mean, std) of the point value of field ``k``, or ("value", x, 0) of
+        the material's own value of ``prop`` where no field varies it."""
+        if k is None:
+            return "value", float(getattr(material, prop)), 0.0
+        entry = self.properties[k]
+        return (entry.distribution, *self.moments(entry, material))
 
     def embeddings_key(self, study) -> tuple:
         """What the fields' circulant embeddings depend on (equal keys: one check of them serves both): the
@@ -165,9 +257,6 @@ class RandomField(Record):
 
     @staticmethod
     def _check_range(where: str, entry: FieldProperty, spec, mean: float, std: float) -> None:
-        def normal_cdf(z: float) -> float:
-            return 0.5 * math.erfc(-z / math.sqrt(2.0))
-
         for op, bound in spec.bounds:
             if entry.distribution == "lognormal" and op in (">", ">=") and bound <= 0.0:
                 continue
@@ -176,7 +265,7 @@ class RandomField(Record):
                 z = (math.log(bound) - mu) / sigma if bound > 0.0 else -math.inf
             else:
                 z = (bound - mean) / std
-            outside = normal_cdf(z) if op in (">", ">=") else normal_cdf(-z)
+            outside = _normal_cdf(z) if op in (">", ">=") else _normal_cdf(-z)
             if outside > OUTSIDE_RANGE_LIMIT:
                 raise StudyError(f"{where}.distribution", f"a {entry.distribution} field of mean {mean:g} and std "
                                  f"{std:g} leaves {entry.property} {op} {bound:g} with probability {outside:.2g}; "
@@ -198,6 +287,25 @@ class RandomField(Record):
             f"{entry.material!r} ({lx:.3g} m by {ly:.3g} m) has no circulant embedding of up to {MAX_EMBEDDING} "
             f"times its grid; this section holds {longest}; a longer scale of fluctuation needs another method "
             "(not yet)"))
+
+    @staticmethod
+    def _ordered(materials, node_material: np.ndarray, out: dict[str, np.ndarray]) -> None:
+        """The lower property of each order (:data:`ORDERED`) set to the upper at the particles whose
+        fields break it (rare: :meth:`_check_order`), in ``out`` (NaN: a particle of another material)."""
+        for lower, upper in ORDERED:
+            if lower not in out and upper not in out:
+                continue
+            for row, material in enumerate(materials):
+                if any(getattr(material, prop, None) is None for prop in (lower, upper)):
+                    continue
+                mine = node_material == row
+                values = {prop: np.where(np.isnan(out[prop][mine]), getattr(material, prop), out[prop][mine])
+                          if prop in out else np.full(int(mine.sum()), float(getattr(material, prop)))
+                          for prop in (lower, upper)}
+                broken = values[lower] > values[upper]
+                if broken.any():
+                    column = out.setdefault(lower, np.full(node_material.shape[0], np.nan))
+                    column[mine] = np.where(broken, values[upper], column[mine])
 
     def node_properties(self, materials, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
                         node_material: np.ndarray) -> dict[str, np.ndarray]:
@@ -240,4 +348,5 @@ class RandomField(Record):
                 values = np.maximum(values, limit) if op in (">", ">=") else np.minimum(values, limit)
             column = out.setdefault(entry.property, np.full(node_xy_m.shape[0], np.nan))
             column[mine] = values
+        self._ordered(materials, node_material, out)
         return out
