@@ -233,3 +233,15 @@ def test_the_reservoir_level_and_a_permeability_ratio_are_sweepable():
     assert len(cases) == 4
     assert all(high > low for high, low in zip(total[5.1], total[3.0]))
     assert total[5.1][0] != total[5.1][1]  # the anisotropy moves the water table
+
+
+def test_a_failed_realisation_of_a_permeability_field_draws_its_figure_and_the_study_finishes(tmp_path):
+    """Two realisations of the dam's permeability field judged at F = 3 (both fail): the failed
+    realisation's figure asked the scene for the permeability, which the scene leaves to the flow
+    (KeyError, after probabilistic.nc was written: the study could never finish); now the figure shows
+    the field, log-scaled, beside the mechanism."""
+    text = _dam(0.5) + PERMEABILITY_FIELD + "\n[probabilistic]\nrealisations = 2\nfactor = 3.0\n"
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert outcome.n_failed == 2 and (tmp_path / "probabilistic.nc").is_file()
+    assert sorted(path.name for path in tmp_path.glob("failed_*.png")) == [
+        "failed_realisation_00000.png", "failed_realisation_00001.png"]
