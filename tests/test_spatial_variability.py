@@ -115,6 +115,8 @@ def test_realisations_of_random_strengths_share_one_gravity_state_and_a_random_s
      "no material named"),
     (COHESION_FIELD.replace("cohesion_pa", "undrained_shear_strength_pa"), "random_field.properties[0].property",
      "no property of"),
+    (COHESION_FIELD.replace("cohesion_pa", "cohesion_kpa"), "random_field.properties[0].property",
+     "names the property in SI units, 'cohesion_pa'"),
     (COHESION_FIELD.replace("lognormal", "normal"), "random_field.properties[0].distribution", "lognormal"),
     (COHESION_FIELD + 'correlated_with = "phi"\ncorrelation = 0.5\n', "random_field.properties[0].correlated_with",
      "another field"),
