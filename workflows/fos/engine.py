@@ -666,10 +666,12 @@ class Engine:
             self.written_gravity_of.setdefault(case.gkey, case)
         elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
             self.scattered.pop(case.gkey, None)
-            if case.study.seepage is not None:
-                from workflows.seepage.flow import flow_inputs
+        if case.study.seepage is not None:
+            from workflows.seepage.flow import flow_inputs
 
-                self.flows.pop(flow_inputs(case.study), None)
+            inputs = flow_inputs(case.study)
+            if all(flow_inputs(other.study) != inputs for other in self.cases):
+                self.flows.pop(inputs, None)
         case.shared = ()
 
     def _report_runs(self, active: list[CaseSearch]) -> None:
