@@ -101,26 +101,23 @@ def _variable(path: str, distribution: str, extra: str) -> str:
 
 
 @pytest.mark.parametrize("change, options, field", [
-    # the correlation of three normals that no covariance matrix has
-    (PROBABILISTIC + "correlation = [[1.0, 0.9, -0.9], [0.9, 1.0, 0.9], [-0.9, 0.9, 1.0]]"
+    pytest.param(PROBABILISTIC + "correlation = [[1.0, 0.9, -0.9], [0.9, 1.0, 0.9], [-0.9, 0.9, 1.0]]"
      + _variable("materials.soil.cohesion_pa", "normal", "cov = 0.1")
      + _variable("materials.soil.friction_deg", "normal", "cov = 0.1")
-     + _variable("materials.soil.youngs_modulus_pa", "normal", "cov = 0.1"), {}, "probabilistic.correlation"),
-    # a correlation two skewed lognormals cannot reach
-    (PROBABILISTIC + "correlation = [[1.0, -0.9], [-0.9, 1.0]]"
+     + _variable("materials.soil.youngs_modulus_pa", "normal", "cov = 0.1"), {}, "probabilistic.correlation",
+     id="correlation-of-three-normals-no-covariance-has"),
+    pytest.param(PROBABILISTIC + "correlation = [[1.0, -0.9], [-0.9, 1.0]]"
      + _variable("materials.soil.cohesion_pa", "lognormal", "cov = 2.0")
-     + _variable("materials.soil.youngs_modulus_pa", "lognormal", "cov = 2.0"), {}, "probabilistic.correlation"),
-    # bounds outside the field's range
-    (PROBABILISTIC + _variable("materials.soil.cohesion_pa", "uniform", "low = -1e3\nhigh = 2e4"), {},
-     "probabilistic.variables[0].low"),
-    # a normal strength that draws negative values
-    (PROBABILISTIC + _variable("materials.soil.cohesion_pa", "normal", "cov = 1.0"), {}, "probabilistic.variables[0]"),
-    # the memory of one process fits, that of the run's three (this one and two workers) does not
-    ("", {"max_memory_bytes": 0.004 * 1024**3}, "geometry.spacing_m"),
-    # a stage of fewer steps than the core accepts (the simulation's own check)
-    ("", {"max_duration_s": 0.01}, "stages[0].max_duration_s"),
-    # a spacing too coarse for the slope (the strength-reduction stage's resolution)
-    ("", {"spacing_m": 4.0}, "geometry.spacing_m"),
+     + _variable("materials.soil.youngs_modulus_pa", "lognormal", "cov = 2.0"), {}, "probabilistic.correlation",
+     id="correlation-two-lognormals-cannot-reach"),
+    pytest.param(PROBABILISTIC + _variable("materials.soil.cohesion_pa", "uniform", "low = -1e3\nhigh = 2e4"), {},
+                 "probabilistic.variables[0].low", id="bounds-outside-the-range"),
+    pytest.param(PROBABILISTIC + _variable("materials.soil.cohesion_pa", "normal", "cov = 1.0"), {},
+                 "probabilistic.variables[0]", id="normal-strength-drawing-negative-values"),
+    pytest.param("", {"max_memory_bytes": 0.004 * 1024**3}, "geometry.spacing_m",
+                 id="memory-of-the-run-s-three-processes"),
+    pytest.param("", {"max_duration_s": 0.01}, "stages[0].max_duration_s", id="stage-of-fewer-steps-than-the-core-takes"),
+    pytest.param("", {"spacing_m": 4.0}, "geometry.spacing_m", id="spacing-too-coarse-for-the-slope"),
 ])
 def test_check_refuses_what_the_run_refuses_before_its_first_step_with_the_same_line(change, options, field, tmp_path):
     """``spfem-fos check`` makes every check the run makes before its first step, with the run's options

@@ -223,16 +223,18 @@ ZERO_COHESION = QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 0.0")  #
 
 
 @pytest.mark.parametrize("text, field", [
-    (probabilistic(4).replace('cov = 0.3', 'cov = 0.3\nmean = 0.0').replace("lognormal", "normal"),
-     "probabilistic.variables[0].cov"),  # the mean given as 0
-    (ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n' + COHESION.replace("lognormal", "normal"),
-     "probabilistic.variables[0].cov"),  # the mean the study file's 0
-    (ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n' + COHESION.replace("lognormal", "truncated_normal")
-     + "low = 0.0\nhigh = 1e4\n", "probabilistic.variables[0].cov"),
-    (ZERO_COHESION + '\n[random_field]\n[[random_field.properties]]\nname = "c"\nmaterial = "soil"\n'
-     'property = "cohesion_pa"\ndistribution = "normal"\ncov = 0.3\ntheta_x_m = 4.0\n', "random_field.properties[0].cov"),
-    (probabilistic(4).replace('cov = 0.3', 'std = 1e-300').replace("lognormal", "normal"),
-     "probabilistic.variables[0].std"),  # a spread that changes no value
+    pytest.param(probabilistic(4).replace('cov = 0.3', 'cov = 0.3\nmean = 0.0').replace("lognormal", "normal"),
+                 "probabilistic.variables[0].cov", id="variable-mean-0-given"),
+    pytest.param(ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n' + COHESION.replace("lognormal", "normal"),
+                 "probabilistic.variables[0].cov", id="variable-mean-0-from-the-file"),
+    pytest.param(ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n'
+                 + COHESION.replace("lognormal", "truncated_normal") + "low = 0.0\nhigh = 1e4\n",
+                 "probabilistic.variables[0].cov", id="truncated-normal-mean-0"),
+    pytest.param(ZERO_COHESION + '\n[random_field]\n[[random_field.properties]]\nname = "c"\nmaterial = "soil"\n'
+                 'property = "cohesion_pa"\ndistribution = "normal"\ncov = 0.3\ntheta_x_m = 4.0\n',
+                 "random_field.properties[0].cov", id="field-mean-0"),
+    pytest.param(probabilistic(4).replace('cov = 0.3', 'std = 1e-300').replace("lognormal", "normal"),
+                 "probabilistic.variables[0].std", id="std-that-changes-no-value"),
 ])
 def test_a_random_value_without_spread_is_refused_naming_the_field(text, field, tmp_path):
     """A COV of a zero mean (a cohesionless sand given a COV of cohesion: the natural way to write
