@@ -42,7 +42,6 @@ from workflows.probabilistic.random_field import (
     lognormal_parameters,
 )
 from workflows.probabilistic.table import spread_problem
-from workflows.study import engineering_units
 
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
@@ -178,7 +177,9 @@ class RandomField(Record):
                                  f"(known: {', '.join(materials)})")
             numeric = [name for name, spec in specs(type(material)).items() if spec.type == "number"]
             varying = [p for p in numeric if p in material.core_row()] + [SEEPAGE_PROPERTY] * (study.seepage is not None)
-            si_name = engineering_units.spellings(entry.property)[0]
+            from workflows.study.engineering_units import spellings  # (the study package imports this module)
+
+            si_name = spellings(entry.property)[0]
             if entry.property not in varying and si_name in varying:
                 raise StudyError(f"{where}.property", f"{entry.property!r} names {si_name} in other units: a field "
                                  f"names the property in SI units, {si_name!r}, and gives its mean and std in them "

@@ -113,7 +113,7 @@ class Realisations:
     def _marginal(self, k: int):
         """Variable k's distribution, its mean and std in the unit of its path (the mean by default the
         field's value in the study file, whichever unit it is written in)."""
-        from workflows.probabilistic.sampling import Marginal  # scipy.stats: only when sampling
+        from workflows.probabilistic.sampling import Marginal
 
         variable = self.study.probabilistic.variables[k]
         where = f"probabilistic.variables[{k}]"
