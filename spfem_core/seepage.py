@@ -30,6 +30,14 @@ water table across the triangles; grown back towards 1 otherwise), until the cha
 pressure stays below atmospheric (h < y); a held node whose Q_i turns inflow is released, and a
 released node whose head rises above its elevation is held again, each iteration, until no node
 changes.  The exit point is the highest held node.
+
+**Infiltration** (rain: the "unknown: p = 0 or q = q_rain" condition, SEEP/W's ponding review).
+A rain node takes its given inflow q_i while its pressure stays at or below atmospheric; where the
+ground cannot take the rain its head would rise above the surface (water standing on the ground
+that nothing holds), so it holds h = y instead, taking in what the ground takes (Q_i <= q_i; the
+rest runs off), and is released to its rain again once it would take in more than falls on it
+(Q_i > q_i): the seepage face's rule with q_i in place of 0.  Where the water table reaches the
+surface under the rain, the held node lets groundwater out (Q_i < 0), as a seepage face does.
 """
 
 from __future__ import annotations
@@ -60,6 +68,14 @@ class FlowProblem:
     node_seepage_face: np.ndarray  # (n,) bool: may hold h = y where water leaves
     residual_permeability: float = 1e-3  # k_r0
     unsaturated_band_m: float = 1.0  # band: the pressure head over which k_r falls to k_r0
+    node_infiltration: np.ndarray | None = None  # (n,) bool: rain nodes, which hold h = y where the rain would
+    # pond (module doc); None: none
+
+    def infiltration(self) -> np.ndarray:
+        """(n,) bool: the rain nodes (:attr:`node_infiltration`)."""
+        if self.node_infiltration is None:
+            return np.zeros(self.node_xy_m.shape[0], dtype=bool)
+        return np.asarray(self.node_infiltration, dtype=bool)
 
 
 @dataclass
@@ -70,7 +86,7 @@ class FlowSolution:
     node_inflow_m2_s: np.ndarray  # (n,) (K h)_i: the water each node takes in (out when negative)
     elem_relative_permeability: np.ndarray  # (e,) k_r of the last iteration
     elem_darcy_velocity_m_s: np.ndarray  # (e, 2) q = -k_r K_sat grad h
-    node_held: np.ndarray  # (n,) bool: fixed head, or seepage-face node held at h = y
+    node_held: np.ndarray  # (n,) bool: fixed head, or seepage-face or rain node held at h = y
     iterations: int
     converged: bool
     head_change_m: list[float] = field(default_factory=list)  # largest |delta h| of each iteration
@@ -145,20 +161,21 @@ def head_scale_m(problem: FlowProblem) -> float:
 
 
 def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterations: int = 2000) -> FlowSolution:
-    """The steady heads of ``problem`` (module doc): Picard iteration on k_r and the seepage face until
-    the largest head change is below ``tolerance`` times the range of the fixed heads and no
-    seepage-face node changes; ValueError when no node has a fixed head or a seepage face (the heads
-    would be undetermined)."""
+    """The steady heads of ``problem`` (module doc): Picard iteration on k_r, the seepage face and the rain
+    nodes until the largest head change is below ``tolerance`` times the range of the fixed heads and
+    no seepage-face or rain node changes; ValueError when no node has a fixed head or a seepage face
+    (the heads would be undetermined)."""
     xy = problem.node_xy_m
     y = xy[:, 1]
     fixed = np.isfinite(problem.node_fixed_head_m)
     face = problem.node_seepage_face & ~fixed
+    may_hold = face | (problem.infiltration() & ~fixed)  # may hold h = y: seepage faces, rain nodes
     if not fixed.any() and not face.any():
         raise ValueError("seepage: no boundary fixes a head (total head, pressure head, seepage face or ponded "
                          "water): the heads are undetermined")
     system = ElementConductivity(problem.node_xy_m, problem.elem_nodes, problem.elem_conductivity_m_s)
     scale = head_scale_m(problem)
-    held_face = face.copy()  # start with every face node at atmospheric pressure
+    held_face = face.copy()  # start with every face node at atmospheric pressure, every rain node on its rain
     head = np.where(fixed, problem.node_fixed_head_m, np.max(np.concatenate(
         [problem.node_fixed_head_m[fixed], y[face]])))
     kr = np.ones(problem.elem_nodes.shape[0])
@@ -185,8 +202,9 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
         changes.append(change)
         head = head + relaxation * (new - head)
         inflow = matrix @ head
-        # the seepage face: release held nodes that take water in, hold released ones above atmospheric
-        held_face, switched = switch_atmospheric_nodes(held_face, face, inflow, problem.node_inflow_m2_s, head - y)
+        # seepage faces and rain: release held nodes that take in more than their flux (0 on a face), hold
+        # released ones above atmospheric
+        held_face, switched = switch_atmospheric_nodes(held_face, may_hold, inflow, problem.node_inflow_m2_s, head - y)
         kr = element_relative_permeability(head - y, problem.elem_nodes, problem.residual_permeability,
                                            problem.unsaturated_band_m)
         if change <= tolerance * scale and not switched:

@@ -91,3 +91,91 @@ def test_a_study_without_strength_reduction_has_no_run_estimate(tmp_path):
     done = spfem_fos("check", REPO / "studies" / "cantilever_beam.toml", "--out", tmp_path / "out")
     assert done.returncode == 0, done.stderr
     assert "SRF runs" not in done.stdout and done.stdout.splitlines()[-1].endswith("section.png")
+
+
+PROBABILISTIC = "\n[probabilistic]\nrealisations = 20\n"
+
+
+def _variable(path: str, distribution: str, extra: str) -> str:
+    return f'\n[[probabilistic.variables]]\npath = "{path}"\ndistribution = "{distribution}"\n{extra}\n'
+
+
+@pytest.mark.parametrize("change, options, field", [
+    pytest.param(PROBABILISTIC + "correlation = [[1.0, 0.9, -0.9], [0.9, 1.0, 0.9], [-0.9, 0.9, 1.0]]"
+     + _variable("materials.soil.cohesion_pa", "normal", "cov = 0.1")
+     + _variable("materials.soil.friction_deg", "normal", "cov = 0.1")
+     + _variable("materials.soil.youngs_modulus_pa", "normal", "cov = 0.1"), {}, "probabilistic.correlation",
+     id="correlation-of-three-normals-no-covariance-has"),
+    pytest.param(PROBABILISTIC + "correlation = [[1.0, -0.9], [-0.9, 1.0]]"
+     + _variable("materials.soil.cohesion_pa", "lognormal", "cov = 2.0")
+     + _variable("materials.soil.youngs_modulus_pa", "lognormal", "cov = 2.0"), {}, "probabilistic.correlation",
+     id="correlation-two-lognormals-cannot-reach"),
+    pytest.param(PROBABILISTIC + _variable("materials.soil.cohesion_pa", "uniform", "low = -1e3\nhigh = 2e4"), {},
+                 "probabilistic.variables[0].low", id="bounds-outside-the-range"),
+    pytest.param(PROBABILISTIC + _variable("materials.soil.cohesion_pa", "normal", "cov = 1.0"), {},
+                 "probabilistic.variables[0]", id="normal-strength-drawing-negative-values"),
+    pytest.param("", {"max_memory_bytes": 0.004 * 1024**3}, "geometry.spacing_m",
+                 id="memory-of-the-run-s-three-processes"),
+    pytest.param("", {"max_duration_s": 0.01}, "stages[0].max_duration_s", id="stage-of-fewer-steps-than-the-core-takes"),
+    pytest.param("", {"spacing_m": 4.0}, "geometry.spacing_m", id="spacing-too-coarse-for-the-slope"),
+])
+def test_check_refuses_what_the_run_refuses_before_its_first_step_with_the_same_line(change, options, field, tmp_path):
+    """``spfem-fos check`` makes every check the run makes before its first step, with the run's options
+    (here: two workers and a memory limit): each of these studies, which check passed before, is now
+    refused by both with the same line."""
+    from workflows.cases import RunOptions
+    from workflows.check import check_study
+    from workflows.study import StudyError
+    from workflows.study_types import run_study, study_type
+
+    text = QUICKSTART.read_text() + change
+    if "max_duration_s" in options:
+        text = text.replace("max_duration_s = 20.0", f"max_duration_s = {options.pop('max_duration_s')}").replace(
+            "record_interval_s = 0.05", "record_interval_s = 0.001")
+    if "spacing_m" in options:
+        text = text.replace("spacing_m = 1.0", f"spacing_m = {options.pop('spacing_m')}")
+    study = parse_study(text)
+    lines = []
+    for name, call in (("check", lambda out: check_study(study, study_type(study, out), out, RunOptions(**options))),
+                       ("run", lambda out: run_study(study, out, RunOptions(**options)))):
+        with pytest.raises(StudyError) as error:
+            call(tmp_path / name)
+        lines.append(str(error.value))
+    assert lines[0] == lines[1] and lines[0].startswith(f"{field}: "), lines
+    assert not (tmp_path / "check").exists() and not (tmp_path / "run" / "cases").exists()
+
+
+def test_check_makes_every_realisation_and_refuses_the_one_the_run_would_stop_at(tmp_path):
+    """Realisations are made only as they are about to run; a draw that breaks a rule between tables
+    (a density that makes the soil float below the water table) stops the run when its realisation is
+    made, after those before it ran.  check makes every realisation and refuses the same one with the
+    same line, before anything runs."""
+    from workflows.cases import RunOptions
+    from workflows.check import check_study
+    from workflows.study import StudyError
+    from workflows.study_types import run_study, study_type
+
+    text = (QUICKSTART.read_text().replace("[loads]", "[water]\nphreatic_level_m = 8.0\n\n[loads]")
+            + "\n[probabilistic]\nrealisations = 40\nseed = 2\n"
+            + _variable("materials.soil.density_kg_m3", "normal", "mean = 1300.0\nstd = 150.0"))
+    study = parse_study(text)
+    lines = []
+    for name, call in (("check", lambda out: check_study(study, study_type(study, out), out, RunOptions())),
+                       ("run", lambda out: run_study(study, out, RunOptions()))):
+        with pytest.raises(StudyError) as error:
+            call(tmp_path / name)
+        lines.append(str(error.value))
+    assert lines[0] == lines[1] and lines[0].startswith("probabilistic: realisation "), lines
+    stopped_at = int(lines[0].split("realisation ")[1].split(":")[0])
+    assert "would float" in lines[0] and stopped_at >= 2
+    assert not (tmp_path / "check").exists()
+    assert len(list((tmp_path / "run" / "cases").glob("*/srf_*.nc"))) >= 2  # the run stopped part way
+
+
+def test_check_on_the_command_line_says_what_the_run_says(tmp_path):
+    """The same study and options on the command line: both exit 2 with the same line."""
+    done = [spfem_fos(*command, QUICKSTART, "--out", tmp_path / name, "--max-memory", "0.004")
+            for name, command in (("check", ["check"]), ("run", []))]
+    assert [each.returncode for each in done] == [2, 2], [each.stderr for each in done]
+    assert done[0].stderr == done[1].stderr and done[0].stderr.count("\n") == 1
+    assert "geometry.spacing_m" in done[0].stderr and "in each of 3 processes" in done[0].stderr

@@ -162,3 +162,51 @@ def test_a_unit_weight_takes_the_default_gravity():
     del raw["loads"]["gravity_m_s2"]
     raw["materials"][0]["unit_weight_kn_m3"] = 9.81
     assert parse_study(to_toml(raw)).materials[0].density_kg_m3 == pytest.approx(1000.0)
+
+
+@pytest.mark.parametrize("path, si_field, si_per_unit", [
+    ("materials.soil.cohesion_kpa", "cohesion_pa", 1e3),
+    ("materials.soil.cohesion_pa", "cohesion_pa", 1.0),
+    ("materials.soil.cohesion_mpa", "cohesion_pa", 1e6),
+    ("materials.soil.unit_weight_kn_m3", "density_kg_m3", 1000.0 / 10.0),  # |g| = 10 m/s2 in this study
+    ("materials.soil.density_kg_m3", "density_kg_m3", 1.0),
+])
+def test_a_random_variable_takes_either_spelling_of_a_field_in_the_unit_it_names(path, si_field, si_per_unit):
+    """The file in kPa and kN/m3, a random variable by either spelling of the field's path: its mean
+    is the file's value in the path's unit, its draws are in that unit (the sampler's, from that mean
+    and COV), and each realisation holds the field in that one spelling, the SI value the draw times
+    the unit."""
+    from workflows.probabilistic.sampling import Marginal, Sampler
+    from workflows.probabilistic.study_type import realisation_cases
+
+    raw = _engineering()
+    raw["probabilistic"] = {"realisations": 3, "seed": 5,
+                            "variables": [{"path": path, "distribution": "lognormal", "cov": 0.1}]}
+    cases = realisation_cases(parse_study(to_toml(raw)))
+    mean = getattr(parse_study(SI).materials[0], si_field) / si_per_unit
+    label = path.split(".")[-1]
+    draws = Sampler([Marginal("lognormal", mean, 0.1 * mean)]).monte_carlo(5, range(3))[:, 0]
+    assert [case.values[label] for case in cases] == pytest.approx(draws, rel=1e-12)
+    for case, draw in zip(cases, draws):
+        assert getattr(case.study.materials[0], si_field) == pytest.approx(draw * si_per_unit, rel=1e-12)
+        written = tomllib.loads(case.study.source_text)["materials"][0]
+        same = ("cohesion_pa", "cohesion_kpa", "cohesion_mpa") if si_field == "cohesion_pa" else (
+            "density_kg_m3", "unit_weight_kn_m3")
+        assert [name for name in same if name in written] == [label]
+
+
+def test_a_sweep_takes_a_field_in_kpa_and_its_results_say_so():
+    """[sweep] over materials.soil.cohesion_kpa: values in kPa checked against the field's range in kPa,
+    each case the SI study, and study.nc's coordinate in kPa."""
+    from workflows.sweep.results import sweep_coordinates
+
+    raw = _engineering()
+    raw["sweep"] = {"axes": [{"path": "materials.soil.cohesion_kpa", "values": [5.0, 15.0]}]}
+    study = parse_study(to_toml(raw))
+    cases = sweep_cases(study)
+    assert [case.study.materials[0].cohesion_pa for case in cases] == [5e3, 15e3]
+    assert sweep_coordinates(study, cases)[2]["cohesion_kpa"][2]["units"] == "kPa"
+    raw["sweep"]["axes"][0]["values"] = [-1.0, 15.0]
+    with pytest.raises(StudyError, match="must be >= 0, got -1") as error:
+        parse_study(to_toml(raw))
+    assert error.value.field == "sweep.axes[0].values[0]"

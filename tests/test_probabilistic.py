@@ -217,3 +217,83 @@ def test_a_worker_killed_mid_study_changes_no_realisation(separate_dask_workers,
     np.testing.assert_array_equal(killed["cohesion_pa"].values, clean["cohesion_pa"].values)
     assert list(killed["verdict"].values) == list(clean["verdict"].values)
     assert killed.attrs["pf"] == clean.attrs["pf"] and 0 < killed.attrs["n_failed"] < 40
+
+
+ZERO_COHESION = QUICKSTART.replace("cohesion_pa = 10e3", "cohesion_pa = 0.0")  # a cohesionless sand
+
+
+@pytest.mark.parametrize("text, field", [
+    pytest.param(probabilistic(4).replace('cov = 0.3', 'cov = 0.3\nmean = 0.0').replace("lognormal", "normal"),
+                 "probabilistic.variables[0].cov", id="variable-mean-0-given"),
+    pytest.param(ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n' + COHESION.replace("lognormal", "normal"),
+                 "probabilistic.variables[0].cov", id="variable-mean-0-from-the-file"),
+    pytest.param(ZERO_COHESION + '\n[probabilistic]\nrealisations = 4\n'
+                 + COHESION.replace("lognormal", "truncated_normal") + "low = 0.0\nhigh = 1e4\n",
+                 "probabilistic.variables[0].cov", id="truncated-normal-mean-0"),
+    pytest.param(ZERO_COHESION + '\n[random_field]\n[[random_field.properties]]\nname = "c"\nmaterial = "soil"\n'
+                 'property = "cohesion_pa"\ndistribution = "normal"\ncov = 0.3\ntheta_x_m = 4.0\n',
+                 "random_field.properties[0].cov", id="field-mean-0"),
+    pytest.param(probabilistic(4).replace('cov = 0.3', 'std = 1e-300').replace("lognormal", "normal"),
+                 "probabilistic.variables[0].std", id="std-that-changes-no-value"),
+])
+def test_a_random_value_without_spread_is_refused_naming_the_field(text, field, tmp_path):
+    """A COV of a zero mean (a cohesionless sand given a COV of cohesion: the natural way to write
+    it) or a std too small to change the mean: the realisations would be copies of one computation,
+    counted as independent samples (pf = 1 with an interval from 4 copies of one run); refused with
+    one line naming the field, where it divided by zero before."""
+    with pytest.raises(StudyError) as error:
+        study = parse_study(text)
+        run_study(study, tmp_path, RunOptions(workers=1))
+    assert error.value.field == field, error.value
+    if field.endswith(".cov"):
+        assert "give std" in error.value.problem
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_random_variable_that_changes_nothing_computed_is_refused(tmp_path):
+    """A variable on a field no computation reads (the animation's frame interval): realisations that
+    differ only in it are one computation; refused before anything is written, naming the path."""
+    text = probabilistic(4).replace("materials.soil.cohesion_pa", "output.animation_interval_s").replace(
+        "cov = 0.3", "cov = 0.3\nmean = 0.5")
+    with pytest.raises(StudyError, match="changes nothing the study computes") as error:
+        run_study(parse_study(text), tmp_path, RunOptions(workers=1))
+    assert error.value.field == "probabilistic.variables[0].path"
+    assert not any(tmp_path.iterdir())
+
+
+class _Stop(Exception):
+    """Raised by :class:`_StopAfter` to end a study part way."""
+
+
+class _StopAfter(Progress):
+    def __init__(self, count: int):
+        self.count = count
+
+    def tally(self, text):
+        self.count -= 1
+        if self.count == 0:
+            raise _Stop
+
+
+def test_a_study_of_100000_realisations_makes_only_those_about_to_run(tmp_path):
+    """Realisations are made (their study checked, folder and case.toml written) only as the case runner
+    has room for them: a study of 100,000 realisations stopped once three have concluded has made only
+    those and the few the two workers were about to take (engine.CASES_PER_WORKER each), not 100,000."""
+    from workflows.fos.engine import CASES_PER_WORKER
+
+    with pytest.raises(_Stop):
+        run_study(parse_study(probabilistic(100_000)), tmp_path, RunOptions(workers=2), progress=_StopAfter(3))
+    made = sorted(path.parent.name for path in (tmp_path / "cases").glob("*/case.toml"))
+    assert 3 <= len(made) <= 3 + CASES_PER_WORKER * 2
+    assert made == [f"realisation_{i:05d}" for i in range(len(made))]  # in order, as Monte Carlo draws them
+
+
+def test_a_target_interval_width_makes_no_realisation_of_the_batches_it_skips(tmp_path, monkeypatch):
+    """pf_interval_width on 100,000 realisations in batches of 3 (patched): the interval is reached after
+    the first batch, and only its three realisations were ever made."""
+    from workflows.probabilistic import study_type
+
+    monkeypatch.setattr(study_type, "BATCH_REALISATIONS", 3)
+    outcome = run_study(parse_study(probabilistic(100_000, "pf_interval_width = 0.99")), tmp_path,
+                        RunOptions(workers=2))
+    assert outcome.n_realisations == 3 and len(list((tmp_path / "cases").iterdir())) == 3

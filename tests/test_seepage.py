@@ -4,6 +4,7 @@ the study file's conditions and their errors, and the pore pressure the particle
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,6 +32,8 @@ from workflows.cases import RunOptions
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize("k1, k2, angle", [(1e-5, 1e-5, 0.0), (2e-5, 5e-7, 30.0)])
@@ -293,3 +296,91 @@ def test_the_reservoir_level_and_a_permeability_ratio_are_sweepable():
     assert len(cases) == 4
     assert all(high > low for high, low in zip(total[5.1], total[3.0]))
     assert total[5.1][0] != total[5.1][1]  # the anisotropy moves the water table
+
+
+def test_a_failed_realisation_of_a_permeability_field_draws_its_figure_and_the_study_finishes(tmp_path):
+    """Two realisations of the dam's permeability field judged at F = 3 (both fail): the failed
+    realisation's figure asked the scene for the permeability, which the scene leaves to the flow
+    (KeyError, after probabilistic.nc was written: the study could never finish); now the figure shows
+    the field, log-scaled, beside the mechanism."""
+    text = _dam(0.5) + PERMEABILITY_FIELD + "\n[probabilistic]\nrealisations = 2\nfactor = 3.0\n"
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert outcome.n_failed == 2 and (tmp_path / "probabilistic.nc").is_file()
+    assert sorted(path.name for path in tmp_path.glob("failed_*.png")) == [
+        "failed_realisation_00000.png", "failed_realisation_00001.png"]
+
+
+@pytest.mark.parametrize("rain_over_k, taken_over_k", [(2.0, 1.0), (0.5, 0.5)])
+def test_rain_on_a_column_is_taken_up_to_the_conductivity_and_the_rest_runs_off(rain_over_k, taken_over_k):
+    """A 1 m wide column 5 m high over a water table at its base, rain q on its top: the ground takes at
+    most its conductivity (the saturated column under a unit gradient, h = y), the rest runs off with
+    the top held at atmospheric pressure; a lighter rain all soaks in.  Before, the top's head rose
+    above the ground with nothing to hold it."""
+    k = 1e-5
+    xy = particles_in_polygon(np.array([[0, 0], [1, 0], [1, 5], [0, 5]], float), 0.25)
+    elem = triangulate(xy, 0.25, 1.5).elem_nodes
+    base, top = xy[:, 1] < 1e-9, xy[:, 1] > 5 - 1e-9
+    rain = np.zeros(len(xy))
+    order = np.argsort(xy[top, 0])
+    x_top = xy[top, 0][order]
+    share = np.zeros(x_top.size)  # each top particle half of each neighbouring edge
+    share[:-1] += 0.5 * np.diff(x_top)
+    share[1:] += 0.5 * np.diff(x_top)
+    rain[np.flatnonzero(top)[order]] = rain_over_k * k * share
+    problem = FlowProblem(xy, elem, np.broadcast_to(conductivity_tensor(k, k, 0.0), (elem.shape[0], 2, 2)),
+                          np.where(base, 0.0, np.nan), rain, np.zeros(len(xy), bool), unsaturated_band_m=1.0,
+                          node_infiltration=top)
+    solution = solve_steady_flow(problem)
+    assert solution.converged
+    taken = solution.node_inflow_m2_s[top].sum()
+    assert taken == pytest.approx(taken_over_k * k, rel=1e-3)
+    assert solution.pressure_head_m(xy)[top].max() <= 1e-6  # never water standing on the ground
+    if rain_over_k > 1.0:
+        np.testing.assert_allclose(solution.head_m, xy[:, 1], atol=1e-4)  # saturated, unit gradient
+        assert solution.node_held[top].all()
+
+
+def _perched(rain_m_s: str) -> str:
+    """The shipped perched-water study at h = 1 m under a rain of ``rain_m_s`` (as written)."""
+    text = (REPO / "studies" / "seepage_perched.toml").read_text().replace("spacing_m = 0.5", "spacing_m = 1.0")
+    return text.replace("flux_m_s = 2e-8", f"flux_m_s = {rain_m_s}")
+
+
+def test_rain_the_perched_slope_cannot_carry_saturates_it_to_its_surface_and_runs_off():
+    """The shipped perched study under a rain 500 times heavier (1e-5 m/s, the sand's conductivity):
+    before, heads several metres above the crest with 'settled' printed, or no steady state; now the
+    rain particles the ground cannot feed hold atmospheric pressure, no particle of the ground surface
+    carries water above it, and the rain given is the rain taken plus the runoff."""
+    from spfem_core.geometry import surface_height_m
+    from workflows.seepage.flow import study_flow
+    from workflows.seepage.results import flow_line
+
+    study = parse_study(_perched("1e-5"))
+    flow = study_flow(study)
+    xy = flow.node_xy_m
+    surface = np.abs(xy[:, 1] - surface_height_m(study.geometry.polygon_m, xy[:, 0])) < 1e-6
+    assert flow.solution.converged and flow.solution.pressure_head_m(xy)[surface].max() <= 0.01
+    rain = flow.problem.infiltration()
+    given = flow.problem.node_inflow_m2_s[rain].sum()
+    taken = flow.solution.node_inflow_m2_s[rain].sum()
+    assert flow.runoff_m2_s() > 0.1 * given and flow.runoff_m2_s() + taken == pytest.approx(given, rel=1e-9)
+    assert "of the rain runs off" in flow_line(flow)
+
+
+@pytest.mark.parametrize("changes, field", [
+    # rain on the crest alone, the slope face left no-flow: the perched water rises through the face
+    ({"y_min_m = 5.0\nflux": "y_min_m = 14.99\nflux", 'condition = "seepage_face"': 'condition = "no_flow"',
+      "flux_m_s = 2e-8": "flux_m_s = 1e-6"}, "seepage.boundary"),
+    # a prescribed inflow the ground cannot take: no infiltration review applies to it
+    ({'condition = "infiltration"': 'condition = "inflow"', "flux_m_s = 2e-8": "flux_m_s = 1e-5"},
+     "seepage.boundary[0]"),
+])
+def test_water_standing_above_the_ground_that_no_condition_holds_is_refused_naming_the_entry(changes, field):
+    """Before, these 'settled' with heads up to 1,000 m above the ground surface (pressure heads of
+    hundreds of metres); now one line names the condition there and the remedy."""
+    text = _perched("2e-8")
+    for old, new in changes.items():
+        text = text.replace(old, new)
+    with pytest.raises(StudyError, match="above the ground surface") as error:
+        build_scene(parse_study(text))
+    assert error.value.field == field

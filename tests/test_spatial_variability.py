@@ -115,6 +115,8 @@ def test_realisations_of_random_strengths_share_one_gravity_state_and_a_random_s
      "no material named"),
     (COHESION_FIELD.replace("cohesion_pa", "undrained_shear_strength_pa"), "random_field.properties[0].property",
      "no property of"),
+    (COHESION_FIELD.replace("cohesion_pa", "cohesion_kpa"), "random_field.properties[0].property",
+     "names the property in SI units, 'cohesion_pa'"),
     (COHESION_FIELD.replace("lognormal", "normal"), "random_field.properties[0].distribution", "lognormal"),
     (COHESION_FIELD + 'correlated_with = "phi"\ncorrelation = 0.5\n', "random_field.properties[0].correlated_with",
      "another field"),
@@ -153,3 +155,100 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
     assert len(list(tmp_path.glob("failed_realisation_*.png"))) == min(3, first.n_failed)
     again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
     assert again.runs_made == 0 and again.pf == first.pf
+
+
+def test_the_longest_scale_a_section_holds_is_found_to_within_a_tenth():
+    """largest_theta_scale on the quickstart's grid: the field at the scale it gives embeds, one a tenth
+    longer does not (the grid's own embedding, cell averages of h = 1 m)."""
+    from workflows.probabilistic.random_field import ParticleGrid, embedding, largest_theta_scale
+
+    scene = build_scene(parse_study(QUICKSTART))
+    grid = ParticleGrid.of(scene.node_xy_m[:, 0], scene.node_xy_m[:, 1], 1.0)
+    scale = largest_theta_scale("markov", 100.0, 100.0, grid)
+    for factor, embeds in ((1.0, True), (1.1, False)):
+        theta_m = factor * scale * 100.0
+        found = embedding("markov", theta_m, theta_m, grid.nx, grid.ny, grid.step_m, grid.step_m, grid.cell_m)
+        assert (found is not None) == embeds, theta_m
+
+
+@pytest.mark.parametrize("theta_m", [100.0, 1000.0])
+def test_a_scale_of_fluctuation_longer_than_the_section_holds_is_one_line_before_anything_is_written(theta_m, tmp_path):
+    """theta 100 m on the 60 m section, or 1,000 m: a ValueError traceback from the embedding in check and
+    the run (case folders left) before; now one line naming the field and the longest scale this
+    section holds, in check and before any case folder of a probabilistic study is written; that
+    scale itself runs."""
+    from workflows.check import check_study
+    from workflows.study_types import study_type
+
+    text = with_fields(COHESION_FIELD.replace("theta_x_m = 4.0", f"theta_x_m = {theta_m}")) + (
+        "\n[probabilistic]\nrealisations = 3\n")
+    study = parse_study(text)
+    lines = []
+    for name, call in (("check", lambda out: check_study(study, study_type(study, out), out, RunOptions())),
+                       ("run", lambda out: run_study(study, out, RunOptions()))):
+        with pytest.raises(StudyError) as error:
+            call(tmp_path / name)
+        assert not (tmp_path / name).exists()
+        lines.append(error.value)
+    assert str(lines[0]) == str(lines[1]) and lines[0].field == "random_field.properties[0].theta_x_m"
+    longest_m = float(lines[0].problem.split("holds theta_x_m up to ")[1].split(" m")[0])
+    assert 20.0 < longest_m < 60.0  # of the order of the section's 60 m
+    build_scene(parse_study(text.replace(f"theta_x_m = {theta_m}", f"theta_x_m = {longest_m}")))
+
+
+DILATION_FIELD = ('name = "psi"\nmaterial = "soil"\nproperty = "dilation_deg"\ndistribution = "lognormal"\n'
+                  'mean = 10.0\ncov = 0.5\ntheta_x_m = 4.0\n')
+FRICTION_FIELD = ('name = "phi"\nmaterial = "soil"\nproperty = "friction_deg"\ndistribution = "normal"\n'
+                  'std = 3.0\ntheta_x_m = 4.0\n')
+
+
+@pytest.mark.parametrize("entries, field, probability", [
+    # psi lognormal (10, 5) against phi 20: P(ln psi > ln 20)
+    ((DILATION_FIELD,), "random_field.properties[0].distribution",
+     0.5 * math.erfc((math.log(20.0) - lognormal_parameters(10.0, 0.5)[0]) / lognormal_parameters(10.0, 0.5)[1]
+                     / math.sqrt(2.0))),
+    # phi normal (20, 3) below a dilation of 15: P(phi < 15)
+    ((FRICTION_FIELD,), "random_field.properties[0].distribution", 0.5 * math.erfc(5.0 / 3.0 / math.sqrt(2.0))),
+])
+def test_a_field_that_breaks_dilation_at_most_friction_is_refused_with_its_probability(entries, field, probability,
+                                                                                       tmp_path):
+    """A dilation field that exceeds the friction angle at some particles (or a friction field below a
+    fixed dilation): check passed it and the run ended in MaterialTable's ValueError with case folders
+    written; now check and the run refuse it alike, naming the field and the probability at a point."""
+    text = with_fields(*entries)
+    if entries == (FRICTION_FIELD,):
+        text = text.replace("dilation_deg = 0.0", "dilation_deg = 15.0")
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == field and "dilation_deg exceeds its friction_deg" in error.value.problem
+    stated = float(error.value.problem.split("with probability ")[1].split(" ")[0])
+    assert stated == pytest.approx(probability, rel=0.01)
+
+
+def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
+    """P(psi > phi) for correlated normal, lognormal and mixed pairs against 400,000 correlated draws."""
+    from workflows.probabilistic.spatial import order_broken_probability
+
+    rng = np.random.default_rng(0)
+    rho = 0.6
+    g_u = rng.standard_normal(400_000)
+    g_l = rho * g_u + math.sqrt(1.0 - rho * rho) * rng.standard_normal(g_u.size)
+    mu, sigma = lognormal_parameters(10.0, 0.5)
+    for lower, upper, x_l, x_u in (
+            (("normal", 10.0, 5.0), ("normal", 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
+            (("lognormal", 10.0, 5.0), ("normal", 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
+        expected = float(np.mean(x_l > x_u))
+        assert order_broken_probability(lower, upper, rho) == pytest.approx(expected, abs=4e-4)
+
+
+def test_the_rare_particles_whose_dilation_would_exceed_their_friction_take_their_friction():
+    """Below the refusal's probability, a particle whose fields break psi <= phi gets psi = phi, the
+    others keep their own values (here a friction field with values below the material's dilation at
+    a few particles)."""
+    from workflows.probabilistic.spatial import RandomField
+
+    study = parse_study(QUICKSTART.replace("dilation_deg = 0.0", "dilation_deg = 5.0"))
+    node_material = np.zeros(6, dtype=np.int64)
+    out = {"friction_deg": np.array([20.0, 4.0, 30.0, 5.0, 2.0, 25.0])}
+    RandomField._ordered(study.materials, node_material, out)
+    np.testing.assert_array_equal(out["dilation_deg"], [np.nan, 4.0, np.nan, np.nan, 2.0, np.nan])

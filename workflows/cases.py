@@ -18,6 +18,7 @@ case are shown, and whether a case that diverges stops the study or is recorded.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -67,6 +68,15 @@ class Placement:
     summaries: bool = True  # each FOS case writes its summary.nc (False: cases of one run each, summed up by the type)
 
 
+@dataclass(frozen=True)
+class CaseFeed:
+    """Cases a type makes only when the case runner has room for them (the realisations of a
+    probabilistic study: a study of 100,000 starts its first run as one of ten does)."""
+
+    more: Callable[[int], list[Case]]  # up to this many more cases, [] when none are left
+    to_come: Callable[[], int]  # how many are left
+
+
 @dataclass
 class CaseTimings:
     """Where the wall time of :func:`run_cases` went (s)."""
@@ -88,19 +98,21 @@ def case_error(case_id: str, error: StudyError) -> StudyError:
 
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
-              wall_start: float, session=None, on_case=None) -> tuple[dict, CaseTimings]:
-    """Compute ``cases`` (module doc); (outcome by case id, timings).  An outcome is a
-    ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the ``DivergenceError`` of a
-    case that diverged when the placement keeps going.  ``session``: a ``fos.cluster.DaskSession``
-    kept open by the caller for later rounds (default: one started and closed here); ``on_case``:
-    called with (case id, outcome) as each FOS case concludes."""
+              wall_start: float, session=None, on_case=None, feed: CaseFeed | None = None) -> tuple[dict, CaseTimings]:
+    """Compute ``cases`` (module doc), and those of ``feed`` as there is room for them; (outcome by case
+    id, timings).  An outcome is a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the
+    ``DivergenceError`` of a case that diverged when the placement keeps going.  ``session``: a
+    ``fos.cluster.DaskSession`` kept open by the caller for later rounds (default: one started and
+    closed here); ``on_case``: called with (case id, outcome) as each FOS case concludes."""
     if cases[0].study.strength_reduction is not None:
-        return _fos_cases(cases, placement, options, progress, wall_start, session, on_case)
+        return _fos_cases(cases, placement, options, progress, wall_start, session, on_case, feed)
+    if feed is not None:
+        cases = cases + feed.more(feed.to_come())
     return _stage_cases(cases, placement, options, progress)
 
 
 def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float,
-               session=None, on_case=None):
+               session=None, on_case=None, feed: CaseFeed | None = None):
     """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
     from contextlib import nullcontext
 
@@ -112,10 +124,18 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
     from workflows.output.figures import import_pyplot_in_background
 
     start_unix_s = time.time()
-    searches = [CaseSearch(index, case.study, case.out_dir, label=case.case_id,
-                           gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
-                           write_gravity=case.write_gravity, policy=case.runs or RunPolicy())
-                for index, case in enumerate(cases)]
+    made = 0
+
+    def searches_of(more: list[Case]) -> list[CaseSearch]:
+        nonlocal made
+        searches = [CaseSearch(made + k, case.study, case.out_dir, label=case.case_id,
+                               gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
+                               write_gravity=case.write_gravity, policy=case.runs or RunPolicy())
+                    for k, case in enumerate(more)]
+        made += len(more)
+        return searches
+
+    more = None if feed is None else (lambda count: searches_of(feed.more(count)))
     case_progress = OnlyWarnings(progress) if placement.quiet_cases else progress
     outcomes, timings = {}, CaseTimings()
     own = session is None
@@ -126,18 +146,20 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         engine_start = time.perf_counter()
         if placement.figures:
             import_pyplot_in_background()
-        for search in Engine(session, searches, progress, start_unix_s, force=options.force).run():
-            if own and all(each.concluded for each in searches):
+        engine = Engine(session, searches_of(cases), progress, start_unix_s, force=options.force, more=more,
+                        to_come=None if feed is None else feed.to_come)
+        for search in engine.run():
+            if own and engine.all_concluded:
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
             outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
                                                                    figures=placement.figures,
                                                                    summary_file=placement.summaries)
+            timings.gravity_worker += search.gravity_wall_s
+            timings.srf_runs_worker += sum(record.wall_time_s for record in search.runs.values()
+                                           if record.started_s == record.started_s)  # NaN: reused
             if on_case is not None:
                 on_case(search.label, outcomes[search.label])
         timings.cases_elapsed = time.perf_counter() - engine_start
-    timings.gravity_worker = sum(search.gravity_wall_s for search in searches)
-    timings.srf_runs_worker = sum(record.wall_time_s for search in searches for record in search.runs.values()
-                                  if record.started_s == record.started_s)  # NaN: reused
     return outcomes, timings
 
 
@@ -190,7 +212,19 @@ class StudyType:
         raise NotImplementedError
 
     def check(self, options: RunOptions) -> None:
-        """StudyError for a study that cannot run (before anything is written); none by default."""
+        """StudyError for a study that cannot run (before anything is written); none by default.
+        ``spfem-fos check`` runs it too, with the same options."""
+
+    def check_every_case(self) -> None:
+        """What ``spfem-fos check`` checks beyond :meth:`check`: the cases a type makes only as they
+        are about to run (:meth:`feed`), made and checked; nothing by default."""
+
+    def processes(self, options: RunOptions) -> int:
+        """The processes that hold a simulation of the study at once: this one, and for a
+        strength-reduction study each local worker (``memory_guard``)."""
+        if self.study.strength_reduction is None:
+            return 1
+        return 1 + (0 if options.scheduler else options.workers)
 
     def warnings(self) -> list[str]:
         """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``),
@@ -203,6 +237,11 @@ class StudyType:
     def cases(self) -> list[Case]:
         """The cases to compute (their folders made where the type needs them)."""
         raise NotImplementedError
+
+    def feed(self) -> CaseFeed | None:
+        """The cases of this round made only as the case runner has room for them (beyond those
+        :meth:`cases` or :meth:`next_cases` returned); none by default."""
+        return None
 
     def case_concluded(self, case_id: str, outcome, progress: Progress) -> None:
         """A case's outcome as soon as it is known (before its round ends); nothing by default."""

@@ -1,8 +1,13 @@
 """``spfem-fos check STUDY.toml``: a study looked at before it runs.
 
-The study is read and checked as a run reads it (a refusal is the same one line, exit code 2),
-its scene is built (particles, materials, supports, water, loads: the scene's own refusals too),
-and without a step run:
+The study is read and checked as a run reads it, and every check the run makes before its first
+step is made in the same order (a refusal is the same one line, exit code 2): the study type's
+(``StudyType.check``: the resolution, the memory of as many processes as the run holds, a
+probabilistic study's draws and its realisations 0 and 1), every case a type makes only as it is
+about to run (``StudyType.check_every_case``: every realisation of a probabilistic study), the
+scene (particles, materials, supports, water, loads, random fields), the simulation (the time step,
+the first mesh, the stages' lengths) and the steady flow of ``[seepage]``.  Then, without a step
+run:
 
 - ``OUT/section.png``: the section as the run will see it: particles coloured by material, the
   particles a support holds (x, y or both), walls, water (piezometric lines dashed, ponded water
@@ -123,6 +128,7 @@ class StudyCheck:
     processes: int  # simulations held at once (the client and each local worker)
     estimate: RunTimeEstimate | None
     section_png: Path
+    flow: object = None  # the steady flow of [seepage] (``workflows.seepage.flow.StudyFlow``), or None
     critical: object = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
     warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings)
 
@@ -141,6 +147,10 @@ class StudyCheck:
                 cases = "" if e.cases == 1 else f"{e.cases} cases x "
                 lines.append(f"the study: about {_seconds(e.study_s)} ({cases}{TYPICAL_STABLE_RUNS + TYPICAL_FAILED_RUNS} "
                              f"runs, as a typical study makes, on {e.workers} worker{'s' * (e.workers > 1)})")
+        if self.flow is not None:
+            from workflows.seepage.results import flow_line
+
+            lines.append(flow_line(self.flow))
         if self.critical is not None:
             c = self.critical
             lines.append(f"limit equilibrium (Bishop's circles, {c.water}): F about {c.fos:.3g} on a circle from x = "
@@ -155,20 +165,30 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
-def check_study(study: Study, out_dir: Path, workers: int) -> StudyCheck:
-    """Build the scene of ``study`` (its refusals as StudyError), draw the section into ``out_dir`` and
-    estimate the run (module doc)."""
+def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
+    """The run's checks of ``study`` of type ``kind`` (a ``cases.StudyType``) with the run's ``options``
+    (module doc; a refusal is its StudyError), then the section drawn into ``out_dir`` with the critical
+    circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
     from workflows.fos.critical_circle import critical_circle, domain_warnings
     from workflows.output.writing import make_output_folder
-    from workflows.scene import build_scene
+    from workflows.scene import build_scene, monitor_particles
+    from workflows.stages.running import new_simulation
 
+    kind.check(options)
+    kind.check_every_case()
     scene = build_scene(study)
+    monitor_particles(study, scene)
+    new_simulation(study, scene)
+    flow = None
+    if study.seepage is not None:
+        from workflows.seepage.flow import study_flow
+
+        flow = study_flow(study)
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical)
-    processes = 1 + workers if study.strength_reduction is not None else 1
-    return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, processes,
-                      run_time_estimate(study, scene, workers), path, critical,
+    return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
+                      run_time_estimate(study, scene, options.workers), path, flow, critical,
                       tuple(domain_warnings(study, critical)) if critical is not None else ())
 
 

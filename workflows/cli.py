@@ -181,6 +181,19 @@ def check_output_folder(out_dir: Path) -> str | None:
     return None
 
 
+def _local_workers(workers: int | None) -> int:
+    """The local workers a study runs on: ``--workers`` (in [1, MAX_WORKERS], at most the cores, with a
+    warning), or DEFAULT_WORKERS."""
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise _fail(f"error: --workers: must be in [1, {MAX_WORKERS}], got {workers}", EXIT_BAD_STUDY)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    if workers is not None and workers > cores:
+        typer.echo(f"warning: --workers {workers} on {cores} cores: using {cores} (each worker runs one SRF run on "
+                   "one core; more would only share the cores)", err=True)
+        workers = cores
+    return DEFAULT_WORKERS if workers is None else workers
+
+
 def _read(study_file: Path):
     """The checked study of ``study_file``; a missing, unreadable or invalid file exits 2 with one line."""
     try:
@@ -242,14 +255,7 @@ def main(
     if scheduler is not None and workers is not None:
         raise _fail("error: --workers: applies to local workers; with --scheduler the scheduler's workers run the "
                     "SRF runs (give one of the two)", EXIT_BAD_STUDY)
-    if workers is not None and not 1 <= workers <= MAX_WORKERS:
-        raise _fail(f"error: --workers: must be in [1, {MAX_WORKERS}], got {workers}", EXIT_BAD_STUDY)
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    if workers is not None and workers > cores:
-        typer.echo(f"warning: --workers {workers} on {cores} cores: using {cores} (each worker runs one SRF run on "
-                   "one core; more would only share the cores)", err=True)
-        workers = cores
-    workers = DEFAULT_WORKERS if workers is None else workers
+    workers = _local_workers(workers)
     if max_memory is not None and not max_memory > 0.0:
         raise _fail(f"error: --max-memory: must be > 0 GiB, got {max_memory:g}", EXIT_BAD_STUDY)
     if out is not None and not out.strip():
@@ -323,32 +329,44 @@ def main(
 check_app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=False)
 
 
-@check_app.command(help="Check the study file STUDY.toml without running it: its scene is built, the section "
-                   "drawn to OUT/section.png, and the particles, memory and run time estimated.")
+@check_app.command(help="Check the study file STUDY.toml without running it: every check the run makes before its "
+                   "first step, its scene built, the section drawn to OUT/section.png, and the particles, memory and "
+                   "run time estimated.")
 def check(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to check", show_default=False)],
     out: Annotated[
         Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     workers: Annotated[
-        int, typer.Option("--workers", "-w", min=1, max=MAX_WORKERS, help="local workers the study would run on")
-    ] = DEFAULT_WORKERS,
+        Optional[int], typer.Option("--workers", "-w", help="local workers the study would run on (default 2, at most "
+                                    "the cores)", show_default=False)
+    ] = None,
+    max_memory: Annotated[
+        Optional[float],
+        typer.Option("--max-memory", metavar="GIB", help="the memory limit the study would run with (default: what "
+                     "the machine has available)", show_default=False),
+    ] = None,
 ) -> None:
     study = _read(study_file)
     if out is not None and not out.strip():
         raise _fail("error: --out: empty; give a folder (without --out: ./<study name>)", EXIT_BAD_STUDY)
+    if max_memory is not None and not max_memory > 0.0:
+        raise _fail(f"error: --max-memory: must be > 0 GiB, got {max_memory:g}", EXIT_BAD_STUDY)
+    workers = _local_workers(workers)
     out_dir = Path(out) if out is not None else Path.cwd() / study.name
     problem = check_output_folder(out_dir)
     if problem:
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
+    from workflows.cases import RunOptions
     from workflows.check import check_study
-    from workflows.memory_guard import check_memory
+    from workflows.memory_guard import GIB
     from workflows.output.folder_lock import check_folder_study, study_digest
+    from workflows.study_types import study_type
 
+    options = RunOptions(workers=workers, max_memory_bytes=None if max_memory is None else max_memory * GIB)
     try:
-        check_memory(study, processes=1)
         check_folder_study(out_dir, study.name, False, study_digest(study))  # as the run refuses it
-        result = check_study(study, out_dir, workers)
+        result = check_study(study, study_type(study, out_dir), out_dir, options)
     except StudyError as error:
         raise _fail(f"error: {study_file}: {error}", EXIT_BAD_STUDY) from None
     except OSError as error:

@@ -100,6 +100,16 @@ def surface_load_forces(study: Study, node_xy_m: np.ndarray, node_spacing_m: np.
     return force
 
 
+def field_values(study: Study, node_xy_m: np.ndarray | None = None, node_spacing_m: np.ndarray | None = None,
+                 node_material: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Every property a ``[random_field]`` varies (the permeability of the flow too) at the study's
+    particles (its cloud, unless given), NaN at the particles of other materials."""
+    if node_xy_m is None:
+        node_xy_m, node_spacing_m = cloud(study)
+        node_material = assign_materials(study, node_xy_m)
+    return study.random_field.node_properties(study.materials, node_xy_m, node_spacing_m, node_material)
+
+
 def build_scene(study: Study) -> Scene:
     """The particle cloud of ``study`` with its materials, supports, gravity (with the seismic part when
     it acts from the first stage), water and surface loads."""
@@ -110,7 +120,7 @@ def build_scene(study: Study) -> Scene:
     node_material = assign_materials(study, node_xy_m)
     water_fields = water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points))
     if study.random_field is not None:  # spatially variable soil (workflows.probabilistic.spatial)
-        varying = study.random_field.node_properties(study.materials, node_xy_m, node_spacing_m, node_material)
+        varying = field_values(study, node_xy_m, node_spacing_m, node_material)
         varying.pop(SEEPAGE_PROPERTY, None)  # the flow's (workflows.seepage.flow), not the core's
         water_fields["node_properties"] = {**water_fields.get("node_properties", {}), **varying}
     scene = Scene(

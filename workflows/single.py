@@ -27,13 +27,12 @@ class SingleStudy(StudyType):
         return study.sweep is None
 
     def check(self, options: RunOptions) -> None:
-        """A strength-reduction study: its resolution, and the memory of this process and the local
-        workers (``memory_guard``); a stage study checks its memory as it starts."""
+        """A strength-reduction study's resolution; the memory of this process (and of the local workers
+        of a strength-reduction study, ``memory_guard``)."""
         stage = self.study.strength_reduction
         if stage is not None:
             stage.check_resolution(self.study)
-            check_memory(self.study, processes=1 + (0 if options.scheduler else options.workers),
-                         limit_bytes=options.max_memory_bytes)
+        check_memory(self.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
 
     def cases(self) -> list[Case]:
         return [Case(self.study, self.out_dir)]

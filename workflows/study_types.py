@@ -74,10 +74,11 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
     with folder_lock(out_dir, study.name, progress.message, force=options.force, digest=study_digest(study)):
         cases = kind.cases()  # it writes, and may remove what an earlier invocation made: with the lock held
         with _round_session(kind, study, options) as session:
-            outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case)
+            outcomes, timings = run_cases(cases, kind.placement, options, progress, wall_start, session, on_case,
+                                          kind.feed())
             while cases := kind.next_cases(outcomes, progress):
                 more, more_timings = run_cases(cases, kind.placement, options, progress, wall_start, session,
-                                               on_case)
+                                               on_case, kind.feed())
                 outcomes.update(more)
                 timings.add(more_timings)
             return kind.conclude(outcomes, timings, wall_start)

@@ -35,6 +35,11 @@ workers busy with all of them at once, with no barrier between cases:
 
 The runs a case uses, and its FOS, do not depend on the number of workers, on where its gravity
 ran, or on the other cases; runs of earlier cases go first, so cases finish roughly in order.
+
+Cases may also come as the loop has room for them (``more``: a probabilistic study's realisations,
+made only when about to run): it keeps :data:`CASES_PER_WORKER` unconcluded cases per worker, and
+a case handed back leaves the loop (its gravity state with it, unless it wrote it for others), so
+that neither the memory nor a pass of the loop grows with the number of cases.
 """
 
 from __future__ import annotations
@@ -127,6 +132,10 @@ class CaseSearch:
         return f"{self.label}: {text}" if self.label else text
 
 
+CASES_PER_WORKER = 4
+"""With cases that come as there is room (``Engine.more``), this many unconcluded cases per worker:
+enough that a worker never waits for the next case to be made (one runs, one waits on it, step 3)."""
+
 SIGNAL_POLL_S = 0.2
 """While waiting for a task, the client checks this often whether a running run has passed the
 failure displacement (module doc, step 6): one scheduler round trip per running run."""
@@ -158,10 +167,15 @@ class Engine:
     process have their gravity); :meth:`run` yields every case as soon as its search is done."""
 
     def __init__(self, session, cases: list[CaseSearch], progress: Progress, start_unix_s: float,
-                 force: bool = False):
+                 force: bool = False, more=None, to_come=None):
         self.session = session
         self.client = None
-        self.cases = cases
+        self.cases = list(cases)  # the cases not handed back yet
+        self.more = more  # up to n more cases (a callable), or None: no more come
+        self.to_come = to_come or (lambda: 0)  # how many more will come
+        self.n_handed_back = 0
+        self.runs_handed_back = 0  # the runs of the cases handed back
+        self.written_gravity_of: dict[str, CaseSearch] = {}  # gravity key -> a case handed back that wrote its state
         self.progress = progress
         self.start_unix_s = start_unix_s
         self.force = force
@@ -276,7 +290,8 @@ class Engine:
             return
         self._load_stored_gravity(case)
         if case.gravity is None:
-            donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey), None)
+            donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey),
+                         self.written_gravity_of.get(case.gkey))
             if donor is None:  # a case with this key that concluded from its files alone: its gravity files
                 donor = next((c for c in self.cases if c.gkey == case.gkey and c is not case
                               and self._stored_state(c) is not None), None)
@@ -559,6 +574,7 @@ class Engine:
             self._start(case)
         idle_passes = 0
         while True:
+            self._take_more()
             active = [case for case in self.cases if not case.concluded]
             pending = self._pending()
             n_parallel = max(1, math.ceil(self.n_workers / max(len(active), 1)))
@@ -575,14 +591,17 @@ class Engine:
             for case in self.cases:  # the workers are busy with the next runs meanwhile
                 if case.unwritten or case.unwritten_gravity is not None:
                     self._write(case)
-            self.progress.cases(sum(case.concluded for case in self.cases), len(self.cases))
+            self.progress.cases(self.n_handed_back + sum(case.concluded for case in self.cases),
+                                self.n_handed_back + len(self.cases) + self.to_come())
             self._report_runs(active)
-            if not active:
+            if not active and self.more is None:
                 for future in list(self.tasks):
                     self._cancel(future)
             yield from self._hand_back()
-            if not active:
+            if not active and self.more is None:
                 return
+            if not active:
+                continue  # more cases come on the next pass
             if not self.tasks:  # runs were dropped from the queue above a failure: plan again
                 idle_passes += 1
                 if idle_passes > 3:
@@ -601,18 +620,66 @@ class Engine:
                     self.guesses.pop((task.case.index, task.srf), None)
                     self.guesses_done[(task.case.index, task.srf)] = future.result()
 
+    @property
+    def all_concluded(self) -> bool:
+        """Every case concluded, and none to come."""
+        return self.more is None and all(case.concluded for case in self.cases)
+
+    def _take_more(self) -> None:
+        """Cases from ``more`` while fewer than :data:`CASES_PER_WORKER` per worker are unconcluded, each
+        started (step 1: one whose runs are all on disk concludes at once, and another is taken)."""
+        unconcluded = sum(not case.concluded for case in self.cases)
+        while self.more is not None:
+            room = CASES_PER_WORKER * self.n_workers - unconcluded
+            if room <= 0:
+                return
+            cases = self.more(room)
+            if not cases:
+                self.more = None
+                return
+            self.cases += cases
+            for case in cases:
+                self._start(case)
+            unconcluded += sum(not case.concluded for case in cases)
+
     def _hand_back(self):
-        """The cases concluded in this pass (a lone case whose gravity diverged: its error, raised)."""
+        """The cases concluded in this pass (a lone case whose gravity diverged: its error, raised); each
+        leaves the loop, its gravity state kept only where it wrote it for the cases to come."""
         done, self.just_concluded = self.just_concluded, []
+        lone = self.more is None and self.n_handed_back + len(self.cases) == 1
         for case in done:
-            if case.error is not None and len(self.cases) == 1:
+            if case.error is not None and lone:
                 raise case.error
-            yield case
+        if done:
+            leaving = {id(case) for case in done}
+            self.cases = [case for case in self.cases if id(case) not in leaving]
+            for case in done:
+                self._retire(case)
+        yield from done
+
+    def _retire(self, case: CaseSearch) -> None:
+        """A case handed back: counted, and its gravity state and flow released on the workers unless a
+        case still here shares them (a written one stays known for the cases to come)."""
+        self.n_handed_back += 1
+        self.runs_handed_back += len(case.runs)
+        if case.gravity is not None and case.write_gravity:
+            self.written_gravity_of.setdefault(case.gkey, case)
+        elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
+            self.scattered.pop(case.gkey, None)
+        if case.study.seepage is not None:
+            from workflows.seepage.flow import flow_inputs
+
+            inputs = flow_inputs(case.study)
+            if all(flow_inputs(other.study) != inputs for other in self.cases):
+                self.flows.pop(inputs, None)
+        case.shared = ()
 
     def _report_runs(self, active: list[CaseSearch]) -> None:
-        done = sum(len(case.runs) for case in self.cases)
+        done = self.runs_handed_back + sum(len(case.runs) for case in self.cases)
         pending = sum(1 for task in self.tasks.values() if task.kind is TaskKind.RUN)
-        finished_cases = [case for case in self.cases if case.concluded and case.error is None]
-        per_case = sum(len(c.runs) for c in finished_cases) / len(finished_cases) if finished_cases else 8.0
-        waiting = sum(max(0.0, per_case - len(case.runs)) for case in active)
+        finished = [case for case in self.cases if case.concluded and case.error is None]
+        n_finished = self.n_handed_back + len(finished)
+        per_case = ((self.runs_handed_back + sum(len(c.runs) for c in finished)) / n_finished if n_finished
+                    else 8.0)
+        waiting = sum(max(0.0, per_case - len(case.runs)) for case in active) + per_case * self.to_come()
         self.progress.runs(done, done + pending + int(round(waiting)))

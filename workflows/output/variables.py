@@ -442,5 +442,7 @@ SEEPAGE_FILE_ATTRIBUTES = (
               "(their difference is the solution's mass balance)"),
     Attribute("exit_x_m, exit_y_m", "the exit point: the highest seepage-face particle water leaves through "
               "(NaN without one)"),
+    Attribute("runoff_m2_s", "the rain of infiltration conditions the ground does not take (it runs off where the "
+              "ground is saturated to its surface), per metre of thickness"),
     Attribute("wall_time_s", "time to build and solve the flow"),
 )

@@ -22,6 +22,7 @@ import xarray as xr
 
 from workflows.output.figures import pyplot, save_figure
 from workflows.probabilistic.reliability import failure_probability
+from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
 
 FAILED_FIGURES = 3
 
@@ -160,7 +161,7 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
     is there (``keep_fields``)."""
     import matplotlib.tri as mtri
 
-    from workflows.scene import build_scene
+    from workflows.scene import cloud, field_values
     from workflows.study import parse_study
 
     runs = []
@@ -172,7 +173,8 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
         return None
     srf, run_file = min(runs)
     study = parse_study((folder / "case.toml").read_text())
-    scene = build_scene(study)
+    node_xy_m, _ = cloud(study)
+    values = field_values(study)  # (the permeability too, which the scene leaves to the flow)
     names = [entry.property for entry in study.random_field.properties]
     with xr.open_dataset(run_file, engine="netcdf4") as run:
         x, y = run["particle_x"].values, run["particle_y"].values
@@ -180,9 +182,10 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
         plastic = run["particle_plastic_strain"].values
     plt = pyplot()
     fig, axes = plt.subplots(len(names) + 1, 1, figsize=(7.5, 2.6 * (len(names) + 1)), sharex=True)
-    x0, y0 = scene.node_xy_m[:, 0], scene.node_xy_m[:, 1]
+    x0, y0 = node_xy_m[:, 0], node_xy_m[:, 1]
     for ax, name in zip(axes, names):
-        dots = ax.scatter(x0, y0, c=scene.node_properties[name], s=4, cmap="viridis")
+        norm = "log" if name == SEEPAGE_PROPERTY else None  # a permeability spans decades
+        dots = ax.scatter(x0, y0, c=values[name], s=4, cmap="viridis", norm=norm)
         fig.colorbar(dots, ax=ax, label=name)
         ax.set(aspect="equal", ylabel="y (m)")
     shading = axes[-1].tripcolor(mtri.Triangulation(x, y, triangles), plastic, shading="gouraud", cmap="magma")

@@ -12,8 +12,9 @@ eigenvalues are set to zero, which changes every covariance of the grid by at mo
 the negative ones, ``sum(|lambda_-|) / sum(lambda)``, times the variance (the change is
 ``F* diag(|lambda_-|) F / N``, whose entries are bounded by its trace over N); the embedding
 grows from twice the grid until that share is at most :data:`NEGATIVE_SHARE`, and a correlation
-no embedding up to :data:`MAX_EMBEDDING` times the grid reaches it with is an error, never a
-wrong field.
+no embedding up to :data:`MAX_EMBEDDING` times the grid reaches it with is an error
+(:class:`EmbeddingError`), never a wrong field: a scale of fluctuation much longer than the grid
+(:func:`largest_theta_scale` finds the longest the grid holds).
 
 Correlation models, with the scale of fluctuation ``theta`` (Vanmarcke; Fenton & Griffiths):
 
@@ -74,6 +75,35 @@ def correlation(model: str, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float
     raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(MODELS)})")
 
 
+class EmbeddingError(ValueError):
+    """A correlation no circulant embedding up to :data:`MAX_EMBEDDING` times its grid holds (a scale of
+    fluctuation too long for the grid: :func:`largest_theta_scale`)."""
+
+
+def embedding(model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float, dy_m: float,
+              cell_m: float | None = None) -> np.ndarray | None:
+    """sqrt(lambda / N) of the smallest periodic grid, from twice the ``nx`` x ``ny`` grid up to
+    :data:`MAX_EMBEDDING` times it, whose negative eigenvalues are at most :data:`NEGATIVE_SHARE` of
+    their sum (module doc; :meth:`GridField.build`); None when none is."""
+    from scipy import fft  # scipy only when drawing: the study reader imports this module
+
+    for factor in range(2, MAX_EMBEDDING + 1):
+        mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
+        ix, iy = np.arange(mx), np.arange(my)
+        tau_x = np.minimum(ix, mx - ix) * dx_m  # the periodic (minimal-image) lag
+        tau_y = np.minimum(iy, my - iy) * dy_m
+        if cell_m is None:
+            rho = correlation(model, tau_x[:, None], tau_y[None, :], theta_x_m, theta_y_m)
+        else:  # C_A depends on |tau_x| and |tau_y|: computed once per distinct lag
+            quarter = cell_covariance(model, cell_m, np.arange(mx // 2 + 1) * dx_m, np.arange(my // 2 + 1) * dy_m,
+                                      theta_x_m, theta_y_m, CELL_QUADRATURE_POINTS)
+            rho = quarter[np.minimum(ix, mx - ix)][:, np.minimum(iy, my - iy)]
+        eigen = fft.fft2(rho).real
+        if -eigen[eigen < 0.0].sum() <= NEGATIVE_SHARE * eigen.sum():
+            return np.sqrt(np.maximum(eigen, 0.0) / (mx * my))
+    return None
+
+
 @dataclass(frozen=True)
 class GridField:
     """The circulant embedding of one model on one grid: draws fields of it (module doc)."""
@@ -94,29 +124,16 @@ class GridField:
               dy_m: float, cell_m: float | None = None) -> "GridField":
         """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m`` for the point field,
         or with ``cell_m`` for the field of its averages over squares of that side (covariance
-        :func:`cell_covariance`); ValueError when no embedding up to :data:`MAX_EMBEDDING` times the
-        grid keeps its negative eigenvalues within :data:`NEGATIVE_SHARE` (kept for the next call with
-        the same arguments: a field draws from it, never changes it)."""
-        from scipy import fft  # scipy only when drawing: the study reader imports this module
-        for factor in range(2, MAX_EMBEDDING + 1):
-            mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
-            ix, iy = np.arange(mx), np.arange(my)
-            tau_x = np.minimum(ix, mx - ix) * dx_m  # the periodic (minimal-image) lag
-            tau_y = np.minimum(iy, my - iy) * dy_m
-            if cell_m is None:
-                rho = correlation(model, tau_x[:, None], tau_y[None, :], theta_x_m, theta_y_m)
-            else:  # C_A depends on |tau_x| and |tau_y|: computed once per distinct lag
-                quarter = cell_covariance(model, cell_m, np.arange(mx // 2 + 1) * dx_m, np.arange(my // 2 + 1) * dy_m,
-                                          theta_x_m, theta_y_m, CELL_QUADRATURE_POINTS)
-                rho = quarter[np.minimum(ix, mx - ix)][:, np.minimum(iy, my - iy)]
-            eigen = fft.fft2(rho).real
-            if -eigen[eigen < 0.0].sum() <= NEGATIVE_SHARE * eigen.sum():
-                sqrt_eigen = np.sqrt(np.maximum(eigen, 0.0) / (mx * my))
-                sqrt_eigen.setflags(write=False)  # shared by the cache
-                return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen, cell_m)
-        raise ValueError(f"the {model} correlation with theta = ({theta_x_m:g}, {theta_y_m:g}) m has no "
-                         f"nonnegative circulant embedding up to {MAX_EMBEDDING} times the grid (negative "
-                         f"eigenvalues above {NEGATIVE_SHARE:g} of their sum)")
+        :func:`cell_covariance`); :class:`EmbeddingError` when no embedding up to :data:`MAX_EMBEDDING`
+        times the grid keeps its negative eigenvalues within :data:`NEGATIVE_SHARE` (kept for the next
+        call with the same arguments: a field draws from it, never changes it)."""
+        sqrt_eigen = embedding(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, cell_m)
+        if sqrt_eigen is None:
+            raise EmbeddingError(f"the {model} correlation with theta = ({theta_x_m:g}, {theta_y_m:g}) m has no "
+                                 f"nonnegative circulant embedding up to {MAX_EMBEDDING} times the grid (negative "
+                                 f"eigenvalues above {NEGATIVE_SHARE:g} of their sum)")
+        sqrt_eigen.setflags(write=False)  # shared by the cache
+        return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen, cell_m)
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
@@ -183,6 +200,73 @@ def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
     return ndimage.uniform_filter(grid_values, size=cell_points, mode="nearest")
 
 
+@dataclass(frozen=True)
+class ParticleGrid:
+    """The grid a :class:`ParticleField` draws on: over the particles' bounding box widened by their
+    largest spacing, step h / CELL_GRID holding the cell averages of one spacing (``cell_m`` = h), or
+    h_min / GRID_PER_CELL holding the point field of several (``cell_m`` None)."""
+
+    step_m: float
+    origin_m: tuple[float, float]
+    nx: int
+    ny: int
+    cell_m: float | None
+
+    @classmethod
+    def of(cls, x_m, y_m, spacing_m) -> "ParticleGrid":
+        x_m, y_m = np.asarray(x_m, float), np.asarray(y_m, float)
+        spacing = np.broadcast_to(np.asarray(spacing_m, float), x_m.shape)
+        one_spacing = float(spacing.max()) <= float(spacing.min()) * (1.0 + 1e-9)
+        step_m = float(spacing.min()) / (CELL_GRID if one_spacing else GRID_PER_CELL)
+        origin = (float(x_m.min() - spacing.max()), float(y_m.min() - spacing.max()))
+        nx = int(math.ceil((x_m.max() + spacing.max() - origin[0]) / step_m)) + 1
+        ny = int(math.ceil((y_m.max() + spacing.max() - origin[1]) / step_m)) + 1
+        return cls(step_m, origin, nx, ny, float(spacing.min()) if one_spacing else None)
+
+    @property
+    def extent_m(self) -> tuple[float, float]:
+        return (self.nx - 1) * self.step_m, (self.ny - 1) * self.step_m
+
+
+COARSE_GRID_POINTS = 64
+"""Grid points along the longer side of the coarse grid on which :func:`largest_theta_scale` looks
+for the longest scale of fluctuation first (the embedding's limit is a property of theta over the
+grid's extent, little changed by its step: within 4% at 1/60 of the extent on the shipped slope)."""
+BISECTION_STEPS = 12
+"""Halvings of the interval (in log scale, from a factor of 2) that bracket the coarse grid's limit."""
+
+
+def largest_theta_scale(model: str, theta_x_m: float, theta_y_m: float, grid: ParticleGrid) -> float:
+    """The largest factor s, s theta_x to two significant digits rounded down, for which the field of
+    scales (s theta_x, s theta_y) has an embedding on ``grid`` (:func:`embedding`): first the limit of
+    the point field on a coarse grid of the same extent (:data:`COARSE_GRID_POINTS`), by bisection,
+    then 10% less at a time until the field itself embeds on ``grid``."""
+    lx, ly = grid.extent_m
+    step = max(grid.step_m, max(lx, ly) / COARSE_GRID_POINTS)
+    nx, ny = int(math.ceil(lx / step)) + 1, int(math.ceil(ly / step)) + 1
+
+    def coarse(scale: float) -> bool:
+        return embedding(model, scale * theta_x_m, scale * theta_y_m, nx, ny, step, step) is not None
+
+    low, high = 1.0, 1.0
+    while not coarse(low) and low > 1e-9:
+        high, low = low, 0.5 * low
+    for _ in range(BISECTION_STEPS if high > low else 0):
+        middle = math.sqrt(low * high)
+        low, high = (middle, high) if coarse(middle) else (low, middle)
+    scale = low
+    while scale * theta_x_m > 1e-9:
+        length_m = float(f"{scale * theta_x_m:.2g}")
+        if length_m > scale * theta_x_m:  # rounded up: one down in the second digit
+            length_m -= 10.0 ** (math.floor(math.log10(length_m)) - 1)
+        scale = length_m / theta_x_m
+        if embedding(model, length_m, scale * theta_y_m, grid.nx, grid.ny, grid.step_m, grid.step_m,
+                     grid.cell_m) is not None:
+            return scale
+        scale *= 0.9
+    return 0.0
+
+
 class ParticleField:
     """Standard Gaussian values of a field at particles: each the average over its cell (module doc).
 
@@ -193,18 +277,14 @@ class ParticleField:
 
     def __init__(self, model: str, theta_x_m: float, theta_y_m: float, x_m: np.ndarray, y_m: np.ndarray,
                  spacing_m: np.ndarray | float):
-        x_m, y_m = np.asarray(x_m, float), np.asarray(y_m, float)
-        spacing = np.broadcast_to(np.asarray(spacing_m, float), x_m.shape)
-        one_spacing = float(spacing.max()) <= float(spacing.min()) * (1.0 + 1e-9)
-        self.step_m = float(spacing.min()) / (CELL_GRID if one_spacing else GRID_PER_CELL)
-        self.origin = (x_m.min() - spacing.max(), y_m.min() - spacing.max())
-        nx = int(math.ceil((x_m.max() + spacing.max() - self.origin[0]) / self.step_m)) + 1
-        ny = int(math.ceil((y_m.max() + spacing.max() - self.origin[1]) / self.step_m)) + 1
-        self.grid = GridField.build(model, theta_x_m, theta_y_m, nx, ny, self.step_m, self.step_m,
-                                    float(spacing.min()) if one_spacing else None)
-        self.ix = np.rint((x_m - self.origin[0]) / self.step_m).astype(np.int64)
-        self.iy = np.rint((y_m - self.origin[1]) / self.step_m).astype(np.int64)
-        self.cell_points = np.maximum(np.rint(spacing / self.step_m).astype(np.int64), 1)
+        grid = ParticleGrid.of(x_m, y_m, spacing_m)
+        self.step_m = grid.step_m
+        self.grid = GridField.build(model, theta_x_m, theta_y_m, grid.nx, grid.ny, grid.step_m, grid.step_m,
+                                    grid.cell_m)
+        self.ix = np.rint((np.asarray(x_m, float) - grid.origin_m[0]) / grid.step_m).astype(np.int64)
+        self.iy = np.rint((np.asarray(y_m, float) - grid.origin_m[1]) / grid.step_m).astype(np.int64)
+        spacing = np.broadcast_to(np.asarray(spacing_m, float), self.ix.shape)
+        self.cell_points = np.maximum(np.rint(spacing / grid.step_m).astype(np.int64), 1)
         self.sizes = np.unique(self.cell_points)
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

@@ -23,7 +23,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, stats
 
 from workflows.probabilistic.table import DISTRIBUTIONS
 
@@ -45,6 +44,8 @@ class Marginal:
 
     def frozen(self):
         """The scipy.stats distribution."""
+        from scipy import stats  # (0.5 s to import: only where a normal or lognormal's own formula will not do)
+
         if self.distribution == "normal":
             return stats.norm(self.mean, self.std)
         if self.distribution == "lognormal":
@@ -64,6 +65,8 @@ class Marginal:
             return np.exp(math.log(self.mean) - 0.5 * sigma2 + math.sqrt(sigma2) * np.asarray(z))
         if self.distribution == "normal":
             return self.mean + self.std * np.asarray(z)
+        from scipy import stats
+
         return self.frozen().ppf(stats.norm.cdf(z))
 
 
@@ -74,7 +77,8 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
         return rho
     if a.distribution == "lognormal" and b.distribution == "lognormal":
         va, vb = a.std / a.mean, b.std / b.mean
-        value = math.log1p(rho * va * vb) / math.sqrt(math.log1p(va * va) * math.log1p(vb * vb))
+        value = (math.log1p(rho * va * vb) / math.sqrt(math.log1p(va * va) * math.log1p(vb * vb))
+                 if rho * va * vb > -1.0 else -math.inf)
         if not -1.0 < value < 1.0:
             raise ValueError(f"a correlation of {rho:g} is out of reach of these two lognormals")
         return value
@@ -94,6 +98,8 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
     if low > 0.0 or high < 0.0:
         raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution} and a {b.distribution} "
                          f"variable (from {low + rho:.3g} to {high + rho:.3g})")
+    from scipy import optimize
+
     return float(optimize.brentq(achieved, -0.9999, 0.9999, xtol=1e-10))
 
 
@@ -124,6 +130,8 @@ class Sampler:
 
     def latin_hypercube(self, seed: int, count: int) -> np.ndarray:
         """(count, n) values: a stratified design with the target correlation (Iman & Conover)."""
+        from scipy import stats
+
         n = len(self.marginals)
         design = stats.qmc.LatinHypercube(d=n, seed=np.random.default_rng(np.random.SeedSequence([seed, count])))
         z = stats.norm.ppf(design.random(count))
@@ -138,6 +146,8 @@ class Sampler:
 def _iman_conover(z: np.ndarray, correlation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """The columns of ``z`` reordered so that their rank correlation is about ``correlation``
     (Iman & Conover 1982): van der Waerden scores with that correlation set the ranks."""
+    from scipy import stats
+
     count, n = z.shape
     scores = stats.norm.ppf(np.arange(1, count + 1) / (count + 1))
     target = np.column_stack([rng.permutation(scores) for _ in range(n)])

@@ -1,25 +1,38 @@
 """A probabilistic study: the study once per realisation of its random variables, and
 ``OUT/probabilistic.nc`` with the probability of failure.
 
-1. The realisations (:func:`realisation_cases`): the values of ``[probabilistic]``'s variables
-   (``workflows.probabilistic.sampling``: Monte Carlo, realisation i from its own stream, or a
-   Latin hypercube), each set into the study at its path and checked like the field itself; in
-   ``verdict`` mode the strength-reduction stage makes the one run at ``factor``
-   (``srf_min = srf_max = factor``).
-2. They run as a sweep's cases do (``workflows.sweep.study_type``): on one cluster, in
-   ``OUT/cases/realisation_<i>/``, every finished run reused by the next invocation, so that a
-   Monte Carlo study extended from 200 to 1,000 realisations computes only the 800 new ones (a
-   finished realisation is read back from its run files without its gravity state).  Each keeps
-   only what is asked of it (:meth:`ProbabilisticStudy._placed`, a ``fos.task.RunPolicy``):
-   realisations that share a gravity state (only strengths random) relax it once into
-   ``OUT/gravity/``, others keep theirs in memory only; a run file keeps the final particle
-   state only as ``keep_fields`` and ``keep_fields_first`` say (in ``fos`` mode the failed runs
-   of a realisation that did not fail lose theirs once it concludes); in ``verdict`` mode a run
-   ends as soon as it has failed (past the failure displacement: its verdict can no longer
-   change) and no ``summary.nc`` is written (the run file holds it all).  With
-   ``pf_interval_width`` they go in batches of :data:`BATCH_REALISATIONS`, and the study stops
-   after the batch that brings the 95% interval of pf within it.
-3. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
+1. The realisations (:class:`Realisations`): the values of ``[probabilistic]``'s variables, all
+   drawn at once (``workflows.probabilistic.sampling``: Monte Carlo, realisation i from its own
+   stream, or a Latin hypercube), each in the unit its path names (``materials.soil.cohesion_kpa``:
+   kPa; ``unit_weight_kn_m3``: kN/m3, whichever spelling the study file uses for the field); in
+   ``verdict`` mode the strength-reduction stage makes the one run at ``factor`` (``srf_min =
+   srf_max = factor``).  Before anything is written (:meth:`ProbabilisticStudy.check`, which
+   ``spfem-fos check`` runs too): the paths, means and spreads, the correlation, every draw against
+   its field's range, realisations 0 and 1 as whole studies (random values that change nothing the
+   study computes are refused: their realisations would be copies, not samples), the scene of
+   realisation 0 (its random fields), its resolution and the memory.
+2. A realisation's study (its values set at their paths, checked as a study file is) is made only
+   when it is about to run, and its folder ``OUT/cases/realisation_<i>/`` with its ``case.toml``
+   written then: the first two with the cases, the others as the case runner has room for them
+   (``workflows.cases.CaseFeed``), or with ``pf_interval_width`` batch by batch.  So a study of
+   100,000 realisations starts its first run as soon as a study of ten does, and one that stops
+   early never makes the rest.  A draw that breaks a rule between fields (a density that makes
+   the soil lighter than water) is refused when its realisation is made: ``spfem-fos check`` makes
+   every realisation, and refuses it before the study starts.
+3. They run as a sweep's cases do (``workflows.sweep.study_type``): on one cluster, every finished
+   run reused by the next invocation, so that a Monte Carlo study extended from 200 to 1,000
+   realisations computes only the 800 new ones (a finished realisation is read back from its run
+   files without its gravity state).  Each keeps only what is asked of it
+   (:meth:`ProbabilisticStudy._placed`, a ``fos.task.RunPolicy``): realisations that share a
+   gravity state (only strengths random) relax it once into ``OUT/gravity/``, others keep theirs in
+   memory only; a run file keeps the final particle state only as ``keep_fields`` and
+   ``keep_fields_first`` say (in ``fos`` mode the failed runs of a realisation that did not fail
+   lose theirs once it concludes); in ``verdict`` mode a run ends as soon as it has failed (past the
+   failure displacement: its verdict can no longer change) and no ``summary.nc`` is written (the
+   run file holds it all).  With ``pf_interval_width`` they go in batches of
+   :data:`BATCH_REALISATIONS`, and the study stops after the batch that brings the 95% interval of
+   pf within it.
+4. ``OUT/probabilistic.nc`` (``workflows.output.variables.PROBABILISTIC_FILE``) is written last: pf
    with its exact 95% interval, and in ``fos`` mode the FOS statistics, the reliability index and
    each variable's rank correlation with the FOS; then the figures (``probabilistic.figures``).
 """
@@ -36,22 +49,36 @@ from pathlib import Path
 import numpy as np
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import Case, CaseTimings, Report
+from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
+from workflows.fields import MAX_MAGNITUDE, check_value, specs
 from workflows.output.figures import remove_stale_figures
-from workflows.study import Study, StudyError
-from workflows.study.reading import SweepCase, _build_study, _loads, resolve_sweep_path
+from workflows.probabilistic.table import spread_problem
+from workflows.study import Study, StudyError, engineering_units
+from workflows.study.reading import SweepCase, _build_study, _loads, resolve_field, resolve_sweep_path, set_field
 from workflows.study.toml_text import to_toml
-from workflows.sweep.results import ABOVE, BELOW, FOUND, CaseResult, case_result, diverged_result
+from workflows.sweep.results import (
+    ABOVE,
+    BELOW,
+    CASE_TEXT_NAME,
+    CASES_FOLDER,
+    FOUND,
+    CaseResult,
+    case_result,
+    diverged_result,
+)
 from workflows.sweep.study_type import SweepStudy
 
 RESULT_NAME = "probabilistic.nc"
 BATCH_REALISATIONS = 100
 """With ``pf_interval_width``, realisations go to the cluster in batches of this many, the interval
 checked after each batch (the same batches whatever the workers: the stop is reproducible)."""
+FIRST_REALISATIONS = 2
+"""Realisations made with the cases (module doc, step 2): 0 and 1, which the checks make anyway."""
 CASE_PREFIX = "realisation_"
 GRAVITY_FOLDER = "gravity"
 """``OUT/gravity/``: the one gravity state of realisations that share it (random strengths only)."""
 STABLE, FAILED, UNDECIDED = "stable", "failed", "undecided"
+THETA_FIELDS = ("theta_x_m", "theta_y_m")
 
 
 def variable_labels(study: Study) -> list[str]:
@@ -61,74 +88,151 @@ def variable_labels(study: Study) -> list[str]:
     return [name if last.count(name) == 1 else "_".join(path.split(".")[-2:]) for name, path in zip(last, paths)]
 
 
-def sampled_values(study: Study) -> np.ndarray:
-    """(realisations, variables): the values of every realisation (module doc, step 1)."""
-    table = study.probabilistic
-    if not table.variables:  # only a [random_field] varies
-        return np.empty((table.realisations, 0))
-    from workflows.probabilistic.sampling import Marginal, Sampler  # scipy.stats: only when sampling
+class Realisations:
+    """The realisations of a probabilistic study: every value drawn at once, a realisation's study made
+    only when asked for (module doc, steps 1-2).  StudyError naming the field for a path, mean, spread,
+    correlation or draw that cannot be."""
 
-    raw = _loads(study.source_text)
-    marginals = []
-    for k, variable in enumerate(table.variables):
-        node, key, spec = resolve_sweep_path(copy.deepcopy(raw), variable.path)
-        if spec.type != "number":
-            raise StudyError(f"probabilistic.variables[{k}].path", f"{variable.path} is not a number field")
-        mean = variable.mean if variable.mean is not None else node.get(key)
-        if not isinstance(mean, (int, float)) or isinstance(mean, bool) or not math.isfinite(mean):
-            raise StudyError(f"probabilistic.variables[{k}].mean", f"{variable.path} is not given in the study "
-                             "file: give the mean")
-        std = variable.std if variable.std is not None else (variable.cov or 0.0) * abs(mean)
+    def __init__(self, study: Study):
+        table = study.probabilistic
+        self.study = study
+        raw = _loads(study.source_text)
+        raw.pop("probabilistic", None)
+        if table.compute == "verdict":
+            stage = study.strength_reduction.name
+            for name in ("srf_min", "srf_max"):
+                node, key, _ = resolve_sweep_path(raw, f"stages.{stage}.{name}")
+                node[key] = table.factor
+        self.raw = raw
+        self.count = table.realisations
+        self.labels = variable_labels(study)
+        self.width = max(5, len(str(self.count - 1)))
+        self.specs = [self._resolved(k).spec for k in range(len(table.variables))]
+        self.values = self._sampled()
+        self._check_draws()
+
+    def _resolved(self, k: int):
+        try:
+            return resolve_field(copy.deepcopy(self.raw), self.study.probabilistic.variables[k].path)
+        except StudyError as error:
+            raise StudyError(f"probabilistic.variables[{k}].path", str(error)) from None
+
+    def _marginal(self, k: int):
+        """Variable k's distribution, its mean and std in the unit of its path (the mean by default the
+        field's value in the study file, whichever unit it is written in)."""
+        from workflows.probabilistic.sampling import Marginal
+
+        variable = self.study.probabilistic.variables[k]
+        where = f"probabilistic.variables[{k}]"
+        found = self._resolved(k)
+        if found.spec.type != "number":
+            raise StudyError(f"{where}.path", f"{variable.path} is not a number field")
+        if variable.distribution == "uniform":
+            low, high = variable.low, variable.high
+            for name, bound in (("low", low), ("high", high)):
+                try:
+                    check_value(found.spec, bound)
+                except ValueError as error:
+                    raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
+            return Marginal("uniform", 0.5 * (low + high), (high - low) / math.sqrt(12.0), low, high)
+        mean = variable.mean
+        if mean is None:
+            declared = specs(found.table)
+            units = engineering_units.units_of(found.key, declared, self.raw)
+            si_mean = engineering_units.si_value(found.node, found.key if units is None else units.si_field,
+                                                 declared, self.raw)
+            if si_mean is None or not math.isfinite(si_mean):
+                raise StudyError(f"{where}.mean", f"{variable.path} is not given in the study file: give the mean")
+            mean = si_mean / (1.0 if units is None else units.si_per_unit)
+        std = variable.std if variable.std is not None else variable.cov * abs(mean)
         if variable.distribution == "lognormal" and mean <= 0.0:
-            raise StudyError(f"probabilistic.variables[{k}].mean", f"a lognormal variable needs a mean > 0, got {mean:g}")
-        marginals.append(Marginal(variable.distribution, float(mean), float(std),
-                                  -math.inf if variable.low is None else variable.low,
-                                  math.inf if variable.high is None else variable.high))
-    try:
-        sampler = Sampler(marginals, None if table.correlation is None else np.array(table.correlation, float))
-    except ValueError as error:
-        raise StudyError("probabilistic.correlation", str(error)) from None
-    if table.method == "latin_hypercube":
-        return sampler.latin_hypercube(table.seed, table.realisations)
-    return sampler.monte_carlo(table.seed, range(table.realisations))
+            raise StudyError(f"{where}.mean", f"a lognormal variable needs a mean > 0, got {mean:g}")
+        problem = spread_problem(mean, std, variable.cov is not None)
+        if problem is not None:
+            raise StudyError(f"{where}.{problem[0]}", f"{variable.path}: {problem[1]}")
+        for name in ("low", "high"):
+            bound = getattr(variable, name)
+            if bound is not None:
+                try:
+                    check_value(found.spec, bound)
+                except ValueError as error:
+                    raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
+        return Marginal(variable.distribution, float(mean), float(std),
+                        -math.inf if variable.low is None else variable.low,
+                        math.inf if variable.high is None else variable.high)
+
+    def _sampled(self) -> np.ndarray:
+        """(realisations, variables): the values of every realisation (module doc, step 1)."""
+        table = self.study.probabilistic
+        if not table.variables:  # only a [random_field] varies
+            return np.empty((self.count, 0))
+        from workflows.probabilistic.sampling import Sampler
+
+        marginals = [self._marginal(k) for k in range(len(table.variables))]
+        try:
+            sampler = Sampler(marginals, None if table.correlation is None else np.array(table.correlation, float))
+        except ValueError as error:
+            raise StudyError("probabilistic.correlation", str(error)) from None
+        if table.method == "latin_hypercube":
+            return sampler.latin_hypercube(table.seed, self.count)
+        return sampler.monte_carlo(table.seed, range(self.count))
+
+    def _check_draws(self) -> None:
+        """Every draw against its field's range (in the unit of its path): StudyError naming the first
+        realisation that draws a value the field refuses."""
+        for k, (variable, spec) in enumerate(zip(self.study.probabilistic.variables, self.specs)):
+            x = self.values[:, k]
+            ok = np.isfinite(x) & (np.abs(x) <= MAX_MAGNITUDE)
+            for op, bound in spec.bounds:
+                ok &= {">": x > bound, ">=": x >= bound, "<": x < bound, "<=": x <= bound}[op]
+            if ok.all():
+                continue
+            i = int(np.argmin(ok))
+            try:
+                check_value(spec, float(x[i]))
+                problem = "is out of its range"
+            except ValueError as error:
+                problem = str(error)
+            share = float(np.mean(~ok))
+            raise StudyError(f"probabilistic.variables[{k}]", f"realisation {i} draws {x[i]:.6g} for {variable.path}, "
+                             f"which {problem} ({share:.3g} of the {self.count} realisations do; bound the "
+                             "distribution: lognormal, uniform or truncated_normal)")
+
+    def case_id(self, i: int) -> str:
+        return f"{CASE_PREFIX}{i:0{self.width}d}"
+
+    def raw_of(self, i: int) -> dict:
+        """The study dict of realisation ``i``: its values at their paths, its fields' realisation."""
+        case_raw = copy.deepcopy(self.raw)
+        if self.study.random_field is not None:
+            case_raw["random_field"]["realisation"] = i
+        for variable, value in zip(self.study.probabilistic.variables, self.values[i]):
+            node, key, spec = resolve_sweep_path(case_raw, variable.path)
+            set_field(node, key, check_value(spec, float(value)))
+        return case_raw
+
+    def study_of(self, i: int, text: bool = True) -> Study:
+        """Realisation ``i`` as its own checked study (with its TOML text: ``text``); StudyError naming
+        the realisation and the field a draw breaks."""
+        case_raw = self.raw_of(i)
+        try:
+            case_study = _build_study(case_raw)
+        except StudyError as error:
+            raise StudyError("probabilistic", f"realisation {i}: {error}") from None
+        if not text:
+            return case_study
+        return dataclasses.replace(case_study, source_text=to_toml(
+            case_raw, header=f"realisation {i} of the probabilistic study {self.study.name}"))
+
+    def case(self, i: int) -> SweepCase:
+        """Realisation ``i`` as a case (:meth:`study_of`)."""
+        return SweepCase(self.case_id(i), (i,), dict(zip(self.labels, map(float, self.values[i]))), self.study_of(i))
 
 
 def realisation_cases(study: Study) -> list[SweepCase]:
-    """Each realisation as its own checked study (module doc, step 1)."""
-    from workflows.fields import check_value
-
-    table = study.probabilistic
-    raw = _loads(study.source_text)
-    raw.pop("probabilistic", None)
-    if table.compute == "verdict":
-        stage = study.strength_reduction.name
-        for name in ("srf_min", "srf_max"):
-            node, key, _ = resolve_sweep_path(raw, f"stages.{stage}.{name}")
-            node[key] = table.factor
-    labels = variable_labels(study)
-    values = sampled_values(study)
-    width = max(5, len(str(table.realisations - 1)))
-    cases = []
-    for i, row in enumerate(values):
-        case_raw = copy.deepcopy(raw)
-        case_id = f"{CASE_PREFIX}{i:0{width}d}"
-        if study.random_field is not None:
-            case_raw["random_field"]["realisation"] = i
-        for k, (variable, value) in enumerate(zip(table.variables, row)):
-            node, key, spec = resolve_sweep_path(case_raw, variable.path)
-            try:
-                node[key] = check_value(spec, float(value))
-            except ValueError as error:
-                raise StudyError(f"probabilistic.variables[{k}]", f"realisation {i} draws {value:.6g} for "
-                                 f"{variable.path}, which {error} (bound the distribution: lognormal, uniform or "
-                                 "truncated_normal)") from None
-        text = to_toml(case_raw, header=f"realisation {i} of the probabilistic study {study.name}")
-        try:
-            case_study = dataclasses.replace(_build_study(case_raw), source_text=text)
-        except StudyError as error:
-            raise StudyError("probabilistic", f"realisation {i}: {error}") from None
-        cases.append(SweepCase(case_id, (i,), dict(zip(labels, (float(v) for v in row))), case_study))
-    return cases
+    """Each realisation as its own checked study (module doc, step 1), all at once."""
+    realisations = Realisations(study)
+    return [realisations.case(i) for i in range(realisations.count)]
 
 
 @dataclass
@@ -177,18 +281,29 @@ def realisation_verdict(result: CaseResult, compute: str, factor: float) -> str:
     return UNDECIDED
 
 
+@dataclass(frozen=True)
+class RealisationRow:
+    """A realisation as ``probabilistic.nc`` lists it: its folder, its number, its values."""
+
+    case_id: str
+    position: tuple[int]
+    values: dict
+
+
 class ProbabilisticStudy(SweepStudy):
     """A study with ``[probabilistic]`` (module doc)."""
 
     def __init__(self, study: Study, out_dir: Path):
         super().__init__(study, out_dir)
         self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far
-        self.waiting: list = []  # realisations of the later batches (pf_interval_width)
-        self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known with the cases)
-        self.realisation_of: dict[str, int] = {}  # case id -> realisation number (known with the cases)
+        self.realisations: Realisations | None = None  # (made by check)
+        self.first: list[SweepCase] = []  # realisations 0 and 1, made by check
+        self.shared_gravity: bool | None = None  # do all realisations share one gravity state (known by check)
+        self.next_index = 0  # the next realisation to make
+        self.batch_end = 0  # realisations are made up to here in this round (the batch of pf_interval_width)
         self.slip_lines: dict[str, tuple] = {}  # case id -> the slip line (x, y) of a failed realisation
         self.edges_reached: dict[str, list] = {}  # case id -> the supports its mechanism reaches (failed ones)
-        self.study_of: dict[str, Study] = {}  # case id -> its study (known with the cases)
+        self.study_of: dict[str, Study] = {}  # case id -> its study, until it concludes
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
@@ -202,19 +317,129 @@ class ProbabilisticStudy(SweepStudy):
     def fos(self) -> bool:
         return True
 
-    def make_cases(self) -> list[SweepCase]:
-        return realisation_cases(self.study)
+    def check(self, options: RunOptions) -> None:
+        """What the study must pass before anything is written (module doc, step 1): StudyError naming the
+        field, or the realisation and the field."""
+        from workflows.fos.keys import gravity_key
+        from workflows.memory_guard import check_memory
+
+        self.realisations = realisations = Realisations(self.study)
+        self.first = [realisations.case(i) for i in range(min(FIRST_REALISATIONS, realisations.count))]
+        self._check_each_variable_changes_something()
+        self.shared_gravity = len({gravity_key(case.study) for case in self.first}) == 1
+        study = self.first[0].study
+        study.strength_reduction.check_resolution(study)
+        check_memory(study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
+        self._check_scenes()
+
+    def processes(self, options: RunOptions) -> int:
+        """The local workers, and this process when it relaxes the one gravity state of every realisation."""
+        workers = 0 if options.scheduler else options.workers
+        return max(1, workers + (1 if self.shared_gravity else 0))
+
+    def _check_each_variable_changes_something(self) -> None:
+        """StudyError on a random variable whose values change nothing the study computes (realisation 0
+        with that variable's value of realisation 1 has realisation 0's ``case_key``): its realisations
+        would be one computation counted as independent samples."""
+        from workflows.fos.keys import case_key
+
+        realisations = self.realisations
+        if len(self.first) < 2:
+            return
+        key = case_key(self.first[0].study)
+        for k, variable in enumerate(self.study.probabilistic.variables):
+            if realisations.values[0, k] == realisations.values[1, k]:
+                continue
+            raw = realisations.raw_of(0)
+            node, name, spec = resolve_sweep_path(raw, variable.path)
+            set_field(node, name, check_value(spec, float(realisations.values[1, k])))
+            try:
+                other = _build_study(raw)
+            except StudyError:
+                continue  # that value breaks a rule of realisation 0's: it changes something
+            if case_key(other) == key:
+                raise StudyError(f"probabilistic.variables[{k}].path", f"{variable.path} changes nothing the study "
+                                 "computes: realisations that differ in it are copies of one computation, not "
+                                 "independent samples; make a field that enters the analysis random")
+
+    def _check_scenes(self) -> None:
+        """The scene and simulation of realisation 0 (its random fields, what the core refuses), and of the
+        realisation with the longest scale of fluctuation a random variable draws."""
+        from workflows.scene import build_scene
+        from workflows.stages.running import new_simulation
+
+        studies = [self.first[0].study]
+        for k, variable in enumerate(self.study.probabilistic.variables):
+            parts = variable.path.split(".")
+            if parts[0] == "random_field" and parts[-1] in THETA_FIELDS:
+                studies.append(self.realisations.study_of(int(np.argmax(self.realisations.values[:, k])), text=False))
+        for study in studies:
+            new_simulation(study, build_scene(study))
+
+    def check_every_case(self) -> None:
+        """Every realisation made as the run would make it (``spfem-fos check``: the run makes each only
+        when it is about to run, module doc, step 2)."""
+        for i in range(len(self.first), self.realisations.count):
+            self.realisations.study_of(i, text=False)
+
+    def cases(self) -> list[Case]:
+        """The first realisations (module doc, step 2); case folders of an earlier invocation that this
+        study does not have removed, and its ``probabilistic.nc``."""
+        from workflows.output.writing import make_output_folder
+        from workflows.sweep.stale import remove_stale_cases
+
+        (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
+        make_output_folder(self.out_dir / CASES_FOLDER)
+        realisations = self.realisations
+        keep = {realisations.case_id(i) for i in range(realisations.count)}
+        self.stale_cases = remove_stale_cases(self.out_dir / CASES_FOLDER, keep=keep)
+        if self.shared_gravity:  # its one gravity state relaxes on all cores while the cluster starts
+            self.placement = dataclasses.replace(self.placement, gravity_in_process=True)
+        width = self.study.probabilistic.pf_interval_width
+        self.batch_end = realisations.count if width is None else min(BATCH_REALISATIONS, realisations.count)
+        return self.more_cases(FIRST_REALISATIONS)
+
+    def more_cases(self, count: int) -> list[Case]:
+        """Up to ``count`` more realisations of this round, each made and its ``case.toml`` written (module
+        doc, step 2)."""
+        from workflows.output.writing import make_output_folder, write_text_if_changed
+
+        cases = []
+        while len(cases) < count and self.next_index < self.batch_end:
+            i = self.next_index
+            case = self.first[i] if i < len(self.first) else self.realisations.case(i)
+            self.next_index += 1
+            folder = self.out_dir / CASES_FOLDER / case.case_id
+            make_output_folder(folder)
+            write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
+            self.study_of[case.case_id] = case.study
+            cases.append(self._placed(Case(case.study, folder, case.case_id, case.position, case.values)))
+        return cases
+
+    def feed(self) -> CaseFeed:
+        return CaseFeed(self.more_cases, lambda: self.batch_end - self.next_index)
+
+    def _placed(self, case: Case) -> Case:
+        """A realisation with what its runs keep and where its gravity state lives (module doc, step 3)."""
+        from workflows.fos.task import RunPolicy
+
+        table = self.study.probabilistic
+        first = case.position[0] < table.keep_fields_first
+        policy = RunPolicy(fields="all" if first else table.keep_fields, stop_at_failure=table.compute == "verdict")
+        if self.shared_gravity:
+            return dataclasses.replace(case, gravity_dir=self.out_dir / GRAVITY_FOLDER, runs=policy)
+        return dataclasses.replace(case, write_gravity=False, runs=policy)
 
     def case_concluded(self, case_id: str, outcome, progress) -> None:
-        """The running tally: realisations failed so far and pf (identical realisations count once);
-        in fos mode, the failed runs of a realisation that did not fail lose their particle state
-        (``keep_fields = "failed"``: only the mechanisms of failed realisations are kept)."""
+        """The running tally: realisations failed so far and pf; in fos mode, the failed runs of a
+        realisation that did not fail lose their particle state (``keep_fields = "failed"``: only the
+        mechanisms of failed realisations are kept)."""
         table = self.study.probabilistic
         tally = self.tally
         result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
         verdict = realisation_verdict(result, table.compute, table.factor)
         tally[verdict] += 1
-        index = self.realisation_of[case_id]
+        index = int(case_id[len(CASE_PREFIX):])
         if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
                 and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
             from workflows.fos.run_store import run_file_name, without_particle_fields
@@ -227,6 +452,7 @@ class ProbabilisticStudy(SweepStudy):
             if line is not None:
                 self.slip_lines[case_id] = line
                 self.edges_reached[case_id] = edges
+        self.study_of.pop(case_id, None)
         decided = tally[FAILED] + tally[STABLE]
         progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
 
@@ -266,17 +492,21 @@ class ProbabilisticStudy(SweepStudy):
         from workflows.probabilistic.results import probabilistic_dataset
 
         table = self.study.probabilistic
-        self.sweep_cases = [case for case in self.sweep_cases if self.same_as[case.case_id] in outcomes]  # stopped early
+        realisations = self.realisations
+        indices = sorted(int(case_id[len(CASE_PREFIX):]) for case_id in outcomes)  # fewer: a study stopped early
+        rows = [RealisationRow(realisations.case_id(i), (i,), dict(zip(realisations.labels,
+                                                                       map(float, realisations.values[i]))))
+                for i in indices]
         results = {}
-        for case in self.sweep_cases:
-            outcome = outcomes[self.same_as[case.case_id]]
-            results[case.case_id] = (diverged_result(f"the gravity stage diverged: {outcome}", 0)
-                                     if isinstance(outcome, DivergenceError) else case_result(outcome))
-        verdicts = [realisation_verdict(results[case.case_id], table.compute, table.factor) for case in self.sweep_cases]
+        for row in rows:
+            outcome = outcomes[row.case_id]
+            results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome}", 0)
+                                    if isinstance(outcome, DivergenceError) else case_result(outcome))
+        verdicts = [realisation_verdict(results[row.case_id], table.compute, table.factor) for row in rows]
         n_failed, n_undecided = verdicts.count(FAILED), verdicts.count(UNDECIDED)
         decided = len(verdicts) - n_undecided
         pf, low, high = failure_probability(n_failed, decided) if decided else (math.nan, math.nan, math.nan)
-        fos = np.array([results[case.case_id].fos for case in self.sweep_cases])
+        fos = np.array([results[row.case_id].fos for row in rows])
         found = fos[np.isfinite(fos)]
         result = ProbabilisticOutcome(self.out_dir, self.out_dir / RESULT_NAME, len(verdicts), n_failed, n_undecided,
                                       pf, low, high)
@@ -290,12 +520,12 @@ class ProbabilisticStudy(SweepStudy):
                             "run_loops": sum(record.wall_time_s for record in made),
                             "remesh": sum(record.remesh_wall_s for record in made),
                             "total": time.perf_counter() - wall_start}
-        case_runs = {case.case_id: ([] if isinstance(outcome := outcomes[self.same_as[case.case_id]], DivergenceError)
-                                    else outcome.runs) for case in self.sweep_cases}
-        slip_lines = [self.slip_lines[case.case_id] for case in self.sweep_cases if case.case_id in self.slip_lines]
-        result.edge_fractions = self.edge_fractions([case.case_id for case in self.sweep_cases])
+        case_runs = {row.case_id: ([] if isinstance(outcome := outcomes[row.case_id], DivergenceError)
+                                   else outcome.runs) for row in rows}
+        slip_lines = [self.slip_lines[row.case_id] for row in rows if row.case_id in self.slip_lines]
+        result.edge_fractions = self.edge_fractions([row.case_id for row in rows])
         result.n_mechanisms = len(slip_lines)
-        dataset = probabilistic_dataset(self.study, self.sweep_cases, results, verdicts, result, case_runs, slip_lines)
+        dataset = probabilistic_dataset(self.study, rows, results, verdicts, result, case_runs, slip_lines)
         write_dataset(dataset, result.result_path)
         from workflows.probabilistic.figures import FIGURE_NAMES, draw_probabilistic_figures  # (matplotlib: on use)
 
@@ -304,49 +534,23 @@ class ProbabilisticStudy(SweepStudy):
         self.stale_figures = remove_stale_figures(self.out_dir, FIGURE_NAMES, keep={path.name for path in result.figures})
         return result
 
-    def cases(self):
-        """Every realisation, or with ``pf_interval_width`` the first batch (module doc)."""
-        (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
-        cases = [self._placed(case) for case in super().cases()]
-        self.realisation_of = {case.case_id: case.position[0] for case in self.sweep_cases}
-        self.study_of = {case.case_id: case.study for case in self.sweep_cases}
-        if self.shared_gravity:  # its one gravity state relaxes on all cores while the cluster starts
-            self.placement = dataclasses.replace(self.placement, gravity_in_process=True)
-        if self.study.probabilistic.pf_interval_width is None:
-            return cases
-        self.waiting = cases[BATCH_REALISATIONS:]
-        return cases[:BATCH_REALISATIONS]
-
-    def _placed(self, case: Case) -> Case:
-        """A realisation with what its runs keep and where its gravity state lives (module doc, step 2)."""
-        from workflows.fos.keys import gravity_key
-        from workflows.fos.task import RunPolicy
-
-        table = self.study.probabilistic
-        if self.shared_gravity is None:  # one gravity key for every realisation: random strengths only
-            self.shared_gravity = len({gravity_key(each.study) for each in self.sweep_cases}) == 1
-        first = case.position[0] < table.keep_fields_first
-        policy = RunPolicy(fields="all" if first else table.keep_fields, stop_at_failure=table.compute == "verdict")
-        if self.shared_gravity:
-            return dataclasses.replace(case, gravity_dir=self.out_dir / GRAVITY_FOLDER, runs=policy)
-        return dataclasses.replace(case, write_gravity=False, runs=policy)
-
     def next_cases(self, outcomes: dict, progress) -> list:
-        """The next batch while the pf interval is wider than ``pf_interval_width``."""
+        """The next batch while the pf interval is wider than ``pf_interval_width`` (its first
+        realisations; the case runner asks for the others as it has room)."""
         from workflows.probabilistic.reliability import failure_probability
 
-        if not self.waiting:
+        table = self.study.probabilistic
+        if table.pf_interval_width is None or self.batch_end >= self.realisations.count:
             return []
         failed, decided = self.tally[FAILED], self.tally[FAILED] + self.tally[STABLE]
         if decided:
             _, low, high = failure_probability(failed, decided)
-            if high - low <= self.study.probabilistic.pf_interval_width:
+            if high - low <= table.pf_interval_width:
                 progress.message(f"the 95% interval of pf is {high - low:.3g} wide after {decided} realisations, "
-                                 f"within pf_interval_width = {self.study.probabilistic.pf_interval_width:g}: done")
-                self.waiting = []
+                                 f"within pf_interval_width = {table.pf_interval_width:g}: done")
                 return []
-        batch, self.waiting = self.waiting[:BATCH_REALISATIONS], self.waiting[BATCH_REALISATIONS:]
-        return batch
+        self.batch_end = min(self.batch_end + BATCH_REALISATIONS, self.realisations.count)
+        return self.more_cases(FIRST_REALISATIONS)
 
     def report(self, outcome: ProbabilisticOutcome, quiet: bool, study_file) -> Report:
         if quiet:

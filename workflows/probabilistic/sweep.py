@@ -5,9 +5,9 @@ COV, a scale of fluctuation, a mean).
    own (``workflows.probabilistic.study_type.ProbabilisticStudy``) in ``OUT/cases/<case>/``: its
    study text ``case.toml`` (a probabilistic study that runs alone and reuses the sweep's
    realisations), its realisations under ``cases/``, its ``probabilistic.nc``.
-2. The realisations of every case are tasks on one cluster, all in one round, or with
-   ``pf_interval_width`` in each case's batches (realisations of random strengths share one
-   gravity state across the cases too).
+2. The realisations of every case are tasks on one cluster, all in one round (each made as the
+   case runner has room for it, case after case), or with ``pf_interval_width`` in each case's
+   batches (realisations of random strengths share one gravity state across the cases too).
 3. ``OUT/study.nc`` (``workflows.output.variables.PROBABILISTIC_SWEEP_FILE``: pf with its interval
    per case) and ``pf.png`` (pf against the first axis) are written last.
 """
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.probabilistic.study_type import ProbabilisticOutcome, ProbabilisticStudy
 from workflows.progress import CaseProgress, Progress
@@ -73,8 +73,19 @@ class ProbabilisticSweepStudy(StudyType):
             except StudyError as error:
                 raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
 
+    def check_every_case(self) -> None:
+        """Every realisation of every case made (``ProbabilisticStudy.check_every_case``)."""
+        for case_id, study in self.studies.items():
+            try:
+                study.check_every_case()
+            except StudyError as error:
+                raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
+
+    def processes(self, options: RunOptions) -> int:
+        return max(study.processes(options) for study in self.studies.values())
+
     def cases(self) -> list[Case]:
-        """Every realisation of every case (``study.nc`` of an earlier invocation removed)."""
+        """The first realisations of every case (``study.nc`` of an earlier invocation removed)."""
         make_output_folder(self.out_dir / CASES_FOLDER)
         (self.out_dir / STUDY_FILE_NAME).unlink(missing_ok=True)
         cases = []
@@ -85,6 +96,21 @@ class ProbabilisticSweepStudy(StudyType):
             cases += [dataclasses.replace(each, case_id=f"{case.case_id}{SEPARATOR}{each.case_id}")
                       for each in self.studies[case.case_id].cases()]
         return cases
+
+    def feed(self) -> CaseFeed:
+        """The realisations to come of every case, case after case."""
+        feeds = [(sweep_id, study.feed()) for sweep_id, study in self.studies.items()]
+
+        def more(count: int) -> list[Case]:
+            made = []
+            for sweep_id, feed in feeds:
+                if len(made) >= count:
+                    break
+                made += [dataclasses.replace(each, case_id=f"{sweep_id}{SEPARATOR}{each.case_id}")
+                         for each in feed.more(count - len(made))]
+            return made
+
+        return CaseFeed(more, lambda: sum(feed.to_come() for _, feed in feeds))
 
     def next_cases(self, outcomes: dict, progress: Progress) -> list[Case]:
         """Each case's next batch while its pf interval is too wide (``pf_interval_width``)."""

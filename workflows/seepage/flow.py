@@ -8,9 +8,13 @@ what it does to the particles.
    ``[[seepage.boundary]]`` entry in order, on the mesh's boundary particles inside its box; a flux
    goes to the nodes of the boundary edges both of whose ends it selects (half each, times the
    edge's length, or its horizontal length for infiltration).
-3. ``spfem_core.seepage.solve_steady_flow`` finds the heads.  Each particle then carries the pore
-   pressure u = gamma_w max(h - y, 0) of its initial position (no suction above the water table),
-   and weighs its material's saturated density where h >= y.
+3. ``spfem_core.seepage.solve_steady_flow`` finds the heads; where the ground cannot take the rain
+   of an ``infiltration`` condition, its particles hold atmospheric pressure and the rest runs off.
+   Water standing above the ground surface that no condition holds (a water table that reaches a
+   no-flow or inflow part of the surface: no pond, no fixed head, no seepage face there) is refused,
+   naming the ``[[seepage.boundary]]`` entry (:func:`_check_no_water_above_the_ground`).  Each
+   particle then carries the pore pressure u = gamma_w max(h - y, 0) of its initial position (no
+   suction above the water table), and weighs its material's saturated density where h >= y.
 
 The pressure stays with the particles: a strength-reduction run starts from the gravity state at
 the particles' initial positions and is judged by the displacement at which a mechanism forms,
@@ -65,6 +69,12 @@ class StudyFlow:
         """The water each condition takes in (m2/s per metre; negative: out), summed over its particles."""
         inflow = self.solution.node_inflow_m2_s
         return np.array([inflow[self.node_condition == i].sum() for i in range(len(self.conditions))])
+
+    def runoff_m2_s(self) -> float:
+        """The rain the ground does not take (m2/s per metre): the given inflow of the rain particles held
+        at atmospheric pressure less what they take in."""
+        held_rain = self.problem.infiltration() & self.solution.node_held & np.isnan(self.problem.node_fixed_head_m)
+        return float((self.problem.node_inflow_m2_s[held_rain] - self.solution.node_inflow_m2_s[held_rain]).sum())
 
 
 FLOWS_KEPT = 4
@@ -177,12 +187,15 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
         else:  # no_flow
             node_condition[box] = -1
     inflow = np.zeros(n)
+    rain = np.zeros(n, dtype=bool)
     for index, nodal in flux_of.items():
         mine = node_condition == index
         inflow[mine] = nodal[mine]
+        if seepage.boundary[index - (pond_level_m is not None)].condition == "infiltration":
+            rain |= mine & (nodal > 0.0)  # the particles the rain falls on (not those of a vertical side)
     _check_every_part_has_a_head(node_xy_m, elem_nodes, np.isfinite(fixed_head) | face)
     problem = FlowProblem(node_xy_m, elem_nodes, conductivity, fixed_head, inflow, face, seepage.residual_permeability,
-                          seepage.unsaturated_band_m)
+                          seepage.unsaturated_band_m, node_infiltration=rain)
     try:
         solution = solve_steady_flow(problem, seepage.tolerance, seepage.max_iterations)
     except ValueError as error:
@@ -202,8 +215,51 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
             f"the free surface did not settle in {solution.iterations} iterations (last head change "
             f"{solution.head_change_m[-1]:.3g} m); raise max_iterations, or give unsaturated_band_m (about "
             "1 m) where water infiltrates dry ground"))
-    return StudyFlow(node_xy_m, elem_nodes, elem_material, problem, solution, tuple(conditions), node_condition,
+    flow = StudyFlow(node_xy_m, elem_nodes, elem_material, problem, solution, tuple(conditions), node_condition,
                      float(water_unit_weight_n_m3), time.perf_counter() - start)
+    _check_no_water_above_the_ground(flow, geometry, seepage, edges, finest_m)
+    return flow
+
+
+ABOVE_GROUND_PER_SPACING = 0.01
+"""A particle of the ground surface whose pressure head exceeds this fraction of the finest spacing
+has water standing above the ground (:func:`_check_no_water_above_the_ground`): well above the
+iteration's own error, well below anything a pore pressure would notice."""
+
+
+def _check_no_water_above_the_ground(flow: StudyFlow, geometry, seepage, edges: np.ndarray, finest_m: float) -> None:
+    """StudyError naming the condition (or its absence) where the water table stands above the ground
+    surface at a particle that no condition holds there: no ponded water, fixed head, seepage face or
+    rain held at atmospheric pressure, so the water would stand on the ground with nothing to hold
+    it (its pore pressure pulling the ground apart); the remedy is the condition that lets it out.
+    The ground surface is the boundary edges on the polygon's upper boundary y_top(x), and its
+    particles those whose every boundary edge is one (not where it meets the base or a side, whose
+    particles carry a positive pressure below the water table as any particle there does)."""
+    from spfem_core.geometry import surface_height_m
+
+    xy = flow.node_xy_m
+    tol = TOLERANCE_PER_SPACING * finest_m
+    middle = xy[edges].mean(axis=1)
+    on_ground = np.all(xy[edges, 1] >= surface_height_m(geometry.polygon_m, xy[edges, 0].ravel()).reshape(-1, 2)
+                       - tol, axis=1) & (middle[:, 1] >= surface_height_m(geometry.polygon_m, middle[:, 0]) - tol)
+    surface = np.zeros(xy.shape[0], dtype=bool)
+    surface[edges[on_ground].ravel()] = True
+    surface[edges[~on_ground].ravel()] = False
+    excess_m = np.where(surface & ~flow.solution.node_held, flow.solution.pressure_head_m(xy), -np.inf)
+    k = int(np.argmax(excess_m))
+    if not excess_m[k] > ABOVE_GROUND_PER_SPACING * finest_m:
+        return
+    x, y = xy[k]
+    index = flow.node_condition[k]
+    if index >= 0 and flow.conditions[index] != POND:
+        i = [entry.name for entry in seepage.boundary].index(flow.conditions[index])
+        where, what = f"seepage.boundary[{i}]", f"under {flow.conditions[index]!r} ({seepage.boundary[i].condition})"
+    else:
+        where, what = "seepage.boundary", "where the boundary is no-flow (a no_flow entry, or none)"
+    raise StudyError(where, (
+        f"the water stands {excess_m[k]:.3g} m above the ground surface at ({x:.4g}, {y:.4g}) m {what}: nothing "
+        "holds water there; give that part of the surface a seepage_face (water leaves where it reaches the "
+        "ground), an infiltration (rain the ground cannot take runs off) or the ponded water it carries"))
 
 
 def _check_every_part_has_a_head(node_xy_m: np.ndarray, elem_nodes: np.ndarray, held: np.ndarray) -> None:

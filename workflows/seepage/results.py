@@ -28,12 +28,16 @@ def write_seepage(study, dataset: xr.Dataset, out_dir: Path) -> list[Path]:
 
 
 def flow_line(flow) -> str:
-    """The report's line on a flow: the water through the ground, the exit point, how it settled."""
+    """The report's line on a flow: the water through the ground, the exit point, the rain that runs off,
+    how it settled."""
     solution, inflow = flow.solution, flow.solution.node_inflow_m2_s
     through = float(inflow[(flow.node_condition >= 0) & (inflow > 0.0)].sum())
     exit_x, exit_y = exit_point_m(flow)
     where = f", exit point ({exit_x:.3g}, {exit_y:.3g}) m" if np.isfinite(exit_x) else ""
-    return (f"steady seepage: {through:.3g} m2/s per metre through the ground{where}; settled in "
+    runoff = flow.runoff_m2_s()
+    off = (f"; {runoff:.3g} m2/s of the rain runs off where the ground is saturated to its surface" if runoff > 0.0
+           else "")
+    return (f"steady seepage: {through:.3g} m2/s per metre through the ground{where}{off}; settled in "
             f"{solution.iterations} iterations (largest head change {solution.head_change_m[-1]:.2g} m)")
 
 
@@ -90,7 +94,8 @@ def seepage_dataset(study, flow) -> xr.Dataset:
         "unsaturated_band_m": float(seepage.unsaturated_band_m),
         "inflow_m2_s": float(boundary_inflow[boundary_inflow > 0].sum()),
         "outflow_m2_s": float(-boundary_inflow[boundary_inflow < 0].sum()),
-        "exit_x_m": exit_x, "exit_y_m": exit_y, "wall_time_s": float(flow.wall_time_s),
+        "exit_x_m": exit_x, "exit_y_m": exit_y, "runoff_m2_s": flow.runoff_m2_s(),
+        "wall_time_s": float(flow.wall_time_s),
         **provenance(study),
     }
     for name in ("particle_x", "particle_y"):

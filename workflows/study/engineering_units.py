@@ -11,6 +11,7 @@ built in SI units (Pa, kg m-3), as the result files are written.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from workflows.fields import Spec, StudyError, check_value, show
 
@@ -29,6 +30,16 @@ converted: finite and not too large (an integer of 400 digits times 1e3 would ov
 
 def _join(path: str, key: str) -> str:
     return f"{path}.{key}" if path else key
+
+
+def _is_number(value) -> bool:
+    """A finite TOML number (an integer too large for a float is not one: its own check names it)."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def _checked(spec: Spec, value, field: str):
@@ -50,11 +61,69 @@ def pressure_field(key: str, declared: dict) -> tuple[str, float] | None:
     return None
 
 
+def spellings(field: str) -> list[str]:
+    """Every name of the quantity ``field`` names, the SI one first: ``cohesion_pa``, ``cohesion_kpa``,
+    ``cohesion_mpa``; ``density_kg_m3``, ``unit_weight_kn_m3`` (``[field]`` for any other field)."""
+    for suffix in ("_pa", *PRESSURE_SUFFIXES):
+        if field.endswith(suffix):
+            stem = field[: -len(suffix)]
+            return [stem + "_pa", *(stem + other for other in PRESSURE_SUFFIXES)]
+    for weight, density in UNIT_WEIGHTS.items():
+        if field in (weight, density):
+            return [density, weight]
+    return [field]
+
+
 def other_names(field: str) -> list[str]:
-    """The names of the SI field ``field`` in the other units (module doc)."""
-    if field.endswith("_pa"):
-        return [field[: -len("_pa")] + suffix for suffix in PRESSURE_SUFFIXES]
-    return [weight for weight, density in UNIT_WEIGHTS.items() if density == field]
+    """The names of the quantity ``field`` names in the other units (module doc)."""
+    return [name for name in spellings(field) if name != field]
+
+
+def gravity_magnitude_m_s2(raw: dict) -> float | None:
+    """|g| of the study dict ``raw`` (``loads.gravity_m_s2``, or its default); None where it is not a
+    pair of numbers (its own check names it)."""
+    loads = raw.get("loads") if isinstance(raw.get("loads"), dict) else {}
+    gravity = loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2)
+    if isinstance(gravity, (list, tuple)) and len(gravity) == 2 and all(_is_number(v) for v in gravity):
+        return math.hypot(*gravity)
+    return None
+
+
+@dataclass(frozen=True)
+class Units:
+    """A field named in other units than its declaration's (module doc): the declared field, and how
+    many of its SI units one unit of the name is."""
+
+    si_field: str
+    si_per_unit: float  # NaN for a unit weight without a valid gravity
+    unit: str  # UDUNITS: "kPa", "MPa", "kN m-3"
+
+
+def units_of(key: str, declared: dict, raw: dict) -> Units | None:
+    """How ``key`` names a field of a table with the ``declared`` fields in other units, with the
+    gravity of the study dict ``raw`` for a unit weight; None for a declared field or another name."""
+    if key in declared:
+        return None
+    pressure = pressure_field(key, declared)
+    if pressure is not None:
+        return Units(pressure[0], pressure[1], "kPa" if key.endswith("_kpa") else "MPa")
+    density = UNIT_WEIGHTS.get(key)
+    if density is not None and density in declared:
+        g_m_s2 = gravity_magnitude_m_s2(raw)
+        return Units(density, 1000.0 / g_m_s2 if g_m_s2 and math.isfinite(g_m_s2) else math.nan, "kN m-3")
+    return None
+
+
+def si_value(node: dict, field: str, declared: dict, raw: dict) -> float | None:
+    """The value of the quantity ``field`` names, in SI units, from whichever of its spellings the table
+    ``node`` gives (None: none, or not a number)."""
+    for name in spellings(field):
+        value = node.get(name)
+        if not _is_number(value):
+            continue
+        units = units_of(name, declared, raw)
+        return float(value) * (1.0 if units is None else units.si_per_unit)
+    return None
 
 
 def in_pascals(raw: dict, declared: dict, path: str) -> tuple[dict, dict]:

@@ -144,14 +144,34 @@ def axis_labels(sweep) -> list[str]:
             for leaf, axis in zip(leaves, sweep.axes)]
 
 
-def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
-    """(the dict that holds the field, its key, its declaration) of a sweep ``path`` in the study
-    dict ``raw``; a missing optional table is created.  StudyError (field ``path``) otherwise."""
+@dataclass(frozen=True)
+class FieldAt:
+    """A number or value field of a study dict, found by its path (:func:`resolve_field`)."""
+
+    node: dict  # the table that holds it
+    key: str  # its name as the path gives it: a declared field, or one in other units (``cohesion_kpa``)
+    spec: Spec  # its declaration, in the unit of ``key`` (bounds too)
+    table: type  # the class of the table that holds it
+    where: str  # that table in messages: ``materials[0]``, ``stages[1]``, ``loads``
+
+
+def resolve_field(raw: dict, path: str) -> FieldAt:
+    """The field at a sweep ``path`` in the study dict ``raw`` (a missing optional table is created); a
+    field named in other units than its declaration's (``materials.soil.cohesion_kpa``,
+    ``unit_weight_kn_m3``: ``workflows.study.engineering_units``) is found with its declaration in those
+    units.  StudyError (field ``path``) otherwise."""
     parts = path.split(".")
-    cls, node, i = Study, raw, 0
+    cls, node, i, where = Study, raw, 0, ""
     while i < len(parts):
         part = parts[i]
         declared = specs(cls)
+        units = engineering_units.units_of(part, declared, raw) if i == len(parts) - 1 else None
+        if units is not None:
+            si_spec = declared[units.si_field]
+            scaled = {name: getattr(si_spec, name) / units.si_per_unit for name in ("gt", "ge", "lt", "le")
+                      if getattr(si_spec, name) is not None}
+            doc = f"{si_spec.doc} ({units.si_field} in {units.unit})"
+            return FieldAt(node, part, dataclasses.replace(si_spec, unit=units.unit, doc=doc, **scaled), cls, where)
         if part not in declared or (cls is Study and part in ("sweep", "probabilistic")):
             raise _unknown(".".join(parts[:i]), part, [k for k in declared if k not in ("sweep", "probabilistic")])
         spec = declared[part]
@@ -159,7 +179,7 @@ def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
             if i == len(parts) - 1:
                 raise StudyError(path, "is a table: name one of its fields")
             node = node.setdefault(part, {})
-            cls, i = spec.of, i + 1
+            cls, i, where = spec.of, i + 1, _join(where, part)
             continue
         if spec.type == "tables":
             if i + 2 >= len(parts):
@@ -170,16 +190,32 @@ def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
                 known = (f"known: {', '.join(map(str, names))}" if names else
                          f"the study file gives no [[{part}]]; those a [geometry.slope] makes cannot be swept")
                 raise StudyError(path, f"no [[{part}]] with {spec.unique} {parts[i + 1]!r} ({known})")
-            node = entries[names.index(parts[i + 1])]
+            position = [k for k, entry in enumerate(entries) if isinstance(entry, dict)][names.index(parts[i + 1])]
+            node = entries[position]
             cls = spec.variants.get(node.get(spec.key), spec.of) if spec.key else spec.of
             if not isinstance(cls, type):
                 raise StudyError(path, f"the entry's {spec.key} is not valid")
-            i += 2
+            i, where = i + 2, f"{_join(where, part)}[{position}]"
             continue
         if i != len(parts) - 1:
             raise StudyError(path, f"{part} is a value, not a table")
-        return node, part, spec
+        return FieldAt(node, part, spec, cls, where)
     raise StudyError(path, "is empty")
+
+
+def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:
+    """(the dict that holds the field, its key, its declaration in the key's unit) of a sweep ``path`` in
+    the study dict ``raw`` (:func:`resolve_field`)."""
+    found = resolve_field(raw, path)
+    return found.node, found.key, found.spec
+
+
+def set_field(node: dict, key: str, value) -> None:
+    """``value`` as the field ``key`` of the table ``node``, the same quantity given in other units
+    removed (``cohesion_pa`` set, ``cohesion_kpa`` gone: engineering_units)."""
+    node[key] = value
+    for other in engineering_units.other_names(key):
+        node.pop(other, None)
 
 
 def sweep_cases(study: Study) -> list[SweepCase]:
@@ -213,9 +249,7 @@ def sweep_cases(study: Study) -> list[SweepCase]:
         case_raw = copy.deepcopy(raw)
         for axis, (value, _) in zip(sweep.axes, combo):
             node, key, _ = resolve_sweep_path(case_raw, axis.path)
-            node[key] = list(value) if isinstance(value, tuple) else value
-            for other in engineering_units.other_names(key):  # the field as the file gave it, in other units
-                node.pop(other, None)
+            set_field(node, key, list(value) if isinstance(value, tuple) else value)
         values = {label: stored for label, (_, stored) in zip(labels, combo)}
         case_id = "__".join(f"{label}={_case_value(v)}" for label, v in values.items())
         if case_id in cases:

@@ -103,7 +103,9 @@ class SweepStudy(StudyType):
         return sweep_cases(self.study)
 
     def check(self, options: RunOptions) -> None:
-        """Each strength-reduction case's resolution; the memory of the largest case (StudyError)."""
+        """Each strength-reduction case's resolution; the memory of the largest case; with a
+        ``[random_field]``, the scene of each case whose fields draw on other particles or scales (their
+        embeddings; StudyError)."""
         self.sweep_cases = self.make_cases()
         if self.fos:
             for case in self.sweep_cases:
@@ -112,8 +114,24 @@ class SweepStudy(StudyType):
                 except StudyError as error:
                     raise case_error(case.case_id, error) from None
         largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
-        processes = (options.workers if not options.scheduler else 1) if self.fos else 1
-        check_memory(largest.study, processes=processes, limit_bytes=options.max_memory_bytes)
+        check_memory(largest.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
+        if self.study.random_field is not None:  # the fields' embeddings, once per distinct particles and scales
+            from workflows.scene import build_scene
+
+            checked = set()
+            for case in self.sweep_cases:
+                key = case.study.random_field.embeddings_key(case.study)
+                if key not in checked:
+                    checked.add(key)
+                    try:
+                        build_scene(case.study)
+                    except StudyError as error:
+                        raise case_error(case.case_id, error) from None
+
+    def processes(self, options: RunOptions) -> int:
+        """Each local worker of a strength-reduction sweep (its cases' gravity runs as tasks); one
+        process for a sweep of stages."""
+        return (options.workers if not options.scheduler else 1) if self.fos else 1
 
     def cases(self) -> list[Case]:
         """A folder and ``case.toml`` per case to compute (module doc, steps 1-2); ``study.nc`` of an
