@@ -42,8 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-MIN_LEVELS = 4
-"""The free-order fit has three parameters: a standard deviation needs a fourth level."""
+from workflows.refinement.table import MIN_LEVELS
+
 P_MIN, P_MAX = 0.5, 1.5
 """Observed orders taken as they are for a first-order method (Eca & Hoekstra take [0.5, 2] for a
 second-order one): faster convergence than 1.5 is read as noise, slower than 0.5 as no convergence.

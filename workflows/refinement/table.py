@@ -6,8 +6,10 @@ import math
 from dataclasses import dataclass
 
 from workflows.fields import Record, StudyError, integer, number, numbers, text
-from workflows.refinement.convergence import MIN_LEVELS
 
+MIN_LEVELS = 4
+"""The band's free-order fit has three parameters: a standard deviation needs a fourth level
+(``workflows.refinement.convergence``)."""
 DEFAULT_RATIO = math.sqrt(2.0)
 DEFAULT_LEVEL_TOLERANCE = 0.002
 MAX_LEVELS = 10
