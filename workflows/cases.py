@@ -44,6 +44,7 @@ class Case:
     # that share one gravity state may share one folder of it
     write_gravity: bool = True  # False: its gravity state is kept in memory only (recomputed if needed again)
     runs: RunPolicy | None = None  # what its SRF runs keep and when they end (default: every run kept whole)
+    window: tuple[float, float, float] | None = None  # (low, high, step) its FOS search starts in (fos.prediction)
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,7 @@ class CaseFeed:
     """Cases a type makes only when the case runner has room for them (the realisations of a
     probabilistic study: a study of 100,000 starts its first run as one of ten does)."""
 
-    more: Callable[[int], list[Case]]  # up to this many more cases, [] when none are left
+    more: Callable[[int], list[Case]]  # up to this many more cases ([] with some left: none until more conclude)
     to_come: Callable[[], int]  # how many are left
 
 
@@ -130,7 +131,8 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         nonlocal made
         searches = [CaseSearch(made + k, case.study, case.out_dir, label=case.case_id,
                                gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
-                               write_gravity=case.write_gravity, policy=case.runs or RunPolicy())
+                               write_gravity=case.write_gravity, policy=case.runs or RunPolicy(),
+                               window=case.window)
                     for k, case in enumerate(more)]
         made += len(more)
         return searches

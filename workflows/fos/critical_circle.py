@@ -53,7 +53,7 @@ class CriticalCircle:
 class _Section:
     """The raster of the extended section (module doc), turned to face +x."""
 
-    def __init__(self, study):
+    def __init__(self, study, raster_per_height: int = RASTER_PER_HEIGHT):
         from workflows.scene import material_rows
         from workflows.water import phreatic_lines, ru_pore_pressure_pa
 
@@ -64,7 +64,7 @@ class _Section:
         self.domain = (x_min, x_max)
         self.base = float(polygon[:, 1].min())
         top = float(polygon[:, 1].max())
-        self.cell = self.height / RASTER_PER_HEIGHT
+        self.cell = self.height / raster_per_height
         extension = EXTENSION_PER_HEIGHT * self.height
         xs = np.arange(x_min - extension, x_max + extension + self.cell, self.cell)
         ys = np.arange(self.base + 0.5 * self.cell, top + self.cell, self.cell)
@@ -193,20 +193,28 @@ def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[flo
     return fos, left, right
 
 
-def critical_circle(study) -> CriticalCircle | None:
+QUICK = dict(raster_per_height=10, centres=10, depths=6, polished=1)
+"""The coarser search of ``quick``: F within about 1% of the full one, in a tenth of its time (the
+window of a FOS search, ``fos.prediction``)."""
+
+
+def critical_circle(study, quick: bool = False) -> CriticalCircle | None:
     """The least Bishop F over a grid of circles, the best ``POLISHED`` of them polished by
-    Nelder-Mead (module doc); None where no circle is admissible."""
+    Nelder-Mead (module doc; ``quick``: the coarser search ``QUICK``); None where no circle is
+    admissible."""
     from scipy.optimize import minimize
 
-    section = _Section(study)
+    search = QUICK if quick else dict(raster_per_height=RASTER_PER_HEIGHT, centres=CENTRES, depths=DEPTHS,
+                                      polished=POLISHED)
+    section = _Section(study, search["raster_per_height"])
     h = section.height
     toe_y, top_y = float(section.ground.min()), float(section.ground.max())
     sloping = section.x[(section.ground > toe_y + 0.02 * h) & (section.ground < top_y - 0.02 * h)]
     x_low, x_high = (sloping.min(), sloping.max()) if sloping.size else (section.x[0], section.x[-1])
     found = []
-    for xc in np.linspace(x_low - h, x_high + h, CENTRES):
-        for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, CENTRES):
-            for bottom in np.linspace(section.base, toe_y + 0.3 * h, DEPTHS):
+    for xc in np.linspace(x_low - h, x_high + h, search["centres"]):
+        for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, search["centres"]):
+            for bottom in np.linspace(section.base, toe_y + 0.3 * h, search["depths"]):
                 if yc - bottom > 0.0:
                     fos = _bishop(section, xc, yc, yc - bottom)[0]
                     if math.isfinite(fos):
@@ -214,7 +222,7 @@ def critical_circle(study) -> CriticalCircle | None:
     if not found:
         return None
     best = (math.inf, 0.0, 0.0, 0.0)
-    for start in sorted(found)[:POLISHED]:
+    for start in sorted(found)[:search["polished"]]:
         polished = minimize(lambda p: _bishop(section, *p)[0], np.array(start[1:]), method="Nelder-Mead",
                             options={"xatol": 1e-3 * h, "fatol": 1e-6, "maxiter": 300})
         candidate = (float(polished.fun), *polished.x) if polished.fun <= start[0] else start

@@ -109,6 +109,7 @@ class CaseSearch:
     shared: tuple = ()  # (study, the futures of its gravity state and steady flow on the workers) for its runs
     plan_again: bool = True  # something its search plans on has changed since it was last asked
     planned_parallel: int = 0  # the search's n_parallel when it was last asked
+    window: tuple[float, float, float] | None = None  # (low, high, step) its search starts in (fos.prediction)
 
     def __post_init__(self):
         if self.gravity_dir is None:
@@ -176,6 +177,7 @@ class Engine:
         self.n_handed_back = 0
         self.runs_handed_back = 0  # the runs of the cases handed back
         self.written_gravity_of: dict[str, CaseSearch] = {}  # gravity key -> a case handed back that wrote its state
+        self.replayed_of: dict[str, CaseSearch] = {}  # gravity key -> a case handed back that its files concluded
         self.progress = progress
         self.start_unix_s = start_unix_s
         self.force = force
@@ -293,7 +295,8 @@ class Engine:
             donor = next((c for c in self.cases if c.gravity is not None and c.gkey == case.gkey),
                          self.written_gravity_of.get(case.gkey))
             if donor is None:  # a case with this key that concluded from its files alone: its gravity files
-                donor = next((c for c in self.cases if c.gkey == case.gkey and c is not case
+                concluded_alone = [self.replayed_of[case.gkey]] if case.gkey in self.replayed_of else []
+                donor = next((c for c in self.cases + concluded_alone if c.gkey == case.gkey and c is not case
                               and self._stored_state(c) is not None), None)
                 if donor is not None:
                     donor.gravity, donor.gravity_reused = self._stored_state(donor), True
@@ -361,7 +364,7 @@ class Engine:
         stage = case.study.strength_reduction
         case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                                 displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,
-                                failure_m=failure_displacement_m(case.study))
+                                failure_m=failure_displacement_m(case.study), window=case.window)
 
     def _replay(self, case: CaseSearch) -> bool:
         """Feed the search the runs it asks for while every one of them is on disk; True (the case
@@ -635,7 +638,10 @@ class Engine:
                 return
             cases = self.more(room)
             if not cases:
-                self.more = None
+                if not self.to_come():
+                    self.more = None
+                elif unconcluded == 0 and not self.just_concluded:
+                    raise RuntimeError("spfem-fos engine: cases are to come but none is given while none runs (a bug)")
                 return
             self.cases += cases
             for case in cases:
@@ -664,6 +670,8 @@ class Engine:
         self.runs_handed_back += len(case.runs)
         if case.gravity is not None and case.write_gravity:
             self.written_gravity_of.setdefault(case.gkey, case)
+        elif case.gravity is None and case.write_gravity and case.error is None:  # concluded from its files alone
+            self.replayed_of.setdefault(case.gkey, case)
         elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
             self.scattered.pop(case.gkey, None)
         if case.study.seepage is not None:

@@ -5,7 +5,12 @@ maximum displacement and verdict, and says which SRF values to start next.
 
 1. **Sweep**: ``srf_min, srf_min + srf_step, ... <= srf_max``, and ``srf_max``, in ascending
    order.  Once a run has failed, sweep values above it are not started (they cannot move the knee, which
-   lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.
+   lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.  With a **window**
+   (``low, high, step`` about a predicted FOS, ``workflows.fos.prediction``) the sweep is the window's
+   values instead, within [srf_min, srf_max]; when its runs give no knee, it grows by its width (so
+   doubling) upwards when none failed, downwards when one failed (too few stable runs below it, or no
+   upturn), within [srf_min, srf_max], as often as it needs.  The knee and the bracket are then
+   found as without a window.
 2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
    failure while it has fewer than ``MIN_KNEE_RUNS`` runs up to that failure), the FOS bracket (the steepest rise after the
    knee, see :mod:`workflows.fos.criterion`) is split by at most ``REFINE_SPLIT`` equally
@@ -75,8 +80,16 @@ class SrfSearch:
     """The sweep-then-refine plan (module doc)."""
 
     def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40,
-                 failure_m=math.inf):
-        self.sweep = sweep_values(srf_min, srf_max, srf_step)
+                 failure_m=math.inf, window: tuple[float, float, float] | None = None):
+        self.range = (round(float(srf_min), 4), round(float(srf_max), 4))
+        self.window = None
+        if window is not None:
+            low, high, step = window
+            low, high = max(round(low, 4), self.range[0]), min(round(high, 4), self.range[1])
+            self.window = (low, max(high, low), max(round(step, 4), 1e-4))
+            self.sweep = sweep_values(*self.window)
+        else:
+            self.sweep = sweep_values(srf_min, srf_max, srf_step)
         self.sweep_set = set(self.sweep)
         self.tolerance = float(tolerance)
         self.floor_m = float(floor_m)
@@ -202,6 +215,9 @@ class SrfSearch:
 
         knee = self.knee()
         if math.isnan(knee.fos):
+            grown = self._grown_window()
+            if grown:
+                return grown[: max(0, min(self.n_parallel, self.max_runs - len(self.outcomes)))]
             denser = self._denser_sweep()
             if denser:
                 return denser[: max(0, self.max_runs - len(self.outcomes))]
@@ -221,6 +237,27 @@ class SrfSearch:
                 )
             return []
         return points
+
+    def _grown_window(self) -> list[float]:
+        """The window grown by its width (module doc, step 1): upwards when no run failed, downwards when
+        one did; its new values join the sweep.  [] without a window, or at the edge of [srf_min, srf_max]."""
+        if self.window is None:
+            return []
+        low, high, step = self.window
+        width = max(high - low, step)
+        if math.isinf(self.lowest_failed):
+            new_low, new_high = high, min(round(high + width, 4), self.range[1])
+        else:
+            new_low, new_high = max(round(low - width, 4), self.range[0]), low
+        if new_high <= new_low or (new_low, new_high) == (low, high):
+            return []
+        values = [f for f in sweep_values(new_low, new_high, step) if f not in self.outcomes and f not in self.sweep_set]
+        if not values:
+            return []
+        self.window = (min(low, new_low), max(high, new_high), step)
+        self.sweep = sorted(self.sweep_set | set(values))
+        self.sweep_set = set(self.sweep)
+        return [f for f in values if f <= self.lowest_failed]
 
     def _denser_sweep(self) -> list[float]:
         """A sweep too coarse for a knee (fewer than ``MIN_KNEE_RUNS`` runs up to its first failure,

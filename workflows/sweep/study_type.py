@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
+from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import result_paths
@@ -154,7 +154,25 @@ class SweepStudy(StudyType):
             make_output_folder(folder)
             write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
             cases.append(Case(case.study, folder, case.case_id, case.position, case.values))
-        return cases
+        if not self.fos:
+            return cases
+        from workflows.fos.prediction import PredictedFeed  # (scipy, the critical circle: once cases run)
+
+        self.predicted = PredictedFeed(cases, [case_features(self.study, case.values) for case in cases])
+        return self.predicted.more(len(cases))
+
+    def feed(self) -> CaseFeed | None:
+        """A strength-reduction sweep's cases after the first, generation by generation, each searched in
+        a window about its predicted FOS (``fos.prediction.PredictedFeed``)."""
+        if not self.fos:
+            return None
+        return CaseFeed(self.predicted.more, self.predicted.to_come)
+
+    def case_concluded(self, case_id: str, outcome, progress) -> None:
+        """A strength-reduction case's FOS joins the prediction of the cases to come."""
+        if self.fos:
+            fos = float("nan") if isinstance(outcome, DivergenceError) else outcome.fos
+            self.predicted.concluded(case_id, fos)
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
         """``OUT/study.nc`` and the design charts from the cases' outcomes (module doc, step 3)."""
@@ -244,6 +262,24 @@ class SweepStudy(StudyType):
         from workflows.fos.discretisation import note
 
         return Report([header, *table, note(self.study, "each case's FOS"), wrote, *self.removed])
+
+
+def case_features(study: Study, values: dict) -> list[float]:
+    """A case's numbers for the prediction of its FOS (``fos.prediction``): each axis's value, a friction
+    angle as its tangent (the FOS is close to linear in c and tan(phi)), a value that is no number as
+    its position among the axis's values."""
+    import math
+
+    features = []
+    for axis, (label, value) in zip(study.sweep.axes, values.items()):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            listed = list(axis.values) if axis.values is not None else []
+            features.append(float(listed.index(value)) if value in listed else 0.0)
+        elif axis.path.endswith("friction_deg") or axis.path.endswith("dilation_deg"):
+            features.append(math.tan(math.radians(float(value))))
+        else:
+            features.append(float(value))
+    return features
 
 
 def _read_case(study: Study, folder: Path, ran: bool) -> StageCaseResult:

@@ -1,0 +1,94 @@
+"""Fewer runs per answer (``workflows.fos.prediction``, ``workflows.fos.search``): a search that starts in
+a window about a predicted FOS finds the FOS a full sweep finds, within the tolerance, in fewer runs,
+and a window that misses grows until it holds it; the cases of a study come in a fixed order and
+generations, so that what is predicted does not depend on the workers."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from workflows.fos.prediction import (
+    NO_CASE_SIGMA,
+    FosPredictor,
+    PredictedFeed,
+    Prediction,
+    maximin_order,
+    search_window,
+)
+from workflows.fos.search import RunOutcome, SrfSearch
+
+FOS = 1.3742
+
+
+def _displacement(srf: float) -> float:
+    """A slope whose contained displacement grows towards its FOS and jumps past it."""
+    return 0.02 * (srf / FOS) ** 30 if srf < FOS else 0.06 + 5.0 * (srf - FOS)
+
+
+def _search(window) -> tuple[list[float], SrfSearch]:
+    search = SrfSearch(1.0, 2.0, 0.1, 0.01, 1e-5, n_parallel=2, failure_m=0.05, window=window)
+    made = []
+    while True:
+        values = search.next_values()
+        if not values and not search.pending:
+            return made, search
+        for srf in values:
+            search.started(srf)
+            made.append(srf)
+        for srf in sorted(search.pending):
+            u = _displacement(srf)
+            search.finished(RunOutcome(srf, u, "failed" if u > 0.05 else "stable"))
+
+
+@pytest.mark.parametrize("window", [(1.35, 1.39, 0.01), (1.2, 1.28, 0.02), (1.45, 1.53, 0.02), (1.0, 1.04, 0.01)])
+def test_a_windowed_search_finds_the_full_sweeps_fos_and_a_window_that_misses_grows(window):
+    full, full_search = _search(None)
+    made, search = _search(window)
+    fos, expected = search.knee(), full_search.knee()
+    assert fos.fos_low <= FOS <= fos.fos_high and expected.fos_low <= FOS <= expected.fos_high
+    assert abs(fos.fos - expected.fos) <= 0.01
+    if window[0] < FOS < window[1]:
+        assert len(made) <= 5 < len(full)
+    assert all(1.0 <= srf <= 2.0 for srf in made)
+
+
+def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error():
+    """F = E (1.02 + 0.05 x): exact once four cases are known; before, limit equilibrium alone (6%),
+    one case's ratio, the mean of two."""
+    predictor = FosPredictor()
+    first = predictor.predict([0.0], 1.3)
+    assert first == Prediction(1.3, NO_CASE_SIGMA * 1.3, "limit equilibrium")
+    for x in (0.0, 1.0, 2.0, 3.0):
+        predictor.observe([x], 1.3 + 0.1 * x, (1.3 + 0.1 * x) * (1.02 + 0.05 * x))
+    guess = predictor.predict([1.5], 1.45)
+    assert guess.fos == pytest.approx(1.45 * (1.02 + 0.05 * 1.5)) and guess.sigma == pytest.approx(0.004 * 1.45)
+    low, high, step = search_window(guess, 0.01)
+    assert step == 0.01 and low < guess.fos < high and high - low == pytest.approx(0.04)
+
+
+def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_ones_only():
+    grid = list(itertools.product([5e3, 10e3, 15e3], [15.0, 20.0, 25.0]))
+    order = maximin_order(np.array(grid))
+    corners = {(5e3, 15.0), (5e3, 25.0), (15e3, 15.0), (15e3, 25.0)}
+    assert {grid[i] for i in order[:4]} == corners and grid[order[4]] == (10e3, 20.0)
+
+    class _Case:  # what the feed needs of a case
+        def __init__(self, i):
+            self.case_id = f"case{i}"
+            self.study = None
+
+    cases = [_Case(i) for i in range(len(grid))]
+    feed = PredictedFeed(cases, [[c, math.tan(math.radians(p))] for c, p in grid])
+    feed._window = lambda case: None  # no section to estimate: the generations alone
+    sizes = []
+    while feed.to_come():
+        given = feed.more(100)
+        assert feed.more(100) == []  # nothing more until the generation has concluded
+        sizes.append(len(given))
+        for case in given:
+            feed.concluded(case.case_id, 1.0)
+    assert sizes == [1, 2, 4, 2]

@@ -1,0 +1,185 @@
+"""Where a case's FOS is expected, from the cases of its study already concluded: the window its
+search starts in (``fos.search``: a sweep of a few runs about the prediction, grown when it misses).
+
+A case's limit-equilibrium estimate E_i (Bishop's least circle on a coarse raster of its section,
+``fos.critical_circle.critical_circle(quick=True)``, a fraction of a second) carries what the case
+changes: its strength, its geometry, its water.  The strength reduction's FOS F_i differs from it by
+a ratio that varies slowly over a study (the method's discretisation excess, the circle's own, a
+non-circular mechanism), so
+
+    F_i ~ E_i r(x_i),      r(x) = b0 + b . x     (least squares over the concluded cases)
+
+with x_i the case's own numbers (a sweep's axis values, a realisation's random variables; a
+friction angle as tan(phi)), standardised.  With fewer concluded cases than the fit needs, r is their
+mean ratio (one case: its own), or 1 with none.  The expected error sigma (of F, one standard
+deviation) is the fit's residual scatter times E_i, floored at ``MIN_SIGMA``, or ``NO_CASE_SIGMA``
+(``ONE_CASE_SIGMA``) of E_i with no (one) concluded case.
+
+The window: ``WINDOW_STEPS`` steps d below and above F_i, d = max(tolerance, ``SIGMA_PER_STEP`` sigma)
+(:func:`search_window`).  A window that misses grows (``SrfSearch``), so a poor prediction costs runs,
+never the answer: the knee and the bracket are found as without a window.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+NO_CASE_SIGMA = 0.06
+"""The expected error of limit equilibrium alone, a fraction of its F: the strength reduction's FOS at a
+coarse spacing lies a few per cent above it, a non-circular mechanism's below it."""
+ONE_CASE_SIGMA = 0.03
+"""... of limit equilibrium times one case's ratio."""
+MIN_SIGMA = 0.004
+"""The least expected error of a fitted ratio, a fraction of F: the cases' own search resolution and
+path scatter."""
+WINDOW_STEPS = 2
+SIGMA_PER_STEP = 1.0
+
+
+@dataclass(frozen=True)
+class Prediction:
+    fos: float
+    sigma: float  # expected error of fos (one standard deviation)
+    basis: str  # how it was made, for the messages
+
+
+class FosPredictor:
+    """The model of the module doc over the cases concluded so far."""
+
+    def __init__(self):
+        self.features: list[np.ndarray] = []
+        self.ratios: list[float] = []
+
+    def observe(self, features, estimate: float, fos: float) -> None:
+        """A concluded case: its numbers, its limit-equilibrium estimate and its FOS (NaN-free only)."""
+        if math.isfinite(estimate) and estimate > 0.0 and math.isfinite(fos) and fos > 0.0:
+            self.features.append(np.asarray(features, dtype=float).ravel())
+            self.ratios.append(fos / estimate)
+
+    def predict(self, features, estimate: float) -> Prediction | None:
+        """The case's expected FOS and its error, or None without a limit-equilibrium estimate."""
+        if not (math.isfinite(estimate) and estimate > 0.0):
+            return None
+        n = len(self.ratios)
+        if n == 0:
+            return Prediction(estimate, NO_CASE_SIGMA * estimate, "limit equilibrium")
+        ratios = np.array(self.ratios)
+        if n == 1:
+            return Prediction(estimate * ratios[0], ONE_CASE_SIGMA * estimate, "limit equilibrium times one case's ratio")
+        x = np.array(self.features)
+        x_new = np.asarray(features, dtype=float).ravel()
+        varying = np.ptp(x, axis=0) > 0.0 if x.size else np.zeros(0, dtype=bool)
+        p = int(varying.sum())
+        if n >= p + 2 and p > 0:  # a fit with a residual to judge it by
+            mean, scale = x[:, varying].mean(axis=0), np.ptp(x[:, varying], axis=0)
+            design = np.column_stack([np.ones(n), (x[:, varying] - mean) / scale])
+            coefficients, *_ = np.linalg.lstsq(design, ratios, rcond=None)
+            residual = ratios - design @ coefficients
+            spread = math.sqrt(float(residual @ residual) / (n - p - 1)) if n > p + 1 else 0.0
+            row = np.concatenate([[1.0], (x_new[varying] - mean) / scale])
+            ratio = float(row @ coefficients)
+            basis = f"limit equilibrium times a ratio fitted over {n} cases"
+        else:
+            ratio, spread = float(ratios.mean()), float(ratios.std(ddof=1))
+            basis = f"limit equilibrium times the mean ratio of {n} cases"
+        return Prediction(estimate * ratio, max(spread, MIN_SIGMA) * estimate, basis)
+
+
+def search_window(prediction: Prediction, tolerance: float) -> tuple[float, float, float]:
+    """(low, high, step) of the module doc, rounded to 1e-4."""
+    step = round(max(tolerance, SIGMA_PER_STEP * prediction.sigma), 4)
+    low = max(round(prediction.fos - WINDOW_STEPS * step, 4), 0.01)
+    return low, round(low + 2 * WINDOW_STEPS * step, 4), step
+
+
+def maximin_order(features: np.ndarray) -> list[int]:
+    """The cases in an order that spreads them: first the one farthest from the mean, then each time the
+    one farthest from those taken (standardised features; ties by index).  On a grid: its corners, then
+    the middles of its edges, then its inside: each later case lies among earlier ones, where the fit
+    interpolates."""
+    x = np.asarray(features, dtype=float)
+    if x.ndim == 1:
+        x = x[:, None]
+    n = x.shape[0]
+    if n == 0:
+        return []
+    scale = np.where(np.ptp(x, axis=0) > 0.0, np.ptp(x, axis=0), 1.0)
+    z = (x - x.mean(axis=0)) / scale
+    taken = [int(np.argmax(np.round(np.sum(z * z, axis=1), 12)))]
+    nearest = np.sum((z - z[taken[0]]) ** 2, axis=1)
+    while len(taken) < n:
+        candidates = np.round(nearest, 12)
+        candidates[taken] = -1.0
+        pick = int(np.argmax(candidates))
+        taken.append(pick)
+        nearest = np.minimum(nearest, np.sum((z - z[pick]) ** 2, axis=1))
+    return taken
+
+
+class PredictedFeed:
+    """A study's strength-reduction cases handed out generation by generation (1, 2, 4, ... cases, at
+    most ``max_generation``), in :func:`maximin_order`, each with the window its search starts in,
+    predicted from the cases of the earlier generations only: the windows, and so the runs and every
+    FOS, do not depend on the number of workers or on which case finished first, and a resumed study
+    predicts what the first invocation predicted.  ``features``: each case's numbers (module doc)."""
+
+    def __init__(self, cases: list, features: list, max_generation: int = 8):
+        order = maximin_order(np.array(features, dtype=float).reshape(len(cases), -1)) if cases else []
+        self.cases = [cases[i] for i in order]
+        self.features = {id(cases[i]): np.asarray(features[i], dtype=float).ravel() for i in order}
+        self.estimates: dict[str, float] = {}  # case id -> its limit-equilibrium estimate
+        self.predictor = FosPredictor()
+        self.given = 0
+        self.generation_end = 0
+        self.generation_size = 1
+        self.max_generation = max_generation
+        self.concluded_ids: set[str] = set()
+        self.windows: dict[str, tuple[Prediction, tuple[float, float, float]]] = {}
+
+    def to_come(self) -> int:
+        return len(self.cases) - self.given
+
+    def more(self, count: int) -> list:
+        """Up to ``count`` cases of the generation under way; the next generation once every case given
+        so far has concluded."""
+        import dataclasses
+
+        if self.given >= self.generation_end:
+            if len(self.concluded_ids) < self.given:
+                return []
+            self.generation_end = min(len(self.cases), self.given + self.generation_size)
+            self.generation_size = min(2 * self.generation_size, self.max_generation)
+        made = []
+        while self.given < self.generation_end and len(made) < count:
+            case = self.cases[self.given]
+            self.given += 1
+            window = self._window(case)
+            made.append(case if window is None else dataclasses.replace(case, window=window))
+        return made
+
+    def _window(self, case) -> tuple[float, float, float] | None:
+        from workflows.fos.critical_circle import critical_circle
+
+        try:
+            circle = critical_circle(case.study, quick=True)
+        except (ValueError, IndexError, ZeroDivisionError):
+            circle = None
+        estimate = circle.fos if circle is not None else math.nan
+        self.estimates[case.case_id] = estimate
+        prediction = self.predictor.predict(self.features[id(case)], estimate)
+        if prediction is None:
+            return None
+        stage = case.study.strength_reduction
+        window = search_window(prediction, stage.fos_tolerance)
+        self.windows[case.case_id] = (prediction, window)
+        return window
+
+    def concluded(self, case_id: str, fos: float) -> None:
+        """A case given has concluded with ``fos`` (NaN: none): its ratio joins the fit."""
+        self.concluded_ids.add(case_id)
+        case = next((each for each in self.cases if each.case_id == case_id), None)
+        if case is not None and math.isfinite(fos):
+            self.predictor.observe(self.features[id(case)], self.estimates.get(case_id, math.nan), fos)
