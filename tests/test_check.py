@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from workflows.check import (
+    FULL_SEARCH_RUNS,
     RUN_OVERHEAD_S,
     STARTUP_S,
-    TYPICAL_FAILED_RUNS,
-    TYPICAL_STABLE_RUNS,
+    WINDOW_RUNS,
     run_time_estimate,
 )
 from workflows.output.figures import drawn_by_us
@@ -68,8 +68,8 @@ def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
 
 def test_the_estimate_follows_its_model():
     """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
-    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a sweep of k cases costs k times
-    the runs of one."""
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a sweep of k cases costs one full
+    search and k - 1 searches in predicted windows; a verdict-mode realisation one run."""
     study = load_study(QUICKSTART)
     scene = build_scene(study)
     estimate = run_time_estimate(study, scene, workers=2)
@@ -80,11 +80,16 @@ def test_the_estimate_follows_its_model():
     assert estimate.time_step_s == pytest.approx(1.0 / math.sqrt(e_pa * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho))
     assert estimate.response_time_s == pytest.approx(4.0 * 15.0 / math.sqrt(e_pa / (2 * (1 + nu)) / rho))
     assert RUN_OVERHEAD_S < estimate.stable_run_s < estimate.failed_run_s
-    runs_s = TYPICAL_STABLE_RUNS * estimate.stable_run_s + TYPICAL_FAILED_RUNS * estimate.failed_run_s
-    assert estimate.study_s == pytest.approx(STARTUP_S + runs_s / 2)
+    full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
+    window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
+    assert estimate.study_s == pytest.approx(STARTUP_S + full_s / 2)
     swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
                         'values = [8e3, 10e3, 12e3]\n')
-    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + 3 * runs_s / 2)
+    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + (full_s + 2 * window_s) / 2)
+    verdicts = parse_study((REPO / "studies" / "probabilistic_undrained.toml").read_text())
+    verdict_scene = build_scene(verdicts)
+    one = run_time_estimate(verdicts, verdict_scene, workers=2)
+    assert one.study_s == pytest.approx(STARTUP_S + 200 * one.stable_run_s / 2)
 
 
 def test_a_study_without_strength_reduction_has_no_run_estimate(tmp_path):

@@ -83,7 +83,7 @@ def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_on
 
     cases = [_Case(i) for i in range(len(grid))]
     feed = PredictedFeed(cases, [[c, math.tan(math.radians(p))] for c, p in grid])
-    feed._window = lambda case: None  # no section to estimate: the generations alone
+    feed.windows.window = lambda case, features, estimate=None: None  # no section to estimate: generations alone
     sizes = []
     while feed.to_come():
         given = feed.more(100)

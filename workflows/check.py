@@ -24,9 +24,11 @@ time a P wave takes to cross the finest spacing, dt ~ h_min / V_p (equalised ine
     steps = K T / dt,   run time = RUN_OVERHEAD_S + steps (STEP_OVERHEAD_S + N SECONDS_PER_PARTICLE_STEP),
 
 with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RESPONSE_TIMES`` for
-one that slides (at most ``duration_s``).  A study makes about ``TYPICAL_STABLE_RUNS`` stable and
-``TYPICAL_FAILED_RUNS`` failed runs, shared by the workers, after the start-up (Python, the
-cluster, the gravity stage and the figures: ``STARTUP_S``).  The constants were measured on the
+one that slides (at most ``duration_s``).  A search over the stage's range makes about
+``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (random fields:
+``FIELD_WINDOW_RUNS``), a verdict-mode realisation one; a refinement study's levels cost in
+proportion to their particles and time steps (:func:`study_runs_s`).  The runs are shared by the
+workers, after the start-up (Python, the cluster, the gravity stage and the figures: ``STARTUP_S``).  The constants were measured on the
 reference slope on the machine the benchmarks ran on (docs/benchmarks.md, "Run-time estimate",
 with the command that compares the estimate with the measured time of every shipped study).
 """
@@ -57,9 +59,18 @@ STEP_OVERHEAD_S = 24e-6
 RUN_OVERHEAD_S = 0.05
 """A run's time besides its steps: the scene and first mesh on the worker, its file, the transfer."""
 
-TYPICAL_STABLE_RUNS = 6
-TYPICAL_FAILED_RUNS = 3
-"""Runs of a typical strength-reduction study (the shipped ones make 8 to 12)."""
+FULL_SEARCH_RUNS = (6, 3)
+"""(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12)."""
+WINDOW_RUNS = (3, 1.6)
+"""... of a search in a window about a predicted FOS (``fos.prediction``: a sweep's cases after the
+first, a probabilistic study's realisations in fos mode, a refinement study's levels after the first;
+4.6 runs per FOS on studies/sweep_strength.toml)."""
+FIELD_WINDOW_RUNS = (4, 2)
+"""... of a realisation of random fields, whose FOS is predicted less well (6.1 runs per FOS on the
+undrained random-field study in fos mode)."""
+ADAPTIVE_LEVELS = 5
+"""Levels an adaptive refinement study is expected to make (the quickstart's slope: 5; steep slopes at
+high friction angles reach max_levels)."""
 
 STARTUP_S = 4.0
 """Seconds of a study besides its SRF runs: Python, the cluster, the gravity stage, the figures."""
@@ -73,9 +84,9 @@ class RunTimeEstimate:
     response_time_s: float  # T = 4 H_domain / V_s with the runs' moduli
     stable_run_s: float
     failed_run_s: float
-    cases: int | None  # factors of safety the study computes (None: a refinement study)
+    cases: int | None  # factors of safety the study computes (None: a refinement study's levels)
     workers: int
-    study_s: float  # NaN: not estimated (a refinement study)
+    study_s: float
 
 
 def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | None:
@@ -94,14 +105,56 @@ def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | No
 
     stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
     cases = case_count(study)
-    runs_s = TYPICAL_STABLE_RUNS * stable_s + TYPICAL_FAILED_RUNS * failed_s
-    study_s = math.nan if cases is None else STARTUP_S + cases * runs_s / max(workers, 1)
+    study_s = STARTUP_S + study_runs_s(study, stable_s, failed_s, n_particles, time_step_s) / max(workers, 1)
     return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s)
+
+
+def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: int, time_step_s: float) -> float:
+    """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
+    refinement study's first level; windowed searches for the cases after the first; one run per
+    realisation in verdict mode; a refinement study's levels at their own particles and time steps."""
+    def search(runs: tuple[float, float], scale: float = 1.0) -> float:
+        return scale * (runs[0] * stable_s + runs[1] * failed_s)
+
+    if study.refinement is not None:
+        return _refinement_runs_s(study, search, n_particles, time_step_s)
+    cases = case_count(study)
+    if study.probabilistic is not None:
+        if study.probabilistic.compute == "verdict":
+            return cases * stable_s
+        later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
+        return search(FULL_SEARCH_RUNS) + (cases - 1) * search(later)
+    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(WINDOW_RUNS)
+
+
+def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: float) -> float:
+    """The levels of a refinement study (``[refinement]``): a run at level k costs the first level's times
+    (particles_k / particles_0) (h_0 / h_k); uniform levels hold n_0 (h_0 / h_k)^2 particles, adaptive
+    ones add bands along the critical circle (``fos.critical_circle``), a reach of band_reach spacings of
+    the level before on either side, at h_k; level 1 runs twice (the scatter)."""
+    table = study.refinement
+    spacings = table.spacings(study.geometry.spacing_m)
+    h0 = spacings[0]
+    if table.adaptive:
+        spacings = spacings[:min(ADAPTIVE_LEVELS, table.max_levels)]
+        from workflows.fos.critical_circle import critical_circle
+
+        circle = critical_circle(study, quick=True)
+        arc_m = (abs(circle.exit_x_m - circle.entry_x_m) * 1.2) if circle is not None else study.slope_height_m * 2.0
+        particles = [n_particles + sum(arc_m * 2.0 * table.band_reach * spacings[j - 1] / spacings[j] ** 2
+                                       for j in range(1, k + 1)) for k in range(len(spacings))]
+    else:
+        particles = [n_particles * (h0 / h) ** 2 for h in spacings]
+    total = 0.0
+    for k, (h, n) in enumerate(zip(spacings, particles)):
+        scale = (n / n_particles) * (h0 / h)
+        total += search(FULL_SEARCH_RUNS if k == 0 else WINDOW_RUNS, scale) * (2 if k == 1 and table.jitter > 0 else 1)
+    return total
 
 
 def case_count(study: Study) -> int | None:
     """The factors of safety a study computes: one, a sweep's cases, the realisations; None for a
-    refinement study (its levels differ in spacing: each is estimated by its own study file)."""
+    refinement study (a factor at each of its levels)."""
     if study.refinement is not None:
         return None
     if study.probabilistic is not None:
@@ -143,10 +196,9 @@ class StudyCheck:
             lines.append(f"SRF runs: time step about {e.time_step_s:.3g} s, response time {e.response_time_s:.3g} s; "
                          f"a run about {_seconds(e.stable_run_s)} (at rest) to {_seconds(e.failed_run_s)} (sliding) "
                          "on one core")
-            if e.cases is not None:
-                cases = "" if e.cases == 1 else f"{e.cases} cases x "
-                lines.append(f"the study: about {_seconds(e.study_s)} ({cases}{TYPICAL_STABLE_RUNS + TYPICAL_FAILED_RUNS} "
-                             f"runs, as a typical study makes, on {e.workers} worker{'s' * (e.workers > 1)})")
+            what = ("levels of refinement" if e.cases is None else "one FOS" if e.cases == 1
+                    else f"{e.cases} factors of safety, searched about their predicted values after the first")
+            lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
             from workflows.seepage.results import flow_line
 

@@ -198,6 +198,30 @@ QUICK = dict(raster_per_height=10, centres=10, depths=6, polished=1)
 window of a FOS search, ``fos.prediction``)."""
 
 
+def _grid(section: _Section, centres: int, depths: int) -> list[tuple[float, float, float, float]]:
+    """(F, xc, yc, R) of every admissible circle of the grid search (module doc), searched coordinates."""
+    h = section.height
+    toe_y, top_y = float(section.ground.min()), float(section.ground.max())
+    sloping = section.x[(section.ground > toe_y + 0.02 * h) & (section.ground < top_y - 0.02 * h)]
+    x_low, x_high = (sloping.min(), sloping.max()) if sloping.size else (section.x[0], section.x[-1])
+    found = []
+    for xc in np.linspace(x_low - h, x_high + h, centres):
+        for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, centres):
+            for bottom in np.linspace(section.base, toe_y + 0.3 * h, depths):
+                if yc - bottom > 0.0:
+                    fos = _bishop(section, xc, yc, yc - bottom)[0]
+                    if math.isfinite(fos):
+                        found.append((fos, xc, yc, yc - bottom))
+    return found
+
+
+def _circle(section: _Section, xc: float, yc: float, radius: float) -> CriticalCircle:
+    fos, left, right = _bishop(section, xc, yc, radius)
+    sign = section.sign
+    return CriticalCircle(float(fos), (float(sign * xc), float(yc)), float(radius), float(sign * left),
+                          float(sign * right), section.water)
+
+
 def critical_circle(study, quick: bool = False) -> CriticalCircle | None:
     """The least Bishop F over a grid of circles, the best ``POLISHED`` of them polished by
     Nelder-Mead (module doc; ``quick``: the coarser search ``QUICK``); None where no circle is
@@ -207,31 +231,23 @@ def critical_circle(study, quick: bool = False) -> CriticalCircle | None:
     search = QUICK if quick else dict(raster_per_height=RASTER_PER_HEIGHT, centres=CENTRES, depths=DEPTHS,
                                       polished=POLISHED)
     section = _Section(study, search["raster_per_height"])
-    h = section.height
-    toe_y, top_y = float(section.ground.min()), float(section.ground.max())
-    sloping = section.x[(section.ground > toe_y + 0.02 * h) & (section.ground < top_y - 0.02 * h)]
-    x_low, x_high = (sloping.min(), sloping.max()) if sloping.size else (section.x[0], section.x[-1])
-    found = []
-    for xc in np.linspace(x_low - h, x_high + h, search["centres"]):
-        for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, search["centres"]):
-            for bottom in np.linspace(section.base, toe_y + 0.3 * h, search["depths"]):
-                if yc - bottom > 0.0:
-                    fos = _bishop(section, xc, yc, yc - bottom)[0]
-                    if math.isfinite(fos):
-                        found.append((fos, xc, yc, yc - bottom))
+    found = _grid(section, search["centres"], search["depths"])
     if not found:
         return None
     best = (math.inf, 0.0, 0.0, 0.0)
     for start in sorted(found)[:search["polished"]]:
         polished = minimize(lambda p: _bishop(section, *p)[0], np.array(start[1:]), method="Nelder-Mead",
-                            options={"xatol": 1e-3 * h, "fatol": 1e-6, "maxiter": 300})
+                            options={"xatol": 1e-3 * section.height, "fatol": 1e-6, "maxiter": 300})
         candidate = (float(polished.fun), *polished.x) if polished.fun <= start[0] else start
         best = min(best, candidate)
-    fos, xc, yc, radius = best
-    fos, left, right = _bishop(section, xc, yc, radius)
-    sign = section.sign
-    return CriticalCircle(float(fos), (float(sign * xc), float(yc)), float(radius), float(sign * left),
-                          float(sign * right), section.water)
+    return _circle(section, *best[1:])
+
+
+def candidate_circles(study, count: int = 40) -> list[CriticalCircle]:
+    """The ``count`` least circles of the quick grid search (``QUICK``), least first: where the mechanism
+    of a soil that varies from point to point may run (``probabilistic.spatial.field_estimate``)."""
+    section = _Section(study, QUICK["raster_per_height"])
+    return [_circle(section, xc, yc, radius) for _, xc, yc, radius in sorted(_grid(section, 16, 8))[:count]]
 
 
 def domain_warnings(study, circle: CriticalCircle | None = None) -> list[str]:

@@ -119,67 +119,108 @@ def maximin_order(features: np.ndarray) -> list[int]:
     return taken
 
 
-class PredictedFeed:
-    """A study's strength-reduction cases handed out generation by generation (1, 2, 4, ... cases, at
-    most ``max_generation``), in :func:`maximin_order`, each with the window its search starts in,
-    predicted from the cases of the earlier generations only: the windows, and so the runs and every
-    FOS, do not depend on the number of workers or on which case finished first, and a resumed study
-    predicts what the first invocation predicted.  ``features``: each case's numbers (module doc)."""
+class Generations:
+    """How many cases a study may hand out: generations of 1, 2, 4, ... cases (at most ``largest``), the
+    next once every case handed out has concluded.  The cases of a generation are predicted from
+    those of the earlier ones only, so the predictions, the runs and every FOS do not depend on the
+    number of workers or on which case finished first, and a resumed study predicts what the first
+    invocation predicted."""
 
-    def __init__(self, cases: list, features: list, max_generation: int = 8):
-        order = maximin_order(np.array(features, dtype=float).reshape(len(cases), -1)) if cases else []
-        self.cases = [cases[i] for i in order]
-        self.features = {id(cases[i]): np.asarray(features[i], dtype=float).ravel() for i in order}
-        self.estimates: dict[str, float] = {}  # case id -> its limit-equilibrium estimate
-        self.predictor = FosPredictor()
+    def __init__(self, total: int, largest: int = 8):
+        self.total = total
+        self.largest = largest
         self.given = 0
-        self.generation_end = 0
-        self.generation_size = 1
-        self.max_generation = max_generation
-        self.concluded_ids: set[str] = set()
+        self.end = 0  # the current generation ends before this case
+        self.size = 1
+        self.concluded = 0
+
+    def room(self, concluded: int) -> int:
+        """How many more cases may be handed out now, ``concluded`` of those handed out having concluded."""
+        self.concluded = concluded
+        if self.given >= self.end:
+            if concluded < self.given:
+                return 0
+            self.end = min(self.total, self.given + self.size)
+            self.size = min(2 * self.size, self.largest)
+        return self.end - self.given
+
+    def take(self, count: int) -> None:
+        self.given += count
+
+
+class WindowPredictor:
+    """The window each case's search starts in (module doc): its limit-equilibrium estimate, its
+    numbers, and the cases concluded so far."""
+
+    def __init__(self):
+        self.predictor = FosPredictor()
+        self.estimates: dict = {}  # what the estimate depends on -> the estimate (realisations of fields share one)
+        self.pending: dict[str, tuple[np.ndarray, float]] = {}  # case id -> (its numbers, its estimate)
         self.windows: dict[str, tuple[Prediction, tuple[float, float, float]]] = {}
 
-    def to_come(self) -> int:
-        return len(self.cases) - self.given
-
-    def more(self, count: int) -> list:
-        """Up to ``count`` cases of the generation under way; the next generation once every case given
-        so far has concluded."""
-        import dataclasses
-
-        if self.given >= self.generation_end:
-            if len(self.concluded_ids) < self.given:
-                return []
-            self.generation_end = min(len(self.cases), self.given + self.generation_size)
-            self.generation_size = min(2 * self.generation_size, self.max_generation)
-        made = []
-        while self.given < self.generation_end and len(made) < count:
-            case = self.cases[self.given]
-            self.given += 1
-            window = self._window(case)
-            made.append(case if window is None else dataclasses.replace(case, window=window))
-        return made
-
-    def _window(self, case) -> tuple[float, float, float] | None:
-        from workflows.fos.critical_circle import critical_circle
-
-        try:
-            circle = critical_circle(case.study, quick=True)
-        except (ValueError, IndexError, ZeroDivisionError):
-            circle = None
-        estimate = circle.fos if circle is not None else math.nan
-        self.estimates[case.case_id] = estimate
-        prediction = self.predictor.predict(self.features[id(case)], estimate)
+    def window(self, case, features, estimate: float | None = None) -> tuple[float, float, float] | None:
+        """The window of ``case`` (a ``cases.Case``) with its numbers ``features`` and its limit-equilibrium
+        ``estimate`` (default: its critical circle's F); None: none."""
+        estimate = self._estimate(case.study) if estimate is None else estimate
+        self.pending[case.case_id] = (np.asarray(features, dtype=float).ravel(), estimate)
+        prediction = self.predictor.predict(features, estimate)
         if prediction is None:
             return None
-        stage = case.study.strength_reduction
-        window = search_window(prediction, stage.fos_tolerance)
+        window = search_window(prediction, case.study.strength_reduction.fos_tolerance)
         self.windows[case.case_id] = (prediction, window)
         return window
 
+    def _estimate(self, study) -> float:
+        """The study's limit-equilibrium F (NaN: none), once per section, soil, water and loads."""
+        from workflows.fos.critical_circle import critical_circle
+
+        key = (study.geometry, study.materials, study.water, study.loads, study.seepage)
+        if key not in self.estimates:
+            try:
+                circle = critical_circle(study, quick=True)
+            except (ValueError, IndexError, ZeroDivisionError):
+                circle = None
+            self.estimates[key] = circle.fos if circle is not None else math.nan
+        return self.estimates[key]
+
+    def with_window(self, case, features, estimate: float | None = None):
+        """``case`` with its window (module doc)."""
+        import dataclasses
+
+        window = self.window(case, features, estimate)
+        return case if window is None else dataclasses.replace(case, window=window)
+
     def concluded(self, case_id: str, fos: float) -> None:
-        """A case given has concluded with ``fos`` (NaN: none): its ratio joins the fit."""
-        self.concluded_ids.add(case_id)
-        case = next((each for each in self.cases if each.case_id == case_id), None)
-        if case is not None and math.isfinite(fos):
-            self.predictor.observe(self.features[id(case)], self.estimates.get(case_id, math.nan), fos)
+        """A case has concluded with ``fos`` (NaN: none): its ratio joins the fit."""
+        features, estimate = self.pending.pop(case_id, (None, math.nan))
+        if features is not None:
+            self.predictor.observe(features, estimate, fos)
+
+
+class PredictedFeed:
+    """A study's strength-reduction cases handed out in :func:`maximin_order` and in
+    :class:`Generations`, each with its window (:class:`WindowPredictor`).  ``features``: each case's
+    numbers (module doc)."""
+
+    def __init__(self, cases: list, features: list, largest_generation: int = 8):
+        order = maximin_order(np.array(features, dtype=float).reshape(len(cases), -1)) if cases else []
+        self.cases = [cases[i] for i in order]
+        self.features = [features[i] for i in order]
+        self.generations = Generations(len(cases), largest_generation)
+        self.windows = WindowPredictor()
+        self.n_concluded = 0
+
+    def to_come(self) -> int:
+        return len(self.cases) - self.generations.given
+
+    def more(self, count: int) -> list:
+        """Up to ``count`` cases of the generation under way (the next once all before have concluded)."""
+        start = self.generations.given
+        take = min(count, self.generations.room(self.n_concluded))
+        self.generations.take(take)
+        return [self.windows.with_window(case, features)
+                for case, features in zip(self.cases[start:start + take], self.features[start:start + take])]
+
+    def concluded(self, case_id: str, fos: float) -> None:
+        self.n_concluded += 1
+        self.windows.concluded(case_id, fos)

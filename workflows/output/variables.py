@@ -261,9 +261,11 @@ SWEEP_FILE = _table(
     Variable("fos", SWEEP_DIMS, "1",
              "factor of safety of the case (NaN: none, see status; fos_low or fos_high may still bound it)"),
     Variable("fos_low", SWEEP_DIMS, "1",
-             "lower end of the FOS bracket (above_srf_max: the highest stable SRF, the FOS is above it)"),
+             "lower end of the FOS bracket (above_srf_max: the highest stable SRF, the FOS is above it; no_knee: "
+             "the highest stable SRF below the lowest failed one)"),
     Variable("fos_high", SWEEP_DIMS, "1",
-             "upper end of the FOS bracket (below_srf_min: the lowest failed SRF, the FOS is below it)"),
+             "upper end of the FOS bracket (below_srf_min: the lowest failed SRF, the FOS is below it; no_knee: "
+             "the lowest failed SRF)"),
     Variable("status", SWEEP_DIMS, "1",
              "found (a FOS), above_srf_max (no run failed), below_srf_min (every run failed), no_knee (runs "
              "failed but the curve has no knee), gravity_diverged"),

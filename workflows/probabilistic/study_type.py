@@ -62,6 +62,7 @@ from workflows.sweep.results import (
     CASE_TEXT_NAME,
     CASES_FOLDER,
     FOUND,
+    NO_KNEE,
     CaseResult,
     case_result,
     diverged_result,
@@ -274,9 +275,9 @@ def realisation_verdict(result: CaseResult, compute: str, factor: float) -> str:
         return {ABOVE: STABLE, BELOW: FAILED}.get(result.status, UNDECIDED)
     if result.status == FOUND:
         return FAILED if result.fos < factor else STABLE
-    if result.status == ABOVE and result.fos_low >= factor:
+    if result.status in (ABOVE, NO_KNEE) and result.fos_low >= factor:  # (no knee: the verdicts' bracket)
         return STABLE
-    if result.status == BELOW and result.fos_high <= factor:
+    if result.status in (BELOW, NO_KNEE) and result.fos_high <= factor:
         return FAILED
     return UNDECIDED
 
@@ -288,6 +289,11 @@ class RealisationRow:
     case_id: str
     position: tuple[int]
     values: dict
+
+
+LARGEST_GENERATION = 32
+"""fos mode: realisations are predicted in generations of 1, 2, 4, ... up to this many (``fos.prediction``):
+a larger generation leaves fewer waits for its last realisation, predicted from fewer others."""
 
 
 class ProbabilisticStudy(SweepStudy):
@@ -304,6 +310,8 @@ class ProbabilisticStudy(SweepStudy):
         self.slip_lines: dict[str, tuple] = {}  # case id -> the slip line (x, y) of a failed realisation
         self.edges_reached: dict[str, list] = {}  # case id -> the supports its mechanism reaches (failed ones)
         self.study_of: dict[str, Study] = {}  # case id -> its study, until it concludes
+        self.predicted = None  # fos mode: (Generations, WindowPredictor) of the realisations' searches
+        self.n_concluded = 0
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
@@ -401,9 +409,17 @@ class ProbabilisticStudy(SweepStudy):
 
     def more_cases(self, count: int) -> list[Case]:
         """Up to ``count`` more realisations of this round, each made and its ``case.toml`` written (module
-        doc, step 2)."""
+        doc, step 2); in fos mode, generation by generation, each searched in a window about its predicted
+        FOS (``fos.prediction``: from the realisations of the earlier generations)."""
         from workflows.output.writing import make_output_folder, write_text_if_changed
 
+        if self.study.probabilistic.compute == "fos":
+            if self.predicted is None:
+                from workflows.fos.prediction import Generations, WindowPredictor
+
+                self.predicted = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
+            generations, _ = self.predicted
+            count = min(count, generations.room(self.n_concluded))
         cases = []
         while len(cases) < count and self.next_index < self.batch_end:
             i = self.next_index
@@ -413,8 +429,47 @@ class ProbabilisticStudy(SweepStudy):
             make_output_folder(folder)
             write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
             self.study_of[case.case_id] = case.study
-            cases.append(self._placed(Case(case.study, folder, case.case_id, case.position, case.values)))
+            made = self._placed(Case(case.study, folder, case.case_id, case.position, case.values))
+            if self.predicted is not None:
+                generations, windows = self.predicted
+                generations.take(1)
+                made = windows.with_window(made, self.features(made), self._field_estimate(made))
+            cases.append(made)
         return cases
+
+    def features(self, case: Case) -> list[float]:
+        """A realisation's numbers for the prediction of its FOS: its random variables (a friction angle as
+        its tangent) and, with random fields, each field's mean over the particles near the critical circle
+        of the mean soil (``fos.critical_circle``), where its mechanism runs."""
+        features = [math.tan(math.radians(float(value))) if variable.path.endswith("_deg") else float(value)
+                    for variable, value in zip(self.study.probabilistic.variables, case.values.values())]
+        if case.study.random_field is not None:
+            from workflows.probabilistic.spatial import mechanism_means
+
+            features += mechanism_means(case.study, self._mechanism_zone())
+        return features
+
+    def _field_estimate(self, case: Case) -> float | None:
+        """With random fields, the realisation's estimated FOS from the mechanisms of the realisations
+        concluded before (``probabilistic.spatial.FieldMechanisms``; over the candidate circles of the
+        mean soil while none is known); None without random fields (the critical circle's F)."""
+        if case.study.random_field is None:
+            return None
+        if getattr(self, "_circles", None) is None:
+            from workflows.fos.critical_circle import candidate_circles
+            from workflows.probabilistic.spatial import FieldMechanisms
+
+            self._circles = candidate_circles(self.study)
+            self._mechanisms = FieldMechanisms(self.study)
+        return self._mechanisms.estimate(case.study, self._circles)
+
+    def _mechanism_zone(self):
+        """The particles near the critical circle of the study's mean soil (once)."""
+        if getattr(self, "_zone", None) is None:
+            from workflows.probabilistic.spatial import critical_zone
+
+            self._zone = critical_zone(self.study)
+        return self._zone
 
     def feed(self) -> CaseFeed:
         return CaseFeed(self.more_cases, lambda: self.batch_end - self.next_index)
@@ -436,6 +491,13 @@ class ProbabilisticStudy(SweepStudy):
         mechanisms of failed realisations are kept)."""
         table = self.study.probabilistic
         tally = self.tally
+        if self.predicted is not None:
+            self.n_concluded += 1
+            fos = math.nan if isinstance(outcome, DivergenceError) else outcome.fos
+            self.predicted[1].concluded(case_id, fos)
+            slip = getattr(outcome, "slip", None)
+            if getattr(self, "_mechanisms", None) is not None and hasattr(slip, "x_m") and case_id in self.study_of:
+                self._mechanisms.add(self.study_of[case_id], slip.x_m, slip.y_m, fos)
         result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
         verdict = realisation_verdict(result, table.compute, table.factor)
         tally[verdict] += 1

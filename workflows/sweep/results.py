@@ -61,7 +61,8 @@ class CaseResult:
 
 def case_result(outcome) -> CaseResult:
     """The result of a concluded case from its ``FosOutcome``; with no FOS, the bound the runs give:
-    above_srf_max (fos_low = the highest stable SRF) or below_srf_min (fos_high = the lowest failed)."""
+    above_srf_max (fos_low = the highest stable SRF), below_srf_min (fos_high = the lowest failed), or
+    no_knee (the run verdicts' bracket: the highest stable SRF below the lowest failed one)."""
     runs = [r for r in outcome.runs if r.status != DIVERGED]
     fos, low, high = outcome.fos, outcome.fos_low, outcome.fos_high
     if math.isfinite(fos):
@@ -71,7 +72,7 @@ def case_result(outcome) -> CaseResult:
     elif runs and all(r.status == FAILED for r in runs):
         status, high = BELOW, min(r.srf for r in runs)
     else:
-        status = NO_KNEE
+        status, low, high = NO_KNEE, outcome.status_low, outcome.status_high
     return CaseResult(fos, low, high, status, bool(outcome.criteria_agree), outcome.knee_srf, outcome.n_particles,
                       len(outcome.runs), outcome.verdict)
 
