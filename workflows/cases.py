@@ -228,9 +228,9 @@ class StudyType:
 
     def warnings(self) -> list[str]:
         """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``),
-        water above the ground with no pond (``workflows.water``)."""
+        water above the ground with no pond (``workflows.water.table``)."""
         from workflows.layers import thin_layer_warnings
-        from workflows.water import water_above_ground_warnings
+        from workflows.water.table import water_above_ground_warnings
 
         return thin_layer_warnings(self.study) + water_above_ground_warnings(self.study)
 

@@ -171,22 +171,17 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
     from workflows.fos.critical_circle import critical_circle, domain_warnings
     from workflows.output.writing import make_output_folder
-    from workflows.scene import build_scene, monitor_particles
+    from workflows.scene import monitor_particles, scene_and_flow
     from workflows.stages.running import new_simulation
 
     kind.check(options)
     kind.check_every_case()
-    scene = build_scene(study)
+    scene, flow = scene_and_flow(study)
     monitor_particles(study, scene)
     new_simulation(study, scene)
-    flow = None
-    if study.seepage is not None:
-        from workflows.seepage.flow import study_flow
-
-        flow = study_flow(study)
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
-    path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical)
+    path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
                       run_time_estimate(study, scene, options.workers), path, flow, critical,
                       tuple(domain_warnings(study, critical)) if critical is not None else ())
@@ -196,9 +191,10 @@ SECTION_FIGURE = "section.png"
 """The picture ``spfem-fos check`` draws in the output folder."""
 
 
-def draw_section(study: Study, scene, path: Path, critical=None) -> Path:
+def draw_section(study: Study, scene, path: Path, critical=None, flow=None) -> Path:
     """The section of the module doc into ``path``, with the ``critical`` circle of a limit-equilibrium
-    search (``fos.critical_circle``) dashed where it lies in the ground."""
+    search (``fos.critical_circle``) dashed where it lies in the ground, and the water table of the
+    study's steady ``flow`` (``workflows.seepage.flow``) with ``[seepage]``."""
     from workflows.fos.figures import draw_water_and_loads
     from workflows.output.figures import pyplot, save_figure
     from workflows.scene import supports
@@ -233,7 +229,7 @@ def draw_section(study: Study, scene, path: Path, critical=None) -> Path:
     for zone in study.geometry.refined:
         zone_ring = np.vstack([zone.region_m, zone.region_m[:1]])
         ax.plot(zone_ring[:, 0], zone_ring[:, 1], ":", color="tab:purple", lw=1.2)
-    draw_water_and_loads(ax, study)
+    draw_water_and_loads(ax, study, flow)
     if critical is not None:
         low, high = sorted((critical.entry_x_m, critical.exit_x_m))
         x = np.linspace(low, high, 200)

@@ -54,8 +54,8 @@ class _Section:
     """The raster of the extended section (module doc), turned to face +x."""
 
     def __init__(self, study):
-        from workflows.scene import material_rows
-        from workflows.water import phreatic_lines, ru_pore_pressure_pa
+        from workflows.particles import material_rows
+        from workflows.water.pressure import phreatic_lines, ru_pore_pressure_pa
 
         polygon = np.asarray(study.geometry.polygon_m, dtype=float)
         self.sign = -1.0 if downslope_sign(polygon) == -1.0 else 1.0

@@ -4,7 +4,7 @@
   verdict, the knee (maximum curvature of the sweep) and the FOS bracket marked;
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
   equivalent plastic strain and displacement magnitude on the final particle positions, with the
-  water (piezometric line dashed, ponded water solid, ``workflows.water.draw_water``), the surface
+  water (piezometric line dashed, ponded water solid, ``workflows.water.figures.draw_water``), the surface
   loads (their ``arrows_m``) and the seismic coefficient;
 - ``particle_spacing.png`` of a graded cloud (``[[geometry.refined]]``): each particle at its initial
   position coloured by its spacing.
@@ -22,7 +22,7 @@ from spfem_core.geometry import surface_height_m
 from workflows.fos.run_store import run_file_name
 from workflows.output.figures import final_state_figure, pyplot, save_figure
 from workflows.study import parse_study
-from workflows.water import draw_water
+from workflows.water.figures import draw_water
 
 COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
 
@@ -68,13 +68,14 @@ def run_fields(run_path: Path, path: Path) -> Path:
                               "final state", decorate)
 
 
-def draw_water_and_loads(ax, study) -> None:
-    """The water (``workflows.water.draw_water``), the surface loads as red arrows and the seismic
-    coefficient as a note, over a field plot of ``study``'s domain."""
+def draw_water_and_loads(ax, study, flow=None) -> None:
+    """The water (``workflows.water.figures.draw_water``: the study's steady ``flow`` with ``[seepage]``,
+    solved there when not given), the surface loads as red arrows and the seismic coefficient as a note,
+    over a field plot of ``study``'s domain."""
     polygon = np.array(study.geometry.polygon_m)
     x_lo, x_hi = polygon[:, 0].min(), polygon[:, 0].max()
     x = np.linspace(x_lo, x_hi, 400)
-    draw_water(ax, study, x, surface_height_m(polygon, x))
+    draw_water(ax, study, x, surface_height_m(polygon, x), flow)
     reach = 0.06 * (polygon[:, 1].max() - polygon[:, 1].min() or 1.0)
     for _, load in study.loads.surface_loads():
         for x_load in load.arrows_m():

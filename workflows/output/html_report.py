@@ -136,10 +136,11 @@ def _section_figure(study: Study, kind_name: str) -> list[str]:
     if not study.output.figures:
         return []
     from workflows.check import draw_section
-    from workflows.scene import build_scene
+    from workflows.scene import scene_and_flow
 
     buffer = io.BytesIO()
-    draw_section(study, build_scene(study), buffer)
+    scene, flow = scene_and_flow(study)
+    draw_section(study, scene, buffer, flow=flow)
     varied = ("; the base study, before its random variables are drawn" if "Probabilistic" in kind_name else
               "; the base study, before the sweep sets its values" if "Sweep" in kind_name else "")
     return [_figure(buffer.getvalue(), SECTION_CAPTION.format(varied), "section")]

@@ -161,7 +161,8 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
     is there (``keep_fields``)."""
     import matplotlib.tri as mtri
 
-    from workflows.scene import cloud, field_values
+    from workflows.particles import cloud
+    from workflows.scene import field_values
     from workflows.study import parse_study
 
     runs = []

@@ -3,7 +3,7 @@
 The tables of the kinds of things live in their rooms and come here through their registries:
 material models (``workflows.materials``, ``[[materials]]`` by ``model``), stage kinds
 (``workflows.stages``, ``[[stages]]`` by ``kind``), loads (``workflows.loads``, ``[loads]``) and
-water (``workflows.water``, ``[water]``).  A new kind is a module there, not an edit here.
+water (``workflows.water.table``, ``[water]``).  A new kind is a module there, not an edit here.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from workflows.refinement.table import Refinement
 from workflows.seepage.table import Seepage
 from workflows.stages import STAGE_KINDS
 from workflows.stages.strength_reduction import StrengthReductionStage
-from workflows.water import Water
+from workflows.water.table import Water
 
 
 @dataclass(frozen=True, kw_only=True)
