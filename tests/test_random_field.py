@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from workflows.probabilistic.field_table import lognormal_parameters
 from workflows.probabilistic.random_field import (
     CELL_QUADRATURE_POINTS,
     GridField,
@@ -16,7 +17,6 @@ from workflows.probabilistic.random_field import (
     cell_correlation,
     cell_covariance,
     correlation,
-    lognormal_parameters,
     variance_function,
 )
 

@@ -23,7 +23,8 @@ from spfem_core.scene import Scene
 from spfem_core.settings import DEFAULT_CFL, SolverSettings
 from workflows.loads.surface import UpperSurface
 from workflows.particles import assign_materials, cloud, material_rows
-from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.probabilistic.field_table import SEEPAGE_PROPERTY
+from workflows.probabilistic.spatial import node_properties
 from workflows.seepage.flow import StudyFlow, study_flow
 from workflows.study import Study, StudyError
 from workflows.water.pressure import scene_fields
@@ -54,7 +55,7 @@ def field_values(study: Study, node_xy_m: np.ndarray | None = None, node_spacing
     if node_xy_m is None:
         node_xy_m, node_spacing_m = cloud(study)
         node_material = assign_materials(study, node_xy_m)
-    return study.random_field.node_properties(study.materials, node_xy_m, node_spacing_m, node_material)
+    return node_properties(study.random_field, study.materials, node_xy_m, node_spacing_m, node_material)
 
 
 def build_scene(study: Study, flow=None) -> Scene:

@@ -49,7 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-MODELS = ("markov", "gaussian")
+from workflows.probabilistic.field_table import CORRELATION_MODELS
+
 NEGATIVE_SHARE = 1e-3
 """Largest share of negative eigenvalues of an embedding (module doc): every covariance of the grid
 within 1e-3 of the variance, far below what 1,000 realisations resolve (a standard error of 0.03)."""
@@ -72,7 +73,7 @@ def correlation(model: str, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float
         return np.exp(-2.0 * np.sqrt(r2))
     if model == "gaussian":
         return np.exp(-math.pi * r2)
-    raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(MODELS)})")
+    raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(CORRELATION_MODELS)})")
 
 
 class EmbeddingError(ValueError):
@@ -299,10 +300,3 @@ class ParticleField:
             mine = self.cell_points == size
             out[mine] = cell_averages(grid_values, int(size))[self.ix[mine], self.iy[mine]]
         return out
-
-
-def lognormal_parameters(mean: float, cov: float) -> tuple[float, float]:
-    """(mu_ln, sigma_ln) of a lognormal variable of ``mean`` and coefficient of variation ``cov``:
-    sigma_ln^2 = ln(1 + cov^2), mu_ln = ln(mean) - sigma_ln^2 / 2."""
-    sigma2 = math.log1p(cov * cov)
-    return math.log(mean) - 0.5 * sigma2, math.sqrt(sigma2)

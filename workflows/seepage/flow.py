@@ -43,7 +43,8 @@ from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, h
 from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
 from workflows.particles import cloud_of_geometry, rows_of_materials
-from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.probabilistic.field_table import SEEPAGE_PROPERTY
+from workflows.probabilistic.spatial import node_properties
 from workflows.seepage.table import ROUND_OFF_SPACINGS
 
 POND = "pond"
@@ -115,7 +116,7 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
     elem_material = np.where(centroid_material >= 0, centroid_material, majority)
     k1 = np.array([m.permeability_m_s for m in materials])[elem_material]
     if random_field is not None:  # a permeability field: a triangle takes the geometric mean of its particles'
-        node_k = random_field.node_properties(materials, node_xy_m, node_spacing_m, node_material)[SEEPAGE_PROPERTY]
+        node_k = node_properties(random_field, materials, node_xy_m, node_spacing_m, node_material)[SEEPAGE_PROPERTY]
         node_k = np.where(np.isnan(node_k), np.array([m.permeability_m_s for m in materials])[node_material], node_k)
         varies = np.isin(elem_material, [i for i, m in enumerate(materials) if any(
             e.material == m.name and e.property == SEEPAGE_PROPERTY for e in random_field.properties)])

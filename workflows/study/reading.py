@@ -16,8 +16,9 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from workflows import engineering_units
 from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
-from workflows.study import engineering_units, line_files, section_form, slope_form
+from workflows.study import line_files, section_form, slope_form
 from workflows.study.tables import SectionForm, SlopeForm, Study
 from workflows.study.toml_text import to_toml
 
@@ -158,7 +159,7 @@ class FieldAt:
 def resolve_field(raw: dict, path: str) -> FieldAt:
     """The field at a sweep ``path`` in the study dict ``raw`` (a missing optional table is created); a
     field named in other units than its declaration's (``materials.soil.cohesion_kpa``,
-    ``unit_weight_kn_m3``: ``workflows.study.engineering_units``) is found with its declaration in those
+    ``unit_weight_kn_m3``: ``workflows.engineering_units``) is found with its declaration in those
     units.  StudyError (field ``path``) otherwise."""
     parts = path.split(".")
     cls, node, i, where = Study, raw, 0, ""

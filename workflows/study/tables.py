@@ -37,7 +37,7 @@ from workflows.fields import (
 )
 from workflows.loads import Loads
 from workflows.materials import MATERIAL_MODELS
-from workflows.probabilistic.spatial import RandomField
+from workflows.probabilistic.field_table import RandomField
 from workflows.probabilistic.table import Probabilistic
 from workflows.refinement.table import Refinement
 from workflows.seepage.table import Seepage
