@@ -9,8 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from workflows.probabilistic.field_table import lognormal_parameters
-from workflows.probabilistic.random_field import (
+from workflows.random_field.embedding import (
     CELL_QUADRATURE_POINTS,
     GridField,
     ParticleField,
@@ -19,6 +18,7 @@ from workflows.probabilistic.random_field import (
     correlation,
     variance_function,
 )
+from workflows.random_field.table import lognormal_parameters
 
 DRAWS = 1500  # complex draws: 3,000 fields
 

@@ -14,9 +14,9 @@ import xarray as xr
 
 from workflows.cases import RunOptions
 from workflows.fos.keys import gravity_key, run_key
-from workflows.probabilistic.field_table import lognormal_parameters
-from workflows.probabilistic.random_field import cell_correlation, variance_function
 from workflows.probabilistic.study_type import realisation_cases
+from workflows.random_field.embedding import cell_correlation, variance_function
+from workflows.random_field.table import lognormal_parameters
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
@@ -161,7 +161,7 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
 def test_the_longest_scale_a_section_holds_is_found_to_within_a_tenth():
     """largest_theta_scale on the quickstart's grid: the field at the scale it gives embeds, one a tenth
     longer does not (the grid's own embedding, cell averages of h = 1 m)."""
-    from workflows.probabilistic.random_field import ParticleGrid, embedding, largest_theta_scale
+    from workflows.random_field.embedding import ParticleGrid, embedding, largest_theta_scale
 
     scene = build_scene(parse_study(QUICKSTART))
     grid = ParticleGrid.of(scene.node_xy_m[:, 0], scene.node_xy_m[:, 1], 1.0)
@@ -228,7 +228,7 @@ def test_a_field_that_breaks_dilation_at_most_friction_is_refused_with_its_proba
 
 def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
     """P(psi > phi) for correlated normal, lognormal and mixed pairs against 400,000 correlated draws."""
-    from workflows.probabilistic.field_table import order_broken_probability
+    from workflows.random_field.table import order_broken_probability
 
     rng = np.random.default_rng(0)
     rho = 0.6
@@ -246,7 +246,7 @@ def test_the_rare_particles_whose_dilation_would_exceed_their_friction_take_thei
     """Below the refusal's probability, a particle whose fields break psi <= phi gets psi = phi, the
     others keep their own values (here a friction field with values below the material's dilation at
     a few particles)."""
-    from workflows.probabilistic.spatial import keep_order
+    from workflows.random_field.values import keep_order
 
     study = parse_study(QUICKSTART.replace("dilation_deg = 0.0", "dilation_deg = 5.0"))
     node_material = np.zeros(6, dtype=np.int64)

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 from spfem_core.divergence import DivergenceError
 from workflows.progress import OnlyWarnings, Progress
 from workflows.study import Study, StudyError
+from workflows.study.reading import case_error
 
 if TYPE_CHECKING:
     from workflows.fos.task import RunPolicy  # (imports dask: only when FOS cases run)
@@ -90,11 +91,6 @@ class CaseTimings:
         self.cases_elapsed += other.cases_elapsed
         self.gravity_worker += other.gravity_worker
         self.srf_runs_worker += other.srf_runs_worker
-
-
-def case_error(case_id: str, error: StudyError) -> StudyError:
-    """The StudyError of one case of a sweep, the case named before the field it names."""
-    return StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}")
 
 
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,

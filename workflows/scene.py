@@ -23,8 +23,8 @@ from spfem_core.scene import Scene
 from spfem_core.settings import DEFAULT_CFL, SolverSettings
 from workflows.loads.surface import UpperSurface
 from workflows.particles import assign_materials, cloud, material_rows
-from workflows.probabilistic.field_table import SEEPAGE_PROPERTY
-from workflows.probabilistic.spatial import node_properties
+from workflows.random_field.table import SEEPAGE_PROPERTY
+from workflows.random_field.values import node_properties
 from workflows.seepage.flow import StudyFlow, study_flow
 from workflows.study import Study, StudyError
 from workflows.water.pressure import scene_fields
@@ -77,7 +77,7 @@ def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | None]:
         flow = study_flow(study)
     water_fields = scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points),
                                       flow)
-    if study.random_field is not None:  # spatially variable soil (workflows.probabilistic.spatial)
+    if study.random_field is not None:  # spatially variable soil (workflows.random_field.values)
         varying = field_values(study, node_xy_m, node_spacing_m, node_material)
         varying.pop(SEEPAGE_PROPERTY, None)  # the flow's (workflows.seepage.flow), not the core's
         water_fields["node_properties"] = {**water_fields.get("node_properties", {}), **varying}

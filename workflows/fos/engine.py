@@ -57,7 +57,6 @@ from distributed import Event, wait
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.snapshot import StressState
-from workflows.cases import case_error
 from workflows.fos.gravity import (
     GravityResult,
     gravity_paths,
@@ -79,6 +78,7 @@ from workflows.seepage.flow import flow_inputs, study_flow
 from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study, StudyError
+from workflows.study.reading import case_error
 
 
 @dataclass

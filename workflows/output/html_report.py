@@ -132,11 +132,11 @@ def _figure(png: bytes, caption: str, alt: str) -> str:
 
 
 def _section_figure(study: Study, kind_name: str) -> list[str]:
-    """The section drawing (``workflows.check.draw_section``), unless the study draws no figures."""
+    """The section drawing (``workflows.section_figure.draw_section``), unless the study draws no figures."""
     if not study.output.figures:
         return []
-    from workflows.check import draw_section
     from workflows.scene import scene_and_flow
+    from workflows.section_figure import draw_section
 
     buffer = io.BytesIO()
     scene, flow = scene_and_flow(study)

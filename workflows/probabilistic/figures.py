@@ -21,8 +21,8 @@ import numpy as np
 import xarray as xr
 
 from workflows.output.figures import pyplot, save_figure
-from workflows.probabilistic.field_table import SEEPAGE_PROPERTY
 from workflows.probabilistic.reliability import failure_probability
+from workflows.random_field.table import SEEPAGE_PROPERTY
 
 FAILED_FIGURES = 3
 

@@ -53,7 +53,7 @@ from workflows import engineering_units
 from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
 from workflows.fields import MAX_MAGNITUDE, check_value, specs
 from workflows.output.figures import remove_stale_figures
-from workflows.probabilistic.table import spread_problem
+from workflows.random_field.table import spread_problem
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_field, resolve_sweep_path, set_field
 from workflows.study.toml_text import to_toml

@@ -43,8 +43,8 @@ from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, h
 from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
 from workflows.particles import cloud_of_geometry, rows_of_materials
-from workflows.probabilistic.field_table import SEEPAGE_PROPERTY
-from workflows.probabilistic.spatial import node_properties
+from workflows.random_field.table import SEEPAGE_PROPERTY
+from workflows.random_field.values import node_properties
 from workflows.seepage.table import ROUND_OFF_SPACINGS
 
 POND = "pond"

@@ -259,9 +259,15 @@ def sweep_cases(study: Study) -> list[SweepCase]:
         try:
             case_study = dataclasses.replace(_build_study(case_raw), source_text=text)
         except StudyError as error:
-            raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
+            raise case_error(case_id, error) from None
         cases[case_id] = SweepCase(case_id, position, values, case_study)
     return list(cases.values())
+
+
+def case_error(case_id: str, error: StudyError) -> StudyError:
+    """The StudyError of one case of a sweep (``case_id`` as :func:`sweep_cases` makes it), the case
+    named before the field it names."""
+    return StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}")
 
 
 def _case_value(value) -> str:

@@ -37,8 +37,8 @@ from workflows.fields import (
 )
 from workflows.loads import Loads
 from workflows.materials import MATERIAL_MODELS
-from workflows.probabilistic.field_table import RandomField
 from workflows.probabilistic.table import Probabilistic
+from workflows.random_field.table import RandomField
 from workflows.refinement.table import Refinement
 from workflows.seepage.table import Seepage
 from workflows.stages import STAGE_KINDS

@@ -28,13 +28,13 @@ import numpy as np
 import xarray as xr
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
+from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import result_paths
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study, StudyError
-from workflows.study.reading import SweepCase, sweep_cases
+from workflows.study.reading import SweepCase, case_error, sweep_cases
 from workflows.sweep.results import (
     CASE_TEXT_NAME,
     CASES_FOLDER,

@@ -1,8 +1,8 @@
-"""The random fields of ``[random_field]`` (``workflows.probabilistic.field_table``) drawn, and their values at the particles.
+"""The random fields of ``[random_field]`` (``workflows.random_field.table``) drawn, and their values at the particles.
 
 Each entry of ``[[random_field.properties]]`` makes one property of one material a random field
 (Griffiths & Fenton 2004): a standard Gaussian field ``G`` of the entry's correlation model and
-scales of fluctuation (``workflows.probabilistic.random_field``), averaged over each particle's
+scales of fluctuation (``workflows.random_field.embedding``), averaged over each particle's
 cell, mapped to the property by
 
     normal:     X = mean + std G
@@ -31,14 +31,14 @@ import zlib
 import numpy as np
 
 from workflows.fields import StudyError, specs
-from workflows.probabilistic.field_table import ORDERED, lognormal_parameters
-from workflows.probabilistic.random_field import (
+from workflows.random_field.embedding import (
     MAX_EMBEDDING,
     EmbeddingError,
     ParticleField,
     ParticleGrid,
     largest_theta_scale,
 )
+from workflows.random_field.table import ORDERED, lognormal_parameters
 
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
@@ -47,7 +47,7 @@ FIELD_STREAM = 7
 def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
                     node_material: np.ndarray) -> dict[str, np.ndarray]:
     """property -> (n,) values at the particles (NaN: a particle of another material) of the fields of
-    ``random_field`` (a ``field_table.RandomField``) over the study's ``materials`` (module doc)."""
+    ``random_field`` (a ``workflows.random_field.table.RandomField``) over the study's ``materials`` (module doc)."""
     by_name = {material.name: row for row, material in enumerate(materials)}
     out: dict[str, np.ndarray] = {}
     fields: dict[tuple, ParticleField] = {}
@@ -93,7 +93,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
 
 def keep_order(materials, node_material: np.ndarray, out: dict[str, np.ndarray]) -> None:
     """The lower property of each order (:data:`ORDERED`) set to the upper at the particles whose
-    fields break it (rare: ``field_table.RandomField._check_order``), in ``out`` (NaN: a particle of
+    fields break it (rare: ``RandomField._check_order``), in ``out`` (NaN: a particle of
     another material)."""
     for lower, upper in ORDERED:
         if lower not in out and upper not in out:

@@ -11,7 +11,7 @@ of a standard Gaussian field ``G``; two properties of one material may be cross-
 correlation structure for both).  The checks refuse a field that leaves its property's range, or
 breaks an order of its material's properties, with a probability above
 :data:`OUTSIDE_RANGE_LIMIT`.  Drawing the fields and their values at the particles is
-``workflows.probabilistic.spatial``.
+``workflows.random_field.values``.
 """
 
 from __future__ import annotations
@@ -23,10 +23,9 @@ import numpy as np
 
 from workflows.engineering_units import spellings
 from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
-from workflows.probabilistic.table import spread_problem
 
 CORRELATION_MODELS = ("markov", "gaussian")
-"""The correlation models of a field (``workflows.probabilistic.random_field.correlation``)."""
+"""The correlation models of a field (``workflows.random_field.embedding.correlation``)."""
 FIELD_DISTRIBUTIONS = ("normal", "lognormal")
 SEEPAGE_PROPERTY = "permeability_m_s"
 """The one property of a field that is no property of the core's: the conductivity the steady flow
@@ -48,6 +47,20 @@ def lognormal_parameters(mean: float, cov: float) -> tuple[float, float]:
     sigma_ln^2 = ln(1 + cov^2), mu_ln = ln(mean) - sigma_ln^2 / 2."""
     sigma2 = math.log1p(cov * cov)
     return math.log(mean) - 0.5 * sigma2, math.sqrt(sigma2)
+
+
+def spread_problem(mean: float, std: float, cov_given: bool) -> tuple[str, str] | None:
+    """(the field to blame, why) when a random value of ``mean`` and standard deviation ``std`` would
+    not vary: a coefficient of variation of a zero mean (no spread at all), or a std too small to
+    change the mean in floating point; None when it varies.  Realisations that do not differ are
+    one computation, not independent samples: they would make pf an interval of copies."""
+    if cov_given and mean == 0.0:
+        return "cov", ("the mean is 0, so a coefficient of variation (std / mean) gives no spread: give std, "
+                       "the spread in the field's unit, instead")
+    if not std > 0.0 or mean + std == mean:
+        return "std" if not cov_given else "cov", (f"a std of {std:.3g} about a mean of {mean:.6g} changes no value "
+                                                   "(a random value needs a spread)")
+    return None
 
 
 def _normal_cdf(z: float) -> float:

@@ -49,7 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.probabilistic.field_table import CORRELATION_MODELS
+from workflows.random_field.table import CORRELATION_MODELS
 
 NEGATIVE_SHARE = 1e-3
 """Largest share of negative eigenvalues of an embedding (module doc): every covariance of the grid
