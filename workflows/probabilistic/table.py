@@ -88,6 +88,16 @@ class Probabilistic(Record):
     keep_fields_first: int = integer("the first this many realisations keep the particle state of all their runs "
                                      "too, stable or failed", default=0, ge=0)
 
+    def check_in_study(self, study) -> None:
+        """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
+        if not self.variables and study.random_field is None:
+            raise StudyError("probabilistic.variables", "give a random variable, or a [random_field]")
+        if study.strength_reduction is None:
+            raise StudyError("probabilistic", "a probabilistic study judges each realisation by strength "
+                             "reduction: it needs a strength_reduction stage")
+        if study.refinement is not None:
+            raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
+
     def check(self):
         n = len(self.variables)
         if self.correlation is not None:

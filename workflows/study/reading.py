@@ -19,7 +19,8 @@ from pathlib import Path
 from workflows import engineering_units
 from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
 from workflows.study import line_files, section_form, slope_form
-from workflows.study.tables import SectionForm, SlopeForm, Study
+from workflows.study.geometry import SectionForm, SlopeForm
+from workflows.study.tables import Study
 from workflows.study.toml_text import to_toml
 
 
