@@ -27,8 +27,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize
 
 from spfem_core.geometry import downslope_sign, relief_m, surface_height_m
+from workflows.fos.slip_surface import material_strength
+from workflows.particles import material_rows
+from workflows.water.pressure import phreatic_lines, ru_pore_pressure_pa
 
 EXTENSION_PER_HEIGHT = 3.0
 RASTER_PER_HEIGHT = 20
@@ -54,9 +58,6 @@ class _Section:
     """The raster of the extended section (module doc), turned to face +x."""
 
     def __init__(self, study):
-        from workflows.particles import material_rows
-        from workflows.water.pressure import phreatic_lines, ru_pore_pressure_pa
-
         polygon = np.asarray(study.geometry.polygon_m, dtype=float)
         self.sign = -1.0 if downslope_sign(polygon) == -1.0 else 1.0
         self.height = relief_m(polygon)
@@ -127,8 +128,6 @@ class _Section:
 
 def _strength(material) -> tuple[float, float] | None:
     """(c, tan phi) of a material, None for an elastic one (``workflows.fos.slip_surface``)."""
-    from workflows.fos.slip_surface import material_strength
-
     return material_strength(material)
 
 
@@ -196,8 +195,6 @@ def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[flo
 def critical_circle(study) -> CriticalCircle | None:
     """The least Bishop F over a grid of circles, the best ``POLISHED`` of them polished by
     Nelder-Mead (module doc); None where no circle is admissible."""
-    from scipy.optimize import minimize
-
     section = _Section(study)
     h = section.height
     toe_y, top_y = float(section.ground.min()), float(section.ground.max())

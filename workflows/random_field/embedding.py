@@ -86,7 +86,7 @@ def embedding(model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, 
     """sqrt(lambda / N) of the smallest periodic grid, from twice the ``nx`` x ``ny`` grid up to
     :data:`MAX_EMBEDDING` times it, whose negative eigenvalues are at most :data:`NEGATIVE_SHARE` of
     their sum (module doc; :meth:`GridField.build`); None when none is."""
-    from scipy import fft  # scipy only when drawing: the study reader imports this module
+    from scipy import fft  # scipy.fft: only when a field is drawn
 
     for factor in range(2, MAX_EMBEDDING + 1):
         mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
@@ -138,7 +138,7 @@ class GridField:
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
-        from scipy import fft
+        from scipy import fft  # scipy.fft: only when a field is drawn
 
         shape = self.sqrt_eigen.shape
         z = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
@@ -196,7 +196,7 @@ def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, 
 def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
     """The average of ``grid_values`` over the ``cell_points`` x ``cell_points`` box about each
     grid point (a box filter; the box shrinks to the grid at its edges)."""
-    from scipy import ndimage
+    from scipy import ndimage  # scipy.ndimage: only when a field is drawn
 
     return ndimage.uniform_filter(grid_values, size=cell_points, mode="nearest")
 

@@ -20,6 +20,8 @@ import numpy as np
 from spfem_core.geometry import downslope_sign
 from workflows.fields import StudyError, number
 from workflows.loads.seismic import OUT_OF_SLOPE, horizontal_sign, with_horizontal
+from workflows.output.variables import RUNOUT_METRICS
+from workflows.runout.figures import runout_fields
 from workflows.runout.rest import rest_rule
 from workflows.stages.base import StageBase
 from workflows.water.table import level_line
@@ -113,7 +115,6 @@ class RunoutStage(StageBase):
     def add_results(self, dataset, study, series, final) -> None:
         """The runout metrics of ``workflows.runout.metrics`` (on the particles in the final mesh)."""
         # imported here: the metrics need scipy, which the study reader must not import
-        from workflows.output.variables import RUNOUT_METRICS
         from workflows.runout.metrics import final_surface, runout_summary, surface_change
 
         meshed = final.meshed
@@ -149,8 +150,6 @@ class RunoutStage(StageBase):
 
     def figures(self, study, result_path, out_dir) -> list:
         """``<stage>.png``: the final state over the initial outline (``runout.figures``)."""
-        from workflows.runout.figures import runout_fields  # matplotlib: only when drawing
-
         if not study.output.figures:
             return []
         return [runout_fields(result_path, Path(out_dir) / f"{self.name}.png", self.strength_factor,
