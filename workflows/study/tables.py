@@ -10,7 +10,6 @@ water (``workflows.water.table``, ``[water]``).  A new kind is a module there, n
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 from spfem_core.geometry import points_in_polygon, relief_m
@@ -28,7 +27,7 @@ from workflows.study.records import Metrics, Monitor, Output
 from workflows.study.solver import Solver
 from workflows.study.supports import Boundary, Wall
 from workflows.study.sweep import Sweep
-from workflows.water.table import Water
+from workflows.water.table import Water, check_water_in_study
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -101,7 +100,8 @@ class Study(Record):
                 field = f"stages[{i}].boundary" if stage.boundary is not None else "boundary"
                 raise StudyError(field, f"stage {stage.name!r} has no support and no wall: the body would fall as a "
                                  "whole; give a [[boundary]] (a fixed base, vx_m_s = vy_m_s = 0) and name it here")
-        self._check_water_and_loads()
+        check_water_in_study(self)
+        self.loads.check_in_study(self)
         self.output.check_in_study(self)
         if self.metrics is not None:
             self.metrics.check_in_study(self)
@@ -119,73 +119,3 @@ class Study(Record):
                 raise StudyError(
                     f"monitors[{i}]", f"point ({monitor.x_m:g}, {monitor.y_m:g}) lies outside geometry.polygon_m"
                 )
-
-    def _check_water_and_loads(self):
-        xs = [x for x, _ in self.geometry.polygon_m]
-        x_min, x_max = min(xs), max(xs)
-        water = self.water
-        lines = [("water.phreatic_line_m", water.phreatic_line_m if water is not None else None)]
-        lines += [(f"materials[{i}].phreatic_line_m", m.phreatic_line_m) for i, m in enumerate(self.materials)]
-        for field, line in lines:
-            if line is not None and (line[0][0] > x_min or line[-1][0] < x_max):
-                raise StudyError(field, f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
-                                 f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
-        study_line = water is not None and water.phreatic_line is not None
-        if self.seepage is not None:
-            self._check_seepage()
-        elif water is not None and not study_line and water.ru is None and water.pond_level_m is None:
-            raise StudyError("water.phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m "
-                             "(or [seepage] to compute the water)")
-        for i, material in enumerate(self.materials):
-            if self.seepage is not None:
-                continue
-            if material.saturated_density_kg_m3 is not None and not study_line and material.phreatic_line_m is None:
-                raise StudyError(f"materials[{i}].saturated_density_kg_m3", "applies below a piezometric line: give "
-                                 "[water] phreatic_line_m or phreatic_level_m, or the material's phreatic_line_m")
-            if material.phreatic_line_m is not None and water is not None and water.ru is not None:
-                raise StudyError(f"materials[{i}].phreatic_line_m", "give a piezometric line or [water] ru, not both")
-        g = math.hypot(*self.loads.gravity_m_s2)
-        gamma_w = water.unit_weight_n_m3 if water is not None else 9810.0
-        if (water is not None or self.seepage is not None) and g > 0.0:
-            for i, material in enumerate(self.materials):
-                wet = material.saturated_density_kg_m3 or material.density_kg_m3
-                field = "saturated_density_kg_m3" if material.saturated_density_kg_m3 else "density_kg_m3"
-                if wet * g <= gamma_w:
-                    raise StudyError(f"materials[{i}].{field}", f"{wet:g} kg/m3 is a saturated unit weight of "
-                                     f"{wet * g / 1e3:.3g} kN/m3, no more than the water's ({gamma_w / 1e3:.3g} "
-                                     "kN/m3): the soil would float (negative buoyant weight); saturated soils are "
-                                     "1,600-2,300 kg/m3")
-        for where, load in self.loads.surface_loads():
-            for field, x in load.abscissae_m().items():
-                if not x_min <= x <= x_max:
-                    raise StudyError(f"{where}.{field}", f"{x:g} m is off the ground surface, which spans "
-                                     f"x = {x_min:g} to {x_max:g} m")
-        first = self.stages[0]
-        ramp = self.loads.ramp_time_s
-        if ramp is not None and ramp > first.time_limit_s:
-            raise StudyError("loads.ramp_time_s", f"must be <= the first stage's {first.duration_field} = "
-                             f"{first.time_limit_s:g}, got {ramp:g}")
-        seismic = self.loads.seismic
-        if seismic is not None and not seismic.in_gravity and self.strength_reduction is None:
-            raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
-                             "and this study has none")
-
-    def _check_seepage(self):
-        """[seepage] computes the water: no line or ru beside it, a permeability for every material."""
-        water = self.water
-        for name in ("phreatic_line_m", "phreatic_level_m", "ru"):
-            if water is not None and getattr(water, name) is not None:
-                raise StudyError(f"water.{name}", "[seepage] computes the pore pressure: leave the line and ru out")
-        for i, material in enumerate(self.materials):
-            if material.phreatic_line_m is not None:
-                raise StudyError(f"materials[{i}].phreatic_line_m", "[seepage] computes the pore pressure: leave "
-                                 "the line out")
-            if material.permeability_m_s is None:
-                raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
-                                 "the study has [seepage]")
-        try:
-            largest_permeability = max(m.permeability_m_s * max(1.0, m.permeability_ratio) for m in self.materials)
-            self.seepage.check_in_study(self.geometry.polygon_m, None if water is None else water.pond_level_m,
-                                        largest_permeability)
-        except StudyError as error:
-            raise StudyError(f"seepage.{error.field}", error.problem) from None

@@ -10,6 +10,7 @@ drawn above the ground before a study runs.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,6 +75,47 @@ class Water(Record):
 def level_line(level_m: float) -> tuple:
     """The horizontal piezometric line at ``level_m``."""
     return ((-LEVEL_SPAN_M, level_m), (LEVEL_SPAN_M, level_m))
+
+
+def check_water_in_study(study) -> None:
+    """StudyError on the study's water: a piezometric line (the study's or a material's) that does not
+    span the domain; [seepage] beside a line or ru, or a material without a permeability beside it
+    (``workflows.seepage.table.Seepage.check_in_study``); [water] that sets no water; a saturated
+    density with no line to be below, a material's line beside ru; a soil that would float."""
+    xs = [x for x, _ in study.geometry.polygon_m]
+    x_min, x_max = min(xs), max(xs)
+    water = study.water
+    lines = [("water.phreatic_line_m", water.phreatic_line_m if water is not None else None)]
+    lines += [(f"materials[{i}].phreatic_line_m", m.phreatic_line_m) for i, m in enumerate(study.materials)]
+    for field, line in lines:
+        if line is not None and (line[0][0] > x_min or line[-1][0] < x_max):
+            raise StudyError(field, f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
+                             f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
+    study_line = water is not None and water.phreatic_line is not None
+    if study.seepage is not None:
+        study.seepage.check_in_study(study)
+    elif water is not None and not study_line and water.ru is None and water.pond_level_m is None:
+        raise StudyError("water.phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m "
+                         "(or [seepage] to compute the water)")
+    for i, material in enumerate(study.materials):
+        if study.seepage is not None:
+            continue
+        if material.saturated_density_kg_m3 is not None and not study_line and material.phreatic_line_m is None:
+            raise StudyError(f"materials[{i}].saturated_density_kg_m3", "applies below a piezometric line: give "
+                             "[water] phreatic_line_m or phreatic_level_m, or the material's phreatic_line_m")
+        if material.phreatic_line_m is not None and water is not None and water.ru is not None:
+            raise StudyError(f"materials[{i}].phreatic_line_m", "give a piezometric line or [water] ru, not both")
+    g = math.hypot(*study.loads.gravity_m_s2)
+    gamma_w = water.unit_weight_n_m3 if water is not None else 9810.0
+    if (water is not None or study.seepage is not None) and g > 0.0:
+        for i, material in enumerate(study.materials):
+            wet = material.saturated_density_kg_m3 or material.density_kg_m3
+            field = "saturated_density_kg_m3" if material.saturated_density_kg_m3 else "density_kg_m3"
+            if wet * g <= gamma_w:
+                raise StudyError(f"materials[{i}].{field}", f"{wet:g} kg/m3 is a saturated unit weight of "
+                                 f"{wet * g / 1e3:.3g} kN/m3, no more than the water's ({gamma_w / 1e3:.3g} "
+                                 "kN/m3): the soil would float (negative buoyant weight); saturated soils are "
+                                 "1,600-2,300 kg/m3")
 
 
 SURFACE_SAMPLES = 512
