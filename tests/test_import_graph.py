@@ -4,15 +4,18 @@ The graph is grimp's: every ``import`` statement of a module, those inside funct
 
 1. no module of spfem_core, workflows, verification or benchmarks is part of an import cycle;
 2. between the packages only the allowed arrows: workflows -> spfem_core, verification -> both,
-   benchmarks -> all three (never back);
+   benchmarks -> all three (never back); within workflows, no cycle between its rooms (a module
+   directly in it, or a sub-package), a room's declarations counted apart from its running code
+   (the table below, the code that runs it above);
 3. the study file's declarations (``workflows.study`` and all it imports) reach no code that runs:
    only the fields kit, the tables of the kinds' rooms and the study's own modules;
 4. no file edits ``sys.path`` (a process imports what its working directory and PYTHONPATH give);
 5. each module of spfem_core and workflows imports as the first one (a loop through a package's
    ``__init__``, which the graph does not draw, shows only for some first imports).
 
-``python tests/test_import_graph.py`` prints the arrows between packages and between their
-sub-packages (a module directly in a package counts as one).
+``python tests/test_import_graph.py`` (or ``pytest -s``) prints the arrows between packages, between
+their sub-packages (a module directly in a package counts as one), and between the rooms of
+workflows with their declarations apart.
 """
 
 from __future__ import annotations
@@ -108,11 +111,43 @@ def test_packages_import_one_way():
     assert set(found) <= ALLOWED_PACKAGE_ARROWS, sorted(set(found) - ALLOWED_PACKAGE_ARROWS)
 
 
+def declaration(module: str) -> bool:
+    return module not in RUNNERS and any(fnmatch.fnmatchcase(module, pattern) for pattern in DECLARATIONS)
+
+
+def floor(module: str) -> str:
+    """The room of a module of workflows (``workflows.<room>``), its declarations as a room of their own
+    (``workflows.<room>:declarations``); a module of another package: its package."""
+    parts = module.split(".")
+    if parts[0] != "workflows":
+        return parts[0]
+    room = ".".join(parts[:2])
+    return f"{room}:declarations" if declaration(module) else room
+
+
+def rooms_graph(graph: grimp.ImportGraph) -> grimp.ImportGraph:
+    """The graph of :func:`floor`: a node per room (its declarations apart), an arrow where a module of
+    one imports a module of another."""
+    rooms = grimp.ImportGraph()
+    for module in graph.modules:
+        rooms.add_module(floor(module))
+        for imported in graph.find_modules_directly_imported_by(module):
+            if floor(imported) != floor(module):
+                rooms.add_import(importer=floor(module), imported=floor(imported))
+    return rooms
+
+
+def test_the_rooms_of_workflows_import_one_way():
+    graph = import_graph()
+    print("\nsub-package arrows:", ", ".join(f"{a} -> {b}" for a, b in arrows(graph, 2)))
+    found = cycles(rooms_graph(graph))
+    assert found == [], "rooms of workflows that import each other:\n" + "\n".join(map(str, found))
+
+
 def test_the_study_reader_imports_no_code_that_runs():
     graph = import_graph()
     reached = sorted(m for m in graph.find_upstream_modules(STUDY_READER) if m.startswith("workflows."))
-    running = [m for m in reached
-               if m in RUNNERS or not any(fnmatch.fnmatchcase(m, pattern) for pattern in DECLARATIONS)]
+    running = [m for m in reached if not declaration(m)]
     chains = [" -> ".join(graph.find_shortest_chain(importer=STUDY_READER, imported=m)) for m in running]
     assert running == [], "the study reader reaches code that runs:\n" + "\n".join(chains)
 
@@ -180,4 +215,10 @@ if __name__ == "__main__":
         found = arrows(graph, depth)
         print(f"{len(found)} arrows between {name}:")
         print("\n".join(f"  {a} -> {b}" for a, b in found))
+    rooms = rooms_graph(graph)
+    found = sorted((a, b) for a in rooms.modules for b in rooms.find_modules_directly_imported_by(a)
+                   if a.startswith("workflows"))
+    print(f"{len(found)} arrows between the rooms of workflows, declarations apart:")
+    print("\n".join(f"  {a} -> {b}" for a, b in found))
     print("cycles of modules:", cycles(graph) or "none")
+    print("cycles of rooms:", cycles(rooms) or "none")

@@ -289,7 +289,7 @@ def main(
             typer.echo(line, err=True)
         for line in report.lines:
             typer.echo(line)
-        from workflows.output.html_report import write_html_report  # xarray: this module imports none of it
+        from workflows.html_report import write_html_report  # xarray: this module imports none of it
 
         page = write_html_report(kind, outcome, study_file)
         if not quiet:

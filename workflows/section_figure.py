@@ -2,7 +2,7 @@
 holds (x, y or both), walls, refined zones, water (piezometric lines or the steady flow's water
 table dashed, ponded water solid), surface loads (arrows), monitors, and the critical circle of a
 limit-equilibrium search.  ``spfem-fos check`` draws it into ``OUT/section.png``
-(``workflows.check``), ``report.html`` at its head (``workflows.output.html_report``).
+(``workflows.check``), ``report.html`` at its head (``workflows.html_report``).
 """
 
 from __future__ import annotations
