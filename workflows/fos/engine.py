@@ -94,7 +94,7 @@ class CaseSearch:
     write_gravity: bool = True  # False: its gravity state is never written (recomputed if needed again)
     policy: RunPolicy = field(default_factory=RunPolicy)  # what its runs keep, and when they end
     gravity: StressState | None = None  # once known
-    flow: object = None  # its steady flow (``workflows.seepage.flow.StudyFlow``) once solved with its gravity
+    flow: object = None  # its steady flow (``workflows.seepage.flow.StudyFlow``), once solved: for its runs and figures
     gravity_reused: bool = False
     gravity_wall_s: float = 0.0
     n_particles: int = 0
@@ -211,8 +211,8 @@ class Engine:
             if case.study.seepage is not None:  # the client's flow: the workers do not solve it again
                 inputs = flow_inputs(case.study)
                 if inputs not in self.flows:
-                    solved = case.flow if case.flow is not None else study_flow(case.study)
-                    self.flows[inputs] = self._on_every_worker(solved, f"steady-flow-{case.gkey}-{len(self.flows)}")
+                    case.flow = study_flow(case.study) if case.flow is None else case.flow
+                    self.flows[inputs] = self._on_every_worker(case.flow, f"steady-flow-{case.gkey}-{len(self.flows)}")
                 flow = self.flows[inputs]
             case.shared = (case.study, self.scattered[case.gkey], flow)
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
@@ -666,7 +666,7 @@ class Engine:
             inputs = flow_inputs(case.study)
             if all(flow_inputs(other.study) != inputs for other in self.cases):
                 self.flows.pop(inputs, None)
-        case.shared, case.flow = (), None
+        case.shared = ()
 
     def _report_runs(self, active: list[CaseSearch]) -> None:
         done = self.runs_handed_back + sum(len(case.runs) for case in self.cases)

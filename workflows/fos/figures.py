@@ -57,12 +57,13 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     return path
 
 
-def run_fields(run_path: Path, path: Path) -> Path:
-    """The final state of an SRF run, with its water and loads."""
+def run_fields(run_path: Path, path: Path, flow=None) -> Path:
+    """The final state of an SRF run, with its water (``flow``: the steady flow of its study, if it has
+    one and the caller has it) and loads."""
 
     def decorate(ax, attrs) -> None:
         if attrs.get("study"):
-            draw_water_and_loads(ax, parse_study(attrs["study"]))
+            draw_water_and_loads(ax, parse_study(attrs["study"]), flow)
 
     return final_state_figure(run_path, path, lambda ds: f"SRF {float(ds.attrs['srf']):g} ({ds.attrs['status']}), "
                               "final state", decorate)
@@ -92,8 +93,9 @@ FIGURE_NAMES = ("srf_curve.png", "fields_srf_*.png", "particle_spacing.png", "sl
 are removed (``output.figures.remove_stale_figures``)."""
 
 
-def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
-    """The SRF curve and the fields at the last stable and first failed SRF (module doc)."""
+def draw_figures(out_dir: Path, summary: xr.Dataset, flow=None) -> list[Path]:
+    """The SRF curve and the fields at the last stable and first failed SRF (module doc); ``flow``: the
+    case's steady flow, when it has one."""
     paths = [srf_curve(summary, out_dir / "srf_curve.png")]
     srf = summary["srf"].values
     status = summary["status"].values.astype(str)
@@ -110,7 +112,7 @@ def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
     for value in picks:
         run_path = out_dir / run_file_name(float(value))
         if run_path.is_file():
-            paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png"))
+            paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png", flow))
     if summary.sizes.get("slip_point", 0) and (out_dir / run_file_name(float(summary["slip_srf"]))).is_file():
         paths.append(slip_figure(summary, out_dir, out_dir / "slip_surface.png"))
     if picks and (run_path := out_dir / run_file_name(float(picks[0]))).is_file():
