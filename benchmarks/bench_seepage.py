@@ -25,7 +25,7 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
     from workflows.cases import RunOptions
-    from workflows.seepage.flow import _flow, flow_inputs
+    from workflows.seepage.flow import study_flow
     from workflows.study import load_study
     from workflows.study_types import run_study
 
@@ -34,7 +34,7 @@ def main(argv=None) -> int:
     for name in STUDIES:
         study = load_study(ROOT / "studies" / f"{name}.toml")
         start = time.perf_counter()
-        flow = _flow(*flow_inputs(study))  # not the process's cached flow: solved here
+        flow = study_flow(study)
         solve_s = time.perf_counter() - start
         with tempfile.TemporaryDirectory() as scratch:
             start = time.perf_counter()

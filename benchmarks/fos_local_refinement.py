@@ -26,7 +26,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from benchmarks.study_command import run_study_command
+from verification.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIP_LINE_M = [(16, 16.5), (18, 14), (20, 11.9), (22, 10), (24, 8.5), (26, 7.4), (28, 6.5), (30, 5.75), (32, 5.1),

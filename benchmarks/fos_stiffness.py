@@ -19,7 +19,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from benchmarks.study_command import run_study_command
+from verification.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {"reference_slope": "studies/reference_slope.toml", "griffiths_lane_ex4": "studies/published/griffiths_lane_ex4.toml"}

@@ -3,7 +3,8 @@ command to time whole, alternated against another tree (``farm-bench --vs``, ``h
 
     python benchmarks/steps.py TREE SCENE MODEL THREADS STEPS [SPACING_M]
 
-TREE: the checkout whose ``spfem_core`` runs (this file's scene code is used for both);
+TREE: the checkout whose ``spfem_core`` runs, in a process of its own (working directory and
+PYTHONPATH TREE; this file's scene code is used for both);
 SCENE: ``column`` (the sand column on a rough floor) or ``beam`` (the elastic cantilever),
 bench_core's two scenes; MODEL: the column's material model (``mohr_coulomb``, ``drucker_prager``,
 ``elastic``; the beam is elastic); THREADS: 0 for all cores, 1 for a dask worker's one; STEPS;
@@ -15,10 +16,20 @@ of docs/benchmarks.md against a checkout before:
         -- python benchmarks/steps.py . column drucker_prager 1 2500 0.0032
 """
 
+import os
+import subprocess
 import sys
+from pathlib import Path
 
-tree, scene, model, threads, steps = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
-sys.path.insert(0, tree)
+TREE_VARIABLE = "SPFEM_FOS_BENCH_TREE"
+"""Set in the process that measures: the checkout whose ``spfem_core`` it imports."""
+if os.environ.get(TREE_VARIABLE) is None:  # the launcher: the measurement runs in a process of TREE's own
+    tree = Path(sys.argv[1]).resolve()
+    own = {**os.environ, "PYTHONPATH": str(tree), TREE_VARIABLE: str(tree)}
+    sys.exit(subprocess.run([sys.executable, str(Path(__file__).resolve()), *sys.argv[1:]], cwd=tree,
+                            env=own).returncode)
+
+scene, model, threads, steps = sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5])
 
 import numpy as np  # noqa: E402
 

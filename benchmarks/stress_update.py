@@ -9,11 +9,21 @@ timed 7 times, each from the same state.  Prints the fastest and the median of t
 plastic work of the last update (the same in two trees that compute the same).
 """
 
+import os
+import subprocess
 import sys
 import time
+from pathlib import Path
+
+TREE_VARIABLE = "SPFEM_FOS_BENCH_TREE"
+"""Set in the process that measures: the checkout whose ``spfem_core`` it imports."""
+if os.environ.get(TREE_VARIABLE) is None:  # the launcher: the measurement runs in a process of TREE's own
+    tree = Path(sys.argv[1]).resolve()
+    own = {**os.environ, "PYTHONPATH": str(tree), TREE_VARIABLE: str(tree)}
+    sys.exit(subprocess.run([sys.executable, str(Path(__file__).resolve()), *sys.argv[1:]], cwd=tree,
+                            env=own).returncode)
 
 tree, model = sys.argv[1], sys.argv[2]
-sys.path.insert(0, tree)
 
 import numba  # noqa: E402
 import numpy as np  # noqa: E402

@@ -1,4 +1,4 @@
-"""Fields in engineers' units (workflows.study.engineering_units): kPa and MPa for any field in
+"""Fields in engineers' units (workflows.engineering_units): kPa and MPa for any field in
 Pa, unit weights in kN/m3 for densities; the study they make is the SI one, and errors name the
 field as written."""
 

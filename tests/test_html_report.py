@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
+from workflows.html_report import FIGURE_CAPTIONS, REPORT_FILE, _result_figures, write_html_report
 from workflows.output.figures import pyplot, save_figure
-from workflows.output.html_report import FIGURE_CAPTIONS, REPORT_FILE, _result_figures, write_html_report
 from workflows.study_types import study_type
 
 REPO = Path(__file__).resolve().parents[1]

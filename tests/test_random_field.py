@@ -9,16 +9,16 @@ import math
 import numpy as np
 import pytest
 
-from workflows.probabilistic.random_field import (
+from workflows.random_field.embedding import (
     CELL_QUADRATURE_POINTS,
     GridField,
     ParticleField,
     cell_correlation,
     cell_covariance,
     correlation,
-    lognormal_parameters,
     variance_function,
 )
+from workflows.random_field.table import lognormal_parameters
 
 DRAWS = 1500  # complex draws: 3,000 fields
 

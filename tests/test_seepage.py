@@ -136,10 +136,16 @@ def test_the_particles_carry_the_flows_pore_pressure_and_weigh_saturated_below_t
     assert scene.pond_x_range_m == (-math.inf, 0.25)  # half a spacing of slack: the face stays wet as it moves
 
 
-def test_a_study_writes_its_flow_and_every_stage_uses_it(tmp_path):
+def test_a_study_writes_its_flow_and_every_stage_uses_it(tmp_path, monkeypatch):
     """The gravity stage of the dam: seepage.nc (mass balance closed, the pond on the upstream face
-    alone) and seepage.png beside the stage file, whose pore pressures are the flow's."""
+    alone) and seepage.png beside the stage file, whose pore pressures are the flow's; the flow is
+    solved once, and the scene's flow is the one written (passed on as a value: no process keeps one)."""
+    import workflows.seepage.flow as flow_module
+
+    solve, solved = flow_module._flow, []
+    monkeypatch.setattr(flow_module, "_flow", lambda *inputs: solved.append(inputs) or solve(*inputs))
     run_study(parse_study(DAM), tmp_path, RunOptions())
+    assert len(solved) == 1
     with xr.open_dataset(tmp_path / "seepage.nc") as seepage, xr.open_dataset(tmp_path / "run.nc") as run:
         assert seepage.attrs["converged"] == 1
         assert seepage.attrs["inflow_m2_s"] == pytest.approx(seepage.attrs["outflow_m2_s"], rel=1e-5)

@@ -14,8 +14,9 @@ import xarray as xr
 
 from workflows.cases import RunOptions
 from workflows.fos.keys import gravity_key, run_key
-from workflows.probabilistic.random_field import cell_correlation, lognormal_parameters, variance_function
 from workflows.probabilistic.study_type import realisation_cases
+from workflows.random_field.embedding import cell_correlation, variance_function
+from workflows.random_field.table import lognormal_parameters
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
@@ -160,7 +161,7 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
 def test_the_longest_scale_a_section_holds_is_found_to_within_a_tenth():
     """largest_theta_scale on the quickstart's grid: the field at the scale it gives embeds, one a tenth
     longer does not (the grid's own embedding, cell averages of h = 1 m)."""
-    from workflows.probabilistic.random_field import ParticleGrid, embedding, largest_theta_scale
+    from workflows.random_field.embedding import ParticleGrid, embedding, largest_theta_scale
 
     scene = build_scene(parse_study(QUICKSTART))
     grid = ParticleGrid.of(scene.node_xy_m[:, 0], scene.node_xy_m[:, 1], 1.0)
@@ -227,7 +228,7 @@ def test_a_field_that_breaks_dilation_at_most_friction_is_refused_with_its_proba
 
 def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
     """P(psi > phi) for correlated normal, lognormal and mixed pairs against 400,000 correlated draws."""
-    from workflows.probabilistic.spatial import order_broken_probability
+    from workflows.random_field.table import order_broken_probability
 
     rng = np.random.default_rng(0)
     rho = 0.6
@@ -245,10 +246,10 @@ def test_the_rare_particles_whose_dilation_would_exceed_their_friction_take_thei
     """Below the refusal's probability, a particle whose fields break psi <= phi gets psi = phi, the
     others keep their own values (here a friction field with values below the material's dilation at
     a few particles)."""
-    from workflows.probabilistic.spatial import RandomField
+    from workflows.random_field.values import keep_order
 
     study = parse_study(QUICKSTART.replace("dilation_deg = 0.0", "dilation_deg = 5.0"))
     node_material = np.zeros(6, dtype=np.int64)
     out = {"friction_deg": np.array([20.0, 4.0, 30.0, 5.0, 2.0, 25.0])}
-    RandomField._ordered(study.materials, node_material, out)
+    keep_order(study.materials, node_material, out)
     np.testing.assert_array_equal(out["dilation_deg"], [np.nan, 4.0, np.nan, np.nan, 2.0, np.nan])

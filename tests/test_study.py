@@ -21,7 +21,8 @@ from workflows.fields import specs
 from workflows.materials import ElasticMaterial
 from workflows.stages import DynamicStage, RelaxationStage
 from workflows.study import StudyError, load_study, parse_study, reference
-from workflows.study.tables import Geometry, Study
+from workflows.study.geometry import Geometry
+from workflows.study.tables import Study
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED_STUDIES = sorted((REPO / "studies").glob("*.toml"))

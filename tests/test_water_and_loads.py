@@ -23,7 +23,7 @@ from workflows.cli import app
 from workflows.scene import build_scene
 from workflows.study import parse_study
 from workflows.study_types import run_study
-from workflows.water import water_above_ground_warnings
+from workflows.water.table import water_above_ground_warnings
 
 REPO = Path(__file__).resolve().parents[1]
 GAMMA_W = 9810.0

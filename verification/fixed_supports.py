@@ -17,8 +17,8 @@ from pathlib import Path
 
 import xarray as xr
 
-from benchmarks.study_command import run_study_command
 from verification.least_circle import slope_least_circle
+from verification.study_command import run_study_command
 
 REPO = Path(__file__).resolve().parents[1]
 BASES = ("welded", "rough")

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from benchmarks.study_command import run_study_command
+from verification.study_command import run_study_command
 
 ROOT = Path(__file__).resolve().parents[1]
 

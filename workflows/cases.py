@@ -19,13 +19,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from spfem_core.divergence import DivergenceError
+from workflows.layers import thin_layer_warnings
+from workflows.output.figures import import_pyplot_in_background
 from workflows.progress import OnlyWarnings, Progress
 from workflows.study import Study, StudyError
+from workflows.study.reading import case_error
+from workflows.water.table import water_above_ground_warnings
 
 if TYPE_CHECKING:
     from workflows.fos.task import RunPolicy  # (imports dask: only when FOS cases run)
@@ -93,11 +98,6 @@ class CaseTimings:
         self.srf_runs_worker += other.srf_runs_worker
 
 
-def case_error(case_id: str, error: StudyError) -> StudyError:
-    """The StudyError of one case of a sweep, the case named before the field it names."""
-    return StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}")
-
-
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
               wall_start: float, session=None, on_case=None, feed: CaseFeed | None = None) -> tuple[dict, CaseTimings]:
     """Compute ``cases`` (module doc), and those of ``feed`` as there is room for them; (outcome by case
@@ -115,14 +115,11 @@ def run_cases(cases: list[Case], placement: Placement, options: RunOptions, prog
 def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progress, wall_start: float,
                session=None, on_case=None, feed: CaseFeed | None = None):
     """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
-    from contextlib import nullcontext
-
     from spfem_core.warmup import warm_up  # dask and the core: once the study is known to be valid
     from workflows.fos.cluster import dask_session
     from workflows.fos.engine import CaseSearch, Engine
     from workflows.fos.summary import conclude_case
     from workflows.fos.task import RunPolicy
-    from workflows.output.figures import import_pyplot_in_background
 
     start_unix_s = time.time()
     made = 0
@@ -230,10 +227,7 @@ class StudyType:
 
     def warnings(self) -> list[str]:
         """Warnings before anything runs: materials too thin for the particle spacing (``workflows.layers``),
-        water above the ground with no pond (``workflows.water``)."""
-        from workflows.layers import thin_layer_warnings
-        from workflows.water import water_above_ground_warnings
-
+        water above the ground with no pond (``workflows.water.table``)."""
         return thin_layer_warnings(self.study) + water_above_ground_warnings(self.study)
 
     def cases(self) -> list[Case]:

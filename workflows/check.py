@@ -39,10 +39,15 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
+from workflows.fos.critical_circle import critical_circle, domain_warnings
 from workflows.memory_guard import BYTES_PER_PARTICLE
+from workflows.output.writing import make_output_folder
+from workflows.scene import monitor_particles, scene_and_flow
+from workflows.section_figure import draw_section
+from workflows.seepage.results import flow_line
+from workflows.stages.running import new_simulation
 from workflows.study import Study
+from workflows.study.reading import sweep_cases
 
 STABLE_RESPONSE_TIMES = 3.0
 """Pseudo-time of a run that comes to rest, in response times (module doc)."""
@@ -160,8 +165,6 @@ def case_count(study: Study) -> int | None:
     if study.probabilistic is not None:
         return study.probabilistic.realisations
     if study.sweep is not None:
-        from workflows.study.reading import sweep_cases
-
         return len(sweep_cases(study))
     return 1
 
@@ -200,8 +203,6 @@ class StudyCheck:
                     else f"{e.cases} factors of safety, searched about their predicted values after the first")
             lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
-            from workflows.seepage.results import flow_line
-
             lines.append(flow_line(self.flow))
         if self.critical is not None:
             c = self.critical
@@ -217,90 +218,23 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
-def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
-    """The run's checks of ``study`` of type ``kind`` (a ``cases.StudyType``) with the run's ``options``
-    (module doc; a refusal is its StudyError), then the section drawn into ``out_dir`` with the critical
-    circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
-    from workflows.fos.critical_circle import critical_circle, domain_warnings
-    from workflows.output.writing import make_output_folder
-    from workflows.scene import build_scene, monitor_particles
-    from workflows.stages.running import new_simulation
-
-    kind.check(options)
-    kind.check_every_case()
-    scene = build_scene(study)
-    monitor_particles(study, scene)
-    new_simulation(study, scene)
-    flow = None
-    if study.seepage is not None:
-        from workflows.seepage.flow import study_flow
-
-        flow = study_flow(study)
-    make_output_folder(out_dir)
-    critical = critical_circle(study) if study.strength_reduction is not None else None
-    path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical)
-    return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
-                      run_time_estimate(study, scene, options.workers), path, flow, critical,
-                      tuple(domain_warnings(study, critical)) if critical is not None else ())
-
-
 SECTION_FIGURE = "section.png"
 """The picture ``spfem-fos check`` draws in the output folder."""
 
 
-def draw_section(study: Study, scene, path: Path, critical=None) -> Path:
-    """The section of the module doc into ``path``, with the ``critical`` circle of a limit-equilibrium
-    search (``fos.critical_circle``) dashed where it lies in the ground."""
-    from workflows.fos.figures import draw_water_and_loads
-    from workflows.output.figures import pyplot, save_figure
-    from workflows.scene import supports
+def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
+    """The run's checks of ``study`` of type ``kind`` (a ``cases.StudyType``) with the run's ``options``
+    (module doc; a refusal is its StudyError), then the section drawn into ``out_dir`` with the critical
+    circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
+    kind.check(options)
+    kind.check_every_case()
+    scene, flow = scene_and_flow(study)
+    monitor_particles(study, scene)
+    new_simulation(study, scene)
+    make_output_folder(out_dir)
+    critical = critical_circle(study) if study.strength_reduction is not None else None
+    path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
+    return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
+                      run_time_estimate(study, scene, options.workers), path, flow, critical,
+                      tuple(domain_warnings(study, critical)) if critical is not None else ())
 
-    plt = pyplot()
-    xy = scene.node_xy_m
-    polygon = np.array(study.geometry.polygon_m)
-    span = np.ptp(polygon, axis=0)
-    width_in = 8.0
-    axes_in = min(max(1.1 * 0.9 * width_in * span[1] / max(span[0], 1e-30), 1.5), 7.0)  # equal axes, 5% margins
-    height_in = axes_in + 1.3
-    fig, ax = plt.subplots(figsize=(width_in, height_in))
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.9 / height_in, top=1.0 - 0.4 / height_in)
-    marker = max(0.3, min(8.0, 2.0e4 / max(scene.n_particles, 1)))
-    colours = plt.get_cmap("tab10")
-    for i, material in enumerate(study.materials):
-        mine = scene.node_material == i
-        ax.scatter(xy[mine, 0], xy[mine, 1], s=marker, color=colours(i % 10), lw=0, label=material.name)
-    ring = np.vstack([polygon, polygon[:1]])
-    ax.plot(ring[:, 0], ring[:, 1], "-", color="0.3", lw=0.8)
-    held = supports(study, scene).fixed
-    for pick, symbol, label in ((held[:, 0] & held[:, 1], "s", "held in x and y"),
-                                (held[:, 0] & ~held[:, 1], ">", "held in x"),
-                                (~held[:, 0] & held[:, 1], "^", "held in y")):
-        if pick.any():
-            ax.scatter(xy[pick, 0], xy[pick, 1], s=4 * marker + 4, marker=symbol, facecolor="none",
-                       edgecolor="black", lw=0.5, label=label)
-    for wall in study.walls:
-        (x1, y1), (x2, y2) = wall.start_m, wall.end_m
-        ax.plot([x1, x2], [y1, y2], "-", color="saddlebrown", lw=2.5)
-        ax.annotate(wall.name, ((x1 + x2) / 2, (y1 + y2) / 2), fontsize=8, color="saddlebrown")
-    for zone in study.geometry.refined:
-        zone_ring = np.vstack([zone.region_m, zone.region_m[:1]])
-        ax.plot(zone_ring[:, 0], zone_ring[:, 1], ":", color="tab:purple", lw=1.2)
-    draw_water_and_loads(ax, study)
-    if critical is not None:
-        low, high = sorted((critical.entry_x_m, critical.exit_x_m))
-        x = np.linspace(low, high, 200)
-        y = critical.centre_m[1] - np.sqrt(np.maximum(critical.radius_m**2 - (x - critical.centre_m[0]) ** 2, 0.0))
-        ax.plot(x, y, "--", color="tab:red", lw=1.0, label=f"critical circle (Bishop, F {critical.fos:.3g})")
-    for monitor in study.monitors:
-        ax.plot(monitor.x_m, monitor.y_m, "x", color="tab:red", ms=7, mew=1.5)
-        ax.annotate(monitor.name, (monitor.x_m, monitor.y_m), xytext=(4, 4), textcoords="offset points",
-                    fontsize=8, color="tab:red")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(f"{study.name}: {scene.n_particles} particles at h = {study.geometry.spacing_m:g} m")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=6, fontsize=7, frameon=False,
-              markerscale=max(1.0, 6.0 / marker))
-    save_figure(fig, path, dpi=120, bbox_inches="tight", pad_inches=0.15)  # equal axes leave no gap
-    plt.close(fig)
-    return path

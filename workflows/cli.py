@@ -33,6 +33,8 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from spfem_core import __version__  # imports no numba
+from spfem_core.divergence import DivergenceError  # imports no numba
 from workflows.study import StudyError, load_study
 
 EXIT_DIVERGED = 1
@@ -211,8 +213,6 @@ def _read(study_file: Path):
 def _print_version(value: bool) -> None:
     """``--version``: the version the result files and the report carry (``spfem_core.__version__``)."""
     if value:
-        from spfem_core import __version__  # imports no numba
-
         typer.echo(f"spfem-fos {__version__}")
         raise typer.Exit()
 
@@ -266,7 +266,6 @@ def main(
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
     # Imported only once the study is valid, so that --help and a bad study file answer at once:
     # the core imports numba, the FOS workflow dask (about 1 s together).
-    from spfem_core.divergence import DivergenceError
     from workflows.cases import RunOptions
     from workflows.memory_guard import GIB
     from workflows.study_types import run_study, study_type
@@ -290,7 +289,7 @@ def main(
             typer.echo(line, err=True)
         for line in report.lines:
             typer.echo(line)
-        from workflows.output.html_report import write_html_report
+        from workflows.html_report import write_html_report  # xarray: this module imports none of it
 
         page = write_html_report(kind, outcome, study_file)
         if not quiet:
@@ -357,6 +356,7 @@ def check(
     problem = check_output_folder(out_dir)
     if problem:
         raise _fail(f"error: --out: {problem}", EXIT_BAD_STUDY)
+    # Imported only once the study is valid, as for a run (numba, scipy, xarray, dask).
     from workflows.cases import RunOptions
     from workflows.check import check_study
     from workflows.memory_guard import GIB

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from spfem_core.geometry import distance_to_edges_m
-from workflows.scene import cloud, material_rows
+from workflows.particles import cloud, material_rows
 
 MIN_ROWS = 4
 """A material layer thinner than this many particle spacings is named in a warning."""

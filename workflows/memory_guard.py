@@ -19,6 +19,8 @@ import math
 import numpy as np
 import psutil
 
+from spfem_core.cloud import spacing_field
+from spfem_core.geometry import ray_casting_inside
 from workflows.study import Study, StudyError
 
 BYTES_PER_PARTICLE = 3200
@@ -54,9 +56,6 @@ def _graded_estimate(study: Study) -> float:
 def _spacing_fields(study: Study) -> tuple[float, np.ndarray]:
     """(the area of a cell of the grid, h(x) on the grid inside the polygon for the coarse spacing
     and for each refined zone alone, a row each: h(x) of the cloud is their minimum)."""
-    from spfem_core.cloud import spacing_field  # numpy only
-    from spfem_core.geometry import ray_casting_inside
-
     geometry = study.geometry
     polygon = np.array(geometry.polygon_m)
     h0 = geometry.spacing_m

@@ -1,9 +1,10 @@
 """From a checked :class:`~workflows.study.Study` to the core's ``Scene`` and ``SolverSettings``.
 
-The particles fill the polygon (``spfem_core.cloud``); each takes the last material whose region
-holds it, whose room gives the core its row (``workflows.materials``); the surface loads put
-their forces on the upper surface (``workflows.loads``); the water gives its lines, pressures and
-saturated densities (``workflows.water``); the ``[[boundary]]`` boxes fix velocities.
+The particles fill the polygon and take their materials (``workflows.particles``), whose rooms give
+the core their rows (``workflows.materials``); the surface loads put their forces on the upper
+surface (``workflows.loads``); the water gives its lines, pressures and saturated densities
+(``workflows.water.pressure``), from the study's steady flow with ``[seepage]`` (``workflows.seepage.flow``:
+given by the caller that has it, else solved here); the ``[[boundary]]`` boxes fix velocities.
 
 Problems that only show once the particles exist (a boundary box that holds no particle,
 particles outside every material region) raise :class:`~workflows.study.StudyError`,
@@ -12,79 +13,26 @@ like the file checks, before anything is run or written.
 
 from __future__ import annotations
 
-import functools
 from typing import NamedTuple
 
 import numpy as np
 
-from spfem_core.cloud import graded_particles_in_polygon, particles_in_polygon
 from spfem_core.geometry import points_in_polygon
 from spfem_core.materials.table import MaterialTable
 from spfem_core.scene import Scene
 from spfem_core.settings import DEFAULT_CFL, SolverSettings
-from workflows import water
 from workflows.loads.surface import UpperSurface
-from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.particles import assign_materials, cloud, material_rows
+from workflows.random_field.table import SEEPAGE_PROPERTY
+from workflows.random_field.values import node_properties
+from workflows.seepage.flow import StudyFlow, study_flow
 from workflows.study import Study, StudyError
+from workflows.water.pressure import scene_fields
 
 
 def build_material_table(study: Study) -> MaterialTable:
     """One row per ``[[materials]]`` entry, in file order, as each model's room translates it."""
     return MaterialTable.from_rows([material.core_row() for material in study.materials])
-
-
-def material_rows(study: Study, points_xy_m: np.ndarray) -> np.ndarray:
-    """Material row of every point: the last material whose region holds it (-1: none)."""
-    return rows_of_materials(study.materials, points_xy_m)
-
-
-def rows_of_materials(materials, points_xy_m: np.ndarray) -> np.ndarray:
-    """Row in ``materials`` of every point: the last material whose region holds it (-1: none)."""
-    rows = np.full(points_xy_m.shape[0], -1, dtype=np.int64)
-    for i, material in enumerate(materials):
-        if material.region_m is None:
-            rows[:] = i
-        else:
-            rows[points_in_polygon(points_xy_m, np.array(material.region_m))] = i
-    return rows
-
-
-def assign_materials(study: Study, node_xy_m: np.ndarray) -> np.ndarray:
-    """Material row of every particle: the last material whose region holds it."""
-    node_material = material_rows(study, node_xy_m)
-    orphans = np.flatnonzero(node_material < 0)
-    if orphans.size:
-        x, y = node_xy_m[orphans[0]]
-        raise StudyError(
-            "materials",
-            f"{orphans.size} particles lie in no material region, e.g. at ({x:g}, {y:g}); "
-            "leave region_m out of the first material so that it fills the domain",
-        )
-    return node_material
-
-
-def cloud(study: Study) -> tuple[np.ndarray, np.ndarray]:
-    """(positions (n, 2), spacing of each particle (n,)) of the study's particle cloud: uniform at
-    geometry.spacing_m, or graded around ``[[geometry.refined]]`` zones (``spfem_core.cloud``).
-    Made once per geometry in a process (the runs of a study, the realisations of a probabilistic
-    one, build the same cloud); each call gets its own copies."""
-    return cloud_of_geometry(study.geometry)
-
-
-def cloud_of_geometry(geometry) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`cloud` of a ``[geometry]`` table (copies of the one made per process)."""
-    node_xy_m, node_spacing_m = _cloud_of(geometry)
-    return node_xy_m.copy(), node_spacing_m.copy()
-
-
-@functools.lru_cache(maxsize=4)
-def _cloud_of(geometry) -> tuple[np.ndarray, np.ndarray]:
-    if not geometry.refined:
-        node_xy_m = particles_in_polygon(np.array(geometry.polygon_m), geometry.spacing_m, jitter=geometry.jitter,
-                                         seed=geometry.seed)
-        return node_xy_m, np.full(node_xy_m.shape[0], geometry.spacing_m)
-    return graded_particles_in_polygon(np.array(geometry.polygon_m), geometry.spacing_m, geometry.zones,
-                                       geometry.grading, jitter=geometry.jitter, seed=geometry.seed)
 
 
 def surface_load_forces(study: Study, node_xy_m: np.ndarray, node_spacing_m: np.ndarray) -> np.ndarray | None:
@@ -107,19 +55,29 @@ def field_values(study: Study, node_xy_m: np.ndarray | None = None, node_spacing
     if node_xy_m is None:
         node_xy_m, node_spacing_m = cloud(study)
         node_material = assign_materials(study, node_xy_m)
-    return study.random_field.node_properties(study.materials, node_xy_m, node_spacing_m, node_material)
+    return node_properties(study.random_field, study.materials, node_xy_m, node_spacing_m, node_material)
 
 
-def build_scene(study: Study) -> Scene:
+def build_scene(study: Study, flow=None) -> Scene:
     """The particle cloud of ``study`` with its materials, supports, gravity (with the seismic part when
-    it acts from the first stage), water and surface loads."""
+    it acts from the first stage), water and surface loads (:func:`scene_and_flow`)."""
+    return scene_and_flow(study, flow)[0]
+
+
+def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | None]:
+    """(the scene of :func:`build_scene`, the steady flow its water comes from, or None without
+    ``[seepage]``).  ``flow``: the study's flow (``workflows.seepage.flow.study_flow``) when the caller
+    has it; else it is solved here, once the particles have their materials."""
     geometry = study.geometry
     node_xy_m, node_spacing_m = cloud(study)
     if node_xy_m.shape[0] < 3:
         raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
     node_material = assign_materials(study, node_xy_m)
-    water_fields = water.scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points))
-    if study.random_field is not None:  # spatially variable soil (workflows.probabilistic.spatial)
+    if study.seepage is not None and flow is None:
+        flow = study_flow(study)
+    water_fields = scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points),
+                                      flow)
+    if study.random_field is not None:  # spatially variable soil (workflows.random_field.values)
         varying = field_values(study, node_xy_m, node_spacing_m, node_material)
         varying.pop(SEEPAGE_PROPERTY, None)  # the flow's (workflows.seepage.flow), not the core's
         water_fields["node_properties"] = {**water_fields.get("node_properties", {}), **varying}
@@ -163,7 +121,7 @@ def build_scene(study: Study) -> Scene:
         if free:
             raise StudyError(field, f"the supports of stage {stage.name!r} leave the body free to {free}: it "
                              "would fall or drift as a whole; fix a base (vx_m_s = vy_m_s = 0) or add rollers")
-    return scene
+    return scene, flow
 
 
 def _no_particle(study: Study, index: int) -> StudyError:

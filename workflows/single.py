@@ -8,6 +8,7 @@ stages in this process.  A case that diverges stops the study (exit code 1).
 from __future__ import annotations
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.fos.discretisation import note
 from workflows.memory_guard import check_memory
 from workflows.study import Study
 
@@ -47,8 +48,7 @@ class SingleStudy(StudyType):
         return self._stages_report(outcome, quiet, study_file)
 
     def _fos_report(self, outcome, quiet: bool) -> Report:
-        from workflows.fos.discretisation import note
-        from workflows.fos.report import report_lines
+        from workflows.fos.report import report_lines  # the core (numba): once the study is known to be valid
 
         if quiet:
             return Report([outcome.verdict])

@@ -25,6 +25,7 @@ more, and concludes.
 from __future__ import annotations
 
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
@@ -87,8 +88,6 @@ def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = No
 def _round_session(kind: StudyType, study: Study, options: RunOptions):
     """One dask session for every round of a strength-reduction study made in rounds (a cluster
     start saved per round); else none (each round's cases start and close their own)."""
-    from contextlib import nullcontext
-
     if not (kind.placement.rounds and study.strength_reduction is not None):
         return nullcontext(None)
     from workflows.fos.cluster import dask_session  # dask: once the study is known to be valid

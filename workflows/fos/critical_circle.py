@@ -27,8 +27,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize
 
 from spfem_core.geometry import downslope_sign, relief_m, surface_height_m
+from workflows.fos.slip_surface import material_strength
+from workflows.particles import material_rows
+from workflows.water.pressure import phreatic_lines, ru_pore_pressure_pa
 
 EXTENSION_PER_HEIGHT = 3.0
 RASTER_PER_HEIGHT = 20
@@ -54,9 +58,6 @@ class _Section:
     """The raster of the extended section (module doc), turned to face +x."""
 
     def __init__(self, study, raster_per_height: int = RASTER_PER_HEIGHT):
-        from workflows.scene import material_rows
-        from workflows.water import phreatic_lines, ru_pore_pressure_pa
-
         polygon = np.asarray(study.geometry.polygon_m, dtype=float)
         self.sign = -1.0 if downslope_sign(polygon) == -1.0 else 1.0
         self.height = relief_m(polygon)
@@ -127,8 +128,6 @@ class _Section:
 
 def _strength(material) -> tuple[float, float] | None:
     """(c, tan phi) of a material, None for an elastic one (``workflows.fos.slip_surface``)."""
-    from workflows.fos.slip_surface import material_strength
-
     return material_strength(material)
 
 
@@ -226,7 +225,6 @@ def critical_circle(study, quick: bool = False) -> CriticalCircle | None:
     """The least Bishop F over a grid of circles, the best ``POLISHED`` of them polished by
     Nelder-Mead (module doc; ``quick``: the coarser search ``QUICK``); None where no circle is
     admissible."""
-    from scipy.optimize import minimize
 
     search = QUICK if quick else dict(raster_per_height=RASTER_PER_HEIGHT, centres=CENTRES, depths=DEPTHS,
                                       polished=POLISHED)
@@ -245,7 +243,7 @@ def critical_circle(study, quick: bool = False) -> CriticalCircle | None:
 
 def candidate_circles(study, count: int = 40) -> list[CriticalCircle]:
     """The ``count`` least circles of the quick grid search (``QUICK``), least first: where the mechanism
-    of a soil that varies from point to point may run (``probabilistic.spatial.field_estimate``)."""
+    of a soil that varies from point to point may run (``probabilistic.field_mechanisms.field_estimate``)."""
     section = _Section(study, QUICK["raster_per_height"])
     return [_circle(section, xc, yc, radius) for _, xc, yc, radius in sorted(_grid(section, 16, 8))[:count]]
 

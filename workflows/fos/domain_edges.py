@@ -25,6 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from spfem_core.geometry import surface_height_m
+from workflows.fos.slip_surface import band_line, moving_mass, shear_band
+from workflows.scene import slip_normal
+
 MIN_CONTACT = 3
 """A support is reached by at least this many particles of the mechanism."""
 REACH = 1.5
@@ -54,8 +58,6 @@ class EdgeContact:
 
 def _support_kind(study, boundary, xy0: np.ndarray, nodes: np.ndarray, spacing_m: float) -> tuple[str, str, str]:
     """(kind, where, advice) of a support (module doc)."""
-    from workflows.scene import slip_normal  # the one rule of what a support holds
-
     normal = slip_normal(xy0, spacing_m, boundary, nodes)
     both = boundary.vx_m_s is not None and boundary.vy_m_s is not None
     x, y = xy0[nodes, 0], xy0[nodes, 1]
@@ -85,8 +87,6 @@ def _support_kind(study, boundary, xy0: np.ndarray, nodes: np.ndarray, spacing_m
 
 def _crest_on_the_left(study) -> bool:
     """Whether the ground is higher at the domain's left end than at its right end."""
-    from spfem_core.geometry import surface_height_m
-
     polygon = np.asarray(study.geometry.polygon_m, dtype=float)
     ends = surface_height_m(polygon, np.array([polygon[:, 0].min(), polygon[:, 0].max()]))
     return bool(ends[0] >= ends[1])
@@ -97,8 +97,6 @@ def mechanism_particles(failed: dict, stable: dict | None) -> np.ndarray:
     of the last stable run (dicts of arrays as ``slip_surface.run_particles`` gives: x0, y0, ux, uy,
     spacing, and plastic_strain when kept): its shear band and the particles above the band's line, or
     without plastic strain the moving mass of its displacements."""
-    from workflows.fos.slip_surface import band_line, moving_mass, shear_band
-
     xy0 = np.column_stack([failed["x0"], failed["y0"]])
     spacing = np.asarray(failed["spacing"], dtype=float)
     band = shear_band(failed, stable)

@@ -57,7 +57,6 @@ from distributed import Event, wait
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.snapshot import StressState
-from workflows.cases import case_error
 from workflows.fos.gravity import (
     GravityResult,
     gravity_paths,
@@ -74,9 +73,12 @@ from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, held, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
-from workflows.scene import build_scene
+from workflows.scene import scene_and_flow
+from workflows.seepage.flow import flow_inputs, study_flow
+from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study, StudyError
+from workflows.study.reading import case_error
 
 
 @dataclass
@@ -92,6 +94,7 @@ class CaseSearch:
     write_gravity: bool = True  # False: its gravity state is never written (recomputed if needed again)
     policy: RunPolicy = field(default_factory=RunPolicy)  # what its runs keep, and when they end
     gravity: StressState | None = None  # once known
+    flow: object = None  # its steady flow (``workflows.seepage.flow.StudyFlow``), once solved: for its runs and figures
     gravity_reused: bool = False
     gravity_wall_s: float = 0.0
     n_particles: int = 0
@@ -208,12 +211,10 @@ class Engine:
                 self.scattered[case.gkey] = self._on_every_worker(case.gravity, f"gravity-state-{case.gkey}")
             flow = None
             if case.study.seepage is not None:  # the client's flow: the workers do not solve it again
-                from workflows.seepage.flow import flow_inputs, study_flow
-
                 inputs = flow_inputs(case.study)
                 if inputs not in self.flows:
-                    self.flows[inputs] = self._on_every_worker(study_flow(case.study),
-                                                               f"steady-flow-{case.gkey}-{len(self.flows)}")
+                    case.flow = study_flow(case.study) if case.flow is None else case.flow
+                    self.flows[inputs] = self._on_every_worker(case.flow, f"steady-flow-{case.gkey}-{len(self.flows)}")
                 flow = self.flows[inputs]
             case.shared = (case.study, self.scattered[case.gkey], flow)
         name = f"{key}-{self.token}-{self.n_submitted + 1}"
@@ -265,10 +266,11 @@ class Engine:
         stored = None if self.force else stored_gravity(study, out_dir)
         path = gravity_paths(study, out_dir)[-1]
         if stored is not None:
-            scene = build_scene(study)
+            scene, flow = scene_and_flow(study)
             new_simulation(study, scene)  # the study's checks, as when the state is computed
             if stored.n_particles == scene.n_particles:
                 case.gravity, case.gravity_reused, case.n_particles = stored, True, stored.n_particles
+                case.flow = flow
                 self.progress.message(case.say(f"gravity state reused from {path} (its inputs are unchanged)"))
                 return
         if not self.force and path.is_file():
@@ -277,8 +279,6 @@ class Engine:
         result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label)
         write_gravity(study, out_dir, result)
         if result.flow is not None:
-            from workflows.seepage.results import flow_line
-
             self.progress.message(case.say(flow_line(result.flow)))
         self._gravity_done(case, result, computed=True, written=True)
 
@@ -325,6 +325,7 @@ class Engine:
                 self.progress.message(case.say(f"warning: stage {name!r} reached max_duration_s before converging"))
         case.unwritten_gravity = None if written else result
         case.gravity = result.state
+        case.flow = result.flow  # solved with the gravity state (here or by its worker): not again here
         case.n_particles, case.gravity_wall_s = result.n_particles, result.wall_time_s if computed else 0.0
 
     def _gravity_result(self, case: CaseSearch, future) -> None:
@@ -342,11 +343,6 @@ class Engine:
                 self.progress.message(each.say(f"warning: the gravity stage diverged: {error}"))
                 self._concluded(each)
             return
-        if result.flow is not None:  # solved by the worker that relaxed gravity: not again here
-            from workflows.seepage.flow import remember
-
-            for each in waiting:
-                remember(each.study, result.flow)
         for each in waiting:
             written = not each.write_gravity or (each is not case and each.gravity_dir == case.gravity_dir)
             self._gravity_done(each, result, computed=each is case, written=written)
@@ -675,8 +671,6 @@ class Engine:
         elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
             self.scattered.pop(case.gkey, None)
         if case.study.seepage is not None:
-            from workflows.seepage.flow import flow_inputs
-
             inputs = flow_inputs(case.study)
             if all(flow_inputs(other.study) != inputs for other in self.cases):
                 self.flows.pop(inputs, None)

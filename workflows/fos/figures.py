@@ -4,7 +4,7 @@
   verdict, the knee (maximum curvature of the sweep) and the FOS bracket marked;
 - ``fields_srf_<F>.png`` for the last stable and the first failed SRF around the bracket:
   equivalent plastic strain and displacement magnitude on the final particle positions, with the
-  water (piezometric line dashed, ponded water solid, ``workflows.water.draw_water``), the surface
+  water (piezometric line dashed, ponded water solid, ``workflows.water.figures.draw_water``), the surface
   loads (their ``arrows_m``) and the seismic coefficient;
 - ``particle_spacing.png`` of a graded cloud (``[[geometry.refined]]``): each particle at its initial
   position coloured by its spacing.
@@ -22,7 +22,7 @@ from spfem_core.geometry import surface_height_m
 from workflows.fos.run_store import run_file_name
 from workflows.output.figures import final_state_figure, pyplot, save_figure
 from workflows.study import parse_study
-from workflows.water import draw_water
+from workflows.water.figures import draw_water
 
 COLOURS = {"stable": "tab:blue", "failed": "tab:red", "diverged": "tab:gray"}
 
@@ -57,24 +57,26 @@ def srf_curve(summary: xr.Dataset, path: Path) -> Path:
     return path
 
 
-def run_fields(run_path: Path, path: Path) -> Path:
-    """The final state of an SRF run, with its water and loads."""
+def run_fields(run_path: Path, path: Path, flow=None) -> Path:
+    """The final state of an SRF run, with its water (``flow``: the steady flow of its study, if it has
+    one and the caller has it) and loads."""
 
     def decorate(ax, attrs) -> None:
         if attrs.get("study"):
-            draw_water_and_loads(ax, parse_study(attrs["study"]))
+            draw_water_and_loads(ax, parse_study(attrs["study"]), flow)
 
     return final_state_figure(run_path, path, lambda ds: f"SRF {float(ds.attrs['srf']):g} ({ds.attrs['status']}), "
                               "final state", decorate)
 
 
-def draw_water_and_loads(ax, study) -> None:
-    """The water (``workflows.water.draw_water``), the surface loads as red arrows and the seismic
-    coefficient as a note, over a field plot of ``study``'s domain."""
+def draw_water_and_loads(ax, study, flow=None) -> None:
+    """The water (``workflows.water.figures.draw_water``: the study's steady ``flow`` with ``[seepage]``,
+    solved there when not given), the surface loads as red arrows and the seismic coefficient as a note,
+    over a field plot of ``study``'s domain."""
     polygon = np.array(study.geometry.polygon_m)
     x_lo, x_hi = polygon[:, 0].min(), polygon[:, 0].max()
     x = np.linspace(x_lo, x_hi, 400)
-    draw_water(ax, study, x, surface_height_m(polygon, x))
+    draw_water(ax, study, x, surface_height_m(polygon, x), flow)
     reach = 0.06 * (polygon[:, 1].max() - polygon[:, 1].min() or 1.0)
     for _, load in study.loads.surface_loads():
         for x_load in load.arrows_m():
@@ -91,8 +93,9 @@ FIGURE_NAMES = ("srf_curve.png", "fields_srf_*.png", "particle_spacing.png", "sl
 are removed (``output.figures.remove_stale_figures``)."""
 
 
-def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
-    """The SRF curve and the fields at the last stable and first failed SRF (module doc)."""
+def draw_figures(out_dir: Path, summary: xr.Dataset, flow=None) -> list[Path]:
+    """The SRF curve and the fields at the last stable and first failed SRF (module doc); ``flow``: the
+    case's steady flow, when it has one."""
     paths = [srf_curve(summary, out_dir / "srf_curve.png")]
     srf = summary["srf"].values
     status = summary["status"].values.astype(str)
@@ -109,7 +112,7 @@ def draw_figures(out_dir: Path, summary: xr.Dataset) -> list[Path]:
     for value in picks:
         run_path = out_dir / run_file_name(float(value))
         if run_path.is_file():
-            paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png"))
+            paths.append(run_fields(run_path, out_dir / f"fields_srf_{value:.4f}.png", flow))
     if summary.sizes.get("slip_point", 0) and (out_dir / run_file_name(float(summary["slip_srf"]))).is_file():
         paths.append(slip_figure(summary, out_dir, out_dir / "slip_surface.png"))
     if picks and (run_path := out_dir / run_file_name(float(picks[0]))).is_file():

@@ -24,7 +24,8 @@ from workflows.fos.keys import gravity_key
 from workflows.output.stage_file import provenance, stress_state
 from workflows.output.writing import interrupts_deferred, make_output_folder, share_file, write_dataset
 from workflows.progress import Progress
-from workflows.scene import build_scene, monitor_particles
+from workflows.scene import monitor_particles, scene_and_flow
+from workflows.seepage.results import FIGURE_NAME, FILE_NAME, seepage_dataset, write_seepage
 from workflows.stages.running import new_simulation, run_stage_result, snapshots
 from workflows.study import Study, parse_study
 
@@ -91,7 +92,7 @@ def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
     start = time.perf_counter()
     study = parse_study(study_text)
     key = gravity_key(study)
-    scene = build_scene(study)
+    scene, flow = scene_and_flow(study)  # the client writes the flow, the runs reuse it
     monitors = monitor_particles(study, scene)
     sim = new_simulation(study, scene, threads=threads)
     if out_dir is not None:
@@ -108,11 +109,6 @@ def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
         datasets.append(result.dataset)
         if result.series.converged is False:
             unconverged.append(stage.name)
-    flow = None
-    if study.seepage is not None:
-        from workflows.seepage.flow import study_flow
-
-        flow = study_flow(study)  # solved with the scene above: the client writes it, the runs reuse it
     return GravityResult(sim.snapshot().stress_state, datasets, scene.n_particles, time.perf_counter() - start,
                          unconverged, flow)
 
@@ -124,8 +120,6 @@ def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
     for dataset, path in zip(result.datasets, gravity_paths(study, out_dir)):
         write_dataset(dataset.assign_attrs(provenance(study)), path)
     if result.flow is not None:
-        from workflows.seepage.results import seepage_dataset, write_seepage
-
         write_seepage(study, seepage_dataset(study, result.flow), out_dir)
 
 
@@ -134,8 +128,6 @@ def share_gravity(study: Study, source_dir: Path, out_dir: Path) -> None:
     hard links to them (``output.writing.share_file``): a sweep's cases that share a gravity state
     share one file on disk, each folder still holding its own ``gravity.nc``.  The files name the
     study of the case that computed them; the key they carry is this case's too."""
-    from workflows.seepage.results import FIGURE_NAME, FILE_NAME
-
     make_output_folder(out_dir)
     names = [path.name for path in gravity_paths(study, source_dir)]
     if study.seepage is not None:  # the flow the shared gravity state was relaxed with

@@ -36,11 +36,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import xarray as xr
 from scipy import sparse
 from scipy.spatial import cKDTree
 
 from spfem_core.geometry import surface_height_m
 from workflows.fos.limit_equilibrium import Slices, SpencerResult, spencer
+from workflows.scene import surface_load_forces
 
 SLICES = 100
 """Slices of the limit-equilibrium mass (Spencer's F changes by < 0.1% beyond 50 on a circle)."""
@@ -244,9 +246,6 @@ def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slic
 
 def run_particles(path, study) -> dict | None:
     """The particle fields of a run file that :func:`slip_surface` reads; None: the file keeps none."""
-    import xarray as xr
-
-    from workflows.scene import surface_load_forces
 
     with xr.open_dataset(path) as ds:
         if "particle_x0" not in ds:

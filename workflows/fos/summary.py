@@ -111,7 +111,7 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
     write_dataset(summary, outcome.summary_path)
     timings["io"] += time.perf_counter() - io_start
     if figures:
-        outcome.figures = draw_figures(out_dir, summary)
+        outcome.figures = draw_figures(out_dir, summary, case.flow)
     # an earlier invocation's figures of other runs (or all of them, figures = false) are not this one's
     remove_stale_figures(out_dir, FIGURE_NAMES, keep={path.name for path in outcome.figures})
     return outcome

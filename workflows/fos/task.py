@@ -187,13 +187,9 @@ def run_srf(study: Study | str, gravity: StressState, srf: float, cancel_event: 
     """
     started_unix_s = time.time()
     study = parse_study(study) if isinstance(study, str) else study
-    if flow is not None:
-        from workflows.seepage.flow import remember
-
-        remember(study, flow)
     stage = study.strength_reduction
     stage_index = len(study.stages) - 1
-    scene = build_scene(study)
+    scene = build_scene(study, flow)
     monitors = monitor_particles(study, scene)
     sim = new_simulation(study, scene, threads=1, initial_mesh=first_mesh(scene))  # a worker: one core of its own
     begin_stage(study, sim, stage_index, start_from=gravity)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.fields import Record, number, optional_table, point, tables
+from workflows.fields import Record, StudyError, number, optional_table, point, tables
 from workflows.loads.line import LineLoad
 from workflows.loads.seismic import Seismic
 from workflows.loads.strip import StripLoad
@@ -37,6 +37,24 @@ class Loads(Record):
         "s", "the strip and line loads grow linearly from zero over this time at the start of the first stage "
         "(a relaxation does not converge before it ends); default: applied at once", default=None, gt=0.0,
     )
+
+    def check_in_study(self, study) -> None:
+        """StudyError on a surface load off the ground surface, a ramp longer than the first stage, or a
+        seismic load for strength-reduction runs in a study that has none."""
+        xs = [x for x, _ in study.geometry.polygon_m]
+        x_min, x_max = min(xs), max(xs)
+        for where, load in self.surface_loads():
+            for field, x in load.abscissae_m().items():
+                if not x_min <= x <= x_max:
+                    raise StudyError(f"{where}.{field}", f"{x:g} m is off the ground surface, which spans "
+                                     f"x = {x_min:g} to {x_max:g} m")
+        first = study.stages[0]
+        if self.ramp_time_s is not None and self.ramp_time_s > first.time_limit_s:
+            raise StudyError("loads.ramp_time_s", f"must be <= the first stage's {first.duration_field} = "
+                             f"{first.time_limit_s:g}, got {self.ramp_time_s:g}")
+        if self.seismic is not None and not self.seismic.in_gravity and study.strength_reduction is None:
+            raise StudyError("loads.seismic.in_gravity", "false applies the load in strength-reduction runs only, "
+                             "and this study has none")
 
     def surface_loads(self):
         """(field path, load) of every surface load, kind by kind in :data:`SURFACE_LOADS` order, in

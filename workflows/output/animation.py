@@ -37,7 +37,7 @@ class AnimationRecorder:
         if not self.frames:
             return None
         plt = pyplot()
-        from matplotlib.animation import FuncAnimation, PillowWriter
+        from matplotlib.animation import FuncAnimation, PillowWriter  # matplotlib: only when drawing
 
         xy_all = np.concatenate([xy for _, xy, _ in self.frames])
         top = max(float(values.max()) for _, _, values in self.frames) or 1.0

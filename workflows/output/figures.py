@@ -16,10 +16,10 @@ import numpy as np
 
 def pyplot():
     """matplotlib's pyplot on the Agg backend (about 0.5 s to import)."""
-    import matplotlib
+    import matplotlib  # matplotlib: only when drawing
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # matplotlib: only when drawing
 
     return plt
 
@@ -70,7 +70,7 @@ def final_state_figure(result_path: Path, path: Path, title, decorate=None) -> P
     """Equivalent plastic strain and displacement on the final particle positions of a result file,
     into ``path``; ``title(ds)`` gives the title from the dataset, ``decorate(ax, ds)`` draws over
     each panel."""
-    import matplotlib.tri as mtri
+    import matplotlib.tri as mtri  # matplotlib and xarray: only when drawing (light importers use this module)
     import xarray as xr
 
     plt = pyplot()

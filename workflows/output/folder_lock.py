@@ -28,8 +28,12 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
+import netCDF4
+
 from workflows.fields import StudyError
 from workflows.output.writing import make_output_folder, write_bytes
+from workflows.study import StudyError as Invalid
+from workflows.study import parse_study
 
 LOCK_NAME = ".spfem-fos.lock"
 STUDY_NAME_FILE = ".spfem-fos.study"
@@ -80,10 +84,7 @@ def folder_study(out_dir: Path) -> FolderStudy | None:
         return FolderStudy(str(marked["study"]), marked.get("digest"))
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         pass
-    import netCDF4  # only for a folder without the file: written before it existed
 
-    from workflows.study import StudyError as Invalid
-    from workflows.study import parse_study
 
     for path in sorted(Path(out_dir).glob("*.nc")):
         try:

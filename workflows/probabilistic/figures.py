@@ -21,8 +21,11 @@ import numpy as np
 import xarray as xr
 
 from workflows.output.figures import pyplot, save_figure
+from workflows.particles import cloud
 from workflows.probabilistic.reliability import failure_probability
-from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.random_field.table import SEEPAGE_PROPERTY
+from workflows.scene import field_values
+from workflows.study import parse_study
 
 FAILED_FIGURES = 3
 
@@ -159,10 +162,8 @@ def failed_realisation(folder: Path, path: Path) -> Path | None:
     """The realisation's fields at its particles (from its ``case.toml``) and the final plastic
     strain of its failed run with the lowest SRF; None when no failed run file with the particle state
     is there (``keep_fields``)."""
-    import matplotlib.tri as mtri
+    import matplotlib.tri as mtri  # matplotlib: only when drawing
 
-    from workflows.scene import cloud, field_values
-    from workflows.study import parse_study
 
     runs = []
     for run_file in sorted(folder.glob("srf_*.nc")):

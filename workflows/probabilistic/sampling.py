@@ -65,7 +65,7 @@ class Marginal:
             return np.exp(math.log(self.mean) - 0.5 * sigma2 + math.sqrt(sigma2) * np.asarray(z))
         if self.distribution == "normal":
             return self.mean + self.std * np.asarray(z)
-        from scipy import stats
+        from scipy import stats  # scipy.stats (0.5 s): only where it is used
 
         return self.frozen().ppf(stats.norm.cdf(z))
 
@@ -98,7 +98,7 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
     if low > 0.0 or high < 0.0:
         raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution} and a {b.distribution} "
                          f"variable (from {low + rho:.3g} to {high + rho:.3g})")
-    from scipy import optimize
+    from scipy import optimize  # scipy.optimize: only where it is used
 
     return float(optimize.brentq(achieved, -0.9999, 0.9999, xtol=1e-10))
 
@@ -130,7 +130,7 @@ class Sampler:
 
     def latin_hypercube(self, seed: int, count: int) -> np.ndarray:
         """(count, n) values: a stratified design with the target correlation (Iman & Conover)."""
-        from scipy import stats
+        from scipy import stats  # scipy.stats (0.5 s): only where it is used
 
         n = len(self.marginals)
         design = stats.qmc.LatinHypercube(d=n, seed=np.random.default_rng(np.random.SeedSequence([seed, count])))
@@ -146,7 +146,7 @@ class Sampler:
 def _iman_conover(z: np.ndarray, correlation: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """The columns of ``z`` reordered so that their rank correlation is about ``correlation``
     (Iman & Conover 1982): van der Waerden scores with that correlation set the ranks."""
-    from scipy import stats
+    from scipy import stats  # scipy.stats (0.5 s): only where it is used
 
     count, n = z.shape
     scores = stats.norm.ppf(np.arange(1, count + 1) / (count + 1))

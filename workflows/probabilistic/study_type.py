@@ -49,11 +49,18 @@ from pathlib import Path
 import numpy as np
 
 from spfem_core.divergence import DivergenceError
+from workflows import engineering_units
 from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
 from workflows.fields import MAX_MAGNITUDE, check_value, specs
+from workflows.fos.discretisation import note
+from workflows.fos.prediction import Generations, WindowPredictor
+from workflows.memory_guard import check_memory
 from workflows.output.figures import remove_stale_figures
-from workflows.probabilistic.table import spread_problem
-from workflows.study import Study, StudyError, engineering_units
+from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
+from workflows.probabilistic.reliability import failure_probability
+from workflows.probabilistic.sampling import Marginal, Sampler
+from workflows.random_field.table import spread_problem
+from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_field, resolve_sweep_path, set_field
 from workflows.study.toml_text import to_toml
 from workflows.sweep.results import (
@@ -67,6 +74,7 @@ from workflows.sweep.results import (
     case_result,
     diverged_result,
 )
+from workflows.sweep.stale import remove_stale_cases
 from workflows.sweep.study_type import SweepStudy
 
 RESULT_NAME = "probabilistic.nc"
@@ -121,8 +129,6 @@ class Realisations:
     def _marginal(self, k: int):
         """Variable k's distribution, its mean and std in the unit of its path (the mean by default the
         field's value in the study file, whichever unit it is written in)."""
-        from workflows.probabilistic.sampling import Marginal
-
         variable = self.study.probabilistic.variables[k]
         where = f"probabilistic.variables[{k}]"
         found = self._resolved(k)
@@ -167,7 +173,6 @@ class Realisations:
         table = self.study.probabilistic
         if not table.variables:  # only a [random_field] varies
             return np.empty((self.count, 0))
-        from workflows.probabilistic.sampling import Sampler
 
         marginals = [self._marginal(k) for k in range(len(table.variables))]
         try:
@@ -328,8 +333,7 @@ class ProbabilisticStudy(SweepStudy):
     def check(self, options: RunOptions) -> None:
         """What the study must pass before anything is written (module doc, step 1): StudyError naming the
         field, or the realisation and the field."""
-        from workflows.fos.keys import gravity_key
-        from workflows.memory_guard import check_memory
+        from workflows.fos.keys import gravity_key  # the core (numba): once the study is known to be valid
 
         self.realisations = realisations = Realisations(self.study)
         self.first = [realisations.case(i) for i in range(min(FIRST_REALISATIONS, realisations.count))]
@@ -349,7 +353,7 @@ class ProbabilisticStudy(SweepStudy):
         """StudyError on a random variable whose values change nothing the study computes (realisation 0
         with that variable's value of realisation 1 has realisation 0's ``case_key``): its realisations
         would be one computation counted as independent samples."""
-        from workflows.fos.keys import case_key
+        from workflows.fos.keys import case_key  # the core (numba): once the study is known to be valid
 
         realisations = self.realisations
         if len(self.first) < 2:
@@ -373,7 +377,7 @@ class ProbabilisticStudy(SweepStudy):
     def _check_scenes(self) -> None:
         """The scene and simulation of realisation 0 (its random fields, what the core refuses), and of the
         realisation with the longest scale of fluctuation a random variable draws."""
-        from workflows.scene import build_scene
+        from workflows.scene import build_scene  # the core (numba): once the study is known to be valid
         from workflows.stages.running import new_simulation
 
         studies = [self.first[0].study]
@@ -393,9 +397,6 @@ class ProbabilisticStudy(SweepStudy):
     def cases(self) -> list[Case]:
         """The first realisations (module doc, step 2); case folders of an earlier invocation that this
         study does not have removed, and its ``probabilistic.nc``."""
-        from workflows.output.writing import make_output_folder
-        from workflows.sweep.stale import remove_stale_cases
-
         (self.out_dir / RESULT_NAME).unlink(missing_ok=True)  # a stopped study must not show an old one
         make_output_folder(self.out_dir / CASES_FOLDER)
         realisations = self.realisations
@@ -411,12 +412,8 @@ class ProbabilisticStudy(SweepStudy):
         """Up to ``count`` more realisations of this round, each made and its ``case.toml`` written (module
         doc, step 2); in fos mode, generation by generation, each searched in a window about its predicted
         FOS (``fos.prediction``: from the realisations of the earlier generations)."""
-        from workflows.output.writing import make_output_folder, write_text_if_changed
-
         if self.study.probabilistic.compute == "fos":
             if self.predicted is None:
-                from workflows.fos.prediction import Generations, WindowPredictor
-
                 self.predicted = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
             generations, _ = self.predicted
             count = min(count, generations.room(self.n_concluded))
@@ -444,20 +441,20 @@ class ProbabilisticStudy(SweepStudy):
         features = [math.tan(math.radians(float(value))) if variable.path.endswith("_deg") else float(value)
                     for variable, value in zip(self.study.probabilistic.variables, case.values.values())]
         if case.study.random_field is not None:
-            from workflows.probabilistic.spatial import mechanism_means
+            from workflows.probabilistic.field_mechanisms import mechanism_means  # the core (numba): on use
 
             features += mechanism_means(case.study, self._mechanism_zone())
         return features
 
     def _field_estimate(self, case: Case) -> float | None:
         """With random fields, the realisation's estimated FOS from the mechanisms of the realisations
-        concluded before (``probabilistic.spatial.FieldMechanisms``; over the candidate circles of the
+        concluded before (``probabilistic.field_mechanisms.FieldMechanisms``; over the candidate circles of the
         mean soil while none is known); None without random fields (the critical circle's F)."""
         if case.study.random_field is None:
             return None
         if getattr(self, "_circles", None) is None:
             from workflows.fos.critical_circle import candidate_circles
-            from workflows.probabilistic.spatial import FieldMechanisms
+            from workflows.probabilistic.field_mechanisms import FieldMechanisms  # the core (numba): on use
 
             self._circles = candidate_circles(self.study)
             self._mechanisms = FieldMechanisms(self.study)
@@ -466,7 +463,7 @@ class ProbabilisticStudy(SweepStudy):
     def _mechanism_zone(self):
         """The particles near the critical circle of the study's mean soil (once)."""
         if getattr(self, "_zone", None) is None:
-            from workflows.probabilistic.spatial import critical_zone
+            from workflows.probabilistic.field_mechanisms import critical_zone  # the core (numba): on use
 
             self._zone = critical_zone(self.study)
         return self._zone
@@ -476,7 +473,7 @@ class ProbabilisticStudy(SweepStudy):
 
     def _placed(self, case: Case) -> Case:
         """A realisation with what its runs keep and where its gravity state lives (module doc, step 3)."""
-        from workflows.fos.task import RunPolicy
+        from workflows.fos.task import RunPolicy  # dask: only when FOS cases run
 
         table = self.study.probabilistic
         first = case.position[0] < table.keep_fields_first
@@ -504,7 +501,7 @@ class ProbabilisticStudy(SweepStudy):
         index = int(case_id[len(CASE_PREFIX):])
         if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
                 and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
-            from workflows.fos.run_store import run_file_name, without_particle_fields
+            from workflows.fos.run_store import run_file_name, without_particle_fields  # dask: only when FOS cases run
 
             for record in outcome.runs:
                 if record.status == FAILED:
@@ -522,7 +519,7 @@ class ProbabilisticStudy(SweepStudy):
         """The slip line (x, y) of a failed realisation and the supports its mechanism reaches: its
         summary's, or in verdict mode those of its failed run alone (no stable run to subtract); (None,
         []) when its run file keeps no particles."""
-        from workflows.fos.domain_edges import edge_contacts
+        from workflows.fos.domain_edges import edge_contacts  # the core (numba): once the study is known to be valid
         from workflows.fos.run_store import run_file_name
         from workflows.fos.slip_surface import SlipSurface, run_particles, slip_surface
 
@@ -549,8 +546,7 @@ class ProbabilisticStudy(SweepStudy):
         return [(where, count / len(with_mechanism), warning) for (where, warning), count in sorted(counts.items())]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticOutcome:
-        from workflows.output.writing import write_dataset
-        from workflows.probabilistic.reliability import failure_probability
+        # the core (numba): once the study is known to be valid
         from workflows.probabilistic.results import probabilistic_dataset
 
         table = self.study.probabilistic
@@ -599,8 +595,6 @@ class ProbabilisticStudy(SweepStudy):
     def next_cases(self, outcomes: dict, progress) -> list:
         """The next batch while the pf interval is wider than ``pf_interval_width`` (its first
         realisations; the case runner asks for the others as it has room)."""
-        from workflows.probabilistic.reliability import failure_probability
-
         table = self.study.probabilistic
         if table.pf_interval_width is None or self.batch_end >= self.realisations.count:
             return []
@@ -632,8 +626,6 @@ class ProbabilisticStudy(SweepStudy):
 def _discretisation_line(study) -> str:
     """The expected discretisation excess of each realisation's FOS (``fos.discretisation``): a FOS too
     high makes pf too low."""
-    from workflows.fos.discretisation import note
-
     return note(study, "each realisation's FOS") + "; a FOS too high makes pf too low"
 
 

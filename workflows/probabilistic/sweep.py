@@ -20,14 +20,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 
 from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.output.stage_file import provenance
+from workflows.output.variables import PROBABILISTIC_SWEEP_FILE
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.probabilistic.study_type import ProbabilisticOutcome, ProbabilisticStudy
 from workflows.progress import CaseProgress, Progress
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, sweep_cases
-from workflows.sweep.results import CASE_TEXT_NAME, CASES_FOLDER, STUDY_FILE_NAME
+from workflows.sweep.report import fixed_width_table, value_text
+from workflows.sweep.results import CASE_TEXT_NAME, CASES_FOLDER, STUDY_FILE_NAME, sweep_coordinates
 
 SEPARATOR = " / "
 """A realisation's case id in the sweep: ``<sweep case id> / realisation_<i>``."""
@@ -127,9 +131,6 @@ class ProbabilisticSweepStudy(StudyType):
         self.studies[sweep_id].case_concluded(own_id, outcome, CaseProgress(progress, sweep_id))
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> ProbabilisticSweepOutcome:
-        from workflows.output.variables import PROBABILISTIC_SWEEP_FILE
-        from workflows.sweep.results import sweep_coordinates
-
         own: dict[str, dict] = {case_id: {} for case_id in self.studies}
         for case_id, outcome in outcomes.items():
             sweep_id, own_id = case_id.split(SEPARATOR, 1)
@@ -146,9 +147,7 @@ class ProbabilisticSweepStudy(StudyType):
                 columns[name][at] = getattr(result, name)
             columns["n_decided"][at] = result.n_realisations - result.n_undecided
             columns["case_folder"][at] = case.case_id
-        import xarray as xr
 
-        from workflows.output.stage_file import provenance
 
         dataset = xr.Dataset(coords=coords)
         for name, values in columns.items():
@@ -171,8 +170,6 @@ class ProbabilisticSweepStudy(StudyType):
                                          sum(result.runs_made for result in results.values()), timings_s, figures)
 
     def report(self, outcome: ProbabilisticSweepOutcome, quiet: bool, study_file) -> Report:
-        from workflows.sweep.report import fixed_width_table, value_text
-
         labels = list(outcome.cases[0].values)
         rows = []
         for case in outcome.cases:

@@ -6,24 +6,11 @@ import math
 from dataclasses import dataclass
 
 from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
+from workflows.random_field.table import spread_problem
 
 MAX_REALISATIONS = 100_000
 DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
 KEEP_FIELDS = ("failed", "all", "none")
-
-
-def spread_problem(mean: float, std: float, cov_given: bool) -> tuple[str, str] | None:
-    """(the field to blame, why) when a random value of ``mean`` and standard deviation ``std`` would
-    not vary: a coefficient of variation of a zero mean (no spread at all), or a std too small to
-    change the mean in floating point; None when it varies.  Realisations that do not differ are
-    one computation, not independent samples: they would make pf an interval of copies."""
-    if cov_given and mean == 0.0:
-        return "cov", ("the mean is 0, so a coefficient of variation (std / mean) gives no spread: give std, "
-                       "the spread in the field's unit, instead")
-    if not std > 0.0 or mean + std == mean:
-        return "std" if not cov_given else "cov", (f"a std of {std:.3g} about a mean of {mean:.6g} changes no value "
-                                                   "(a random value needs a spread)")
-    return None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -100,6 +87,16 @@ class Probabilistic(Record):
     )
     keep_fields_first: int = integer("the first this many realisations keep the particle state of all their runs "
                                      "too, stable or failed", default=0, ge=0)
+
+    def check_in_study(self, study) -> None:
+        """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
+        if not self.variables and study.random_field is None:
+            raise StudyError("probabilistic.variables", "give a random variable, or a [random_field]")
+        if study.strength_reduction is None:
+            raise StudyError("probabilistic", "a probabilistic study judges each realisation by strength "
+                             "reduction: it needs a strength_reduction stage")
+        if study.refinement is not None:
+            raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
 
     def check(self):
         n = len(self.variables)

@@ -11,6 +11,7 @@ import xarray as xr
 
 from workflows.output.stage_file import provenance
 from workflows.output.variables import REFINED_SWEEP_FILE, REFINEMENT_FILE
+from workflows.sweep.results import study_dataset, sweep_coordinates
 
 
 def refinement_dataset(study, outcome) -> xr.Dataset:
@@ -68,8 +69,6 @@ def refined_sweep_dataset(study, cases, results: dict, refinements: dict) -> xr.
     """``study.nc`` of a sweep with ``[refinement]``: the sweep's variables of each case's finest
     level (``results``, ``sweep.results.CaseResult`` by case id) and its band (``refinements``,
     ``RefinementOutcome`` or None by case id)."""
-    from workflows.sweep.results import study_dataset, sweep_coordinates
-
     ds = study_dataset(study, cases, results, {case.case_id: case.case_id for case in cases}, len(cases))
     dims, shape, _ = sweep_coordinates(study, cases)
     columns = {name: np.full(shape, np.nan) for name in ("fos_limit", "fos_uncertainty", "fos_band_low",

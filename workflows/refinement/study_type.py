@@ -35,9 +35,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
-from workflows.memory_guard import check_memory
+from workflows.layers import thin_layer_warnings
+from workflows.memory_guard import BYTES_PER_PARTICLE, GIB, available_memory_bytes, check_memory, estimated_particles
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
+from workflows.refinement.adaptive import band_indicator, band_particles, zone_outlines
 from workflows.refinement.convergence import MIN_LEVELS, DiscretisationBand, discretisation_band
+from workflows.refinement.figures import draw_convergence
+from workflows.refinement.results import refinement_dataset
 from workflows.study import Study, StudyError
 from workflows.study.reading import _build_study, _loads, resolve_sweep_path
 from workflows.study.toml_text import to_toml
@@ -224,8 +228,6 @@ class RefinementStudy(StudyType):
         except StudyError as error:
             raise StudyError("refinement", f"level 0 (h = {self.spacings[0]:g} m): {error}") from None
         if self.table.adaptive:
-            from workflows.memory_guard import BYTES_PER_PARTICLE, GIB, available_memory_bytes
-
             limit = options.max_memory_bytes if options.max_memory_bytes is not None else available_memory_bytes()
             need = self.table.max_particles * BYTES_PER_PARTICLE * processes
             if need > limit:
@@ -245,8 +247,6 @@ class RefinementStudy(StudyType):
 
     def warnings(self) -> list[str]:
         """Thin layers at the finest uniform level, or the first adaptive one (``workflows.layers``)."""
-        from workflows.layers import thin_layer_warnings
-
         study = self.levels[0].study if self.table.adaptive else self._level_study(
             len(self.spacings) - 1, self.spacings[-1], [], None, 0)
         return thin_layer_warnings(study)
@@ -359,8 +359,6 @@ class RefinementStudy(StudyType):
                 return None
         level = self._plan(k, spacing, zones, search)
         if self.table.adaptive:
-            from workflows.memory_guard import estimated_particles
-
             n = estimated_particles(level.study)
             if n > self.table.max_particles:
                 self.stop_reason = (f"level {k} (h = {spacing:g} m) would hold about {n:.3g} particles, over "
@@ -371,8 +369,7 @@ class RefinementStudy(StudyType):
 
     def _band_zones(self, k: int, spacing_m: float, progress) -> list | None:
         """The zones of level k: those of level k - 1 and the outlines around its mechanism's band."""
-        from workflows.fos.run_store import run_file_name
-        from workflows.refinement.adaptive import band_indicator, band_particles, zone_outlines
+        from workflows.fos.run_store import run_file_name  # dask: only when FOS cases run
 
         before = self.found[k - 1]
         stable = [r.srf for r in before.runs if r.status == "stable" and r.srf < before.status_high]
@@ -387,8 +384,6 @@ class RefinementStudy(StudyType):
         return self.levels[k - 1].zones + [(outline, spacing_m) for outline in outlines]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> RefinementOutcome:
-        from workflows.refinement.results import refinement_dataset  # xarray: once the levels have run
-
         levels = [self._level_result(k, outcomes.get(self._case_id(k))) for k in range(len(self.levels))]
         levels = [level for level in levels if level is not None]
         repeat = self._level_result(REPEAT_LEVEL, outcomes.get(self._case_id(REPEAT_LEVEL, True)), repeat=True) \
@@ -406,8 +401,6 @@ class RefinementStudy(StudyType):
         dataset = refinement_dataset(self.study, result)
         write_dataset(dataset, result.result_path)
         if self.study.output.figures:
-            from workflows.refinement.figures import draw_convergence  # matplotlib only when drawing
-
             result.figures = draw_convergence(self.out_dir, dataset)
         return result
 

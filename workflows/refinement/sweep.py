@@ -24,9 +24,12 @@ from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.progress import CaseProgress, Progress
+from workflows.refinement.results import refined_sweep_dataset
 from workflows.refinement.study_type import RefinementOutcome, RefinementStudy
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, sweep_cases
+from workflows.sweep.figures import draw_sweep_figures
+from workflows.sweep.report import fixed_width_table, value_text
 from workflows.sweep.results import (
     CASE_TEXT_NAME,
     CASES_FOLDER,
@@ -119,8 +122,6 @@ class RefinedSweepStudy(StudyType):
         return more
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> RefinedSweepOutcome:
-        from workflows.refinement.results import refined_sweep_dataset  # xarray: once the levels have run
-
         refinements, results = {}, {}
         for case_id, refinement in self.refinements.items():
             if case_id in self.diverged:
@@ -136,8 +137,6 @@ class RefinedSweepStudy(StudyType):
         write_dataset(dataset, study_path)
         figures = []
         if self.study.output.figures:
-            from workflows.sweep.figures import draw_sweep_figures  # matplotlib only when drawing
-
             figures = draw_sweep_figures(self.out_dir, dataset)
         timings_s = {"cases_elapsed": timings.cases_elapsed, "gravity_worker": timings.gravity_worker,
                      "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
@@ -145,8 +144,6 @@ class RefinedSweepStudy(StudyType):
                                    figures)
 
     def report(self, outcome: RefinedSweepOutcome, quiet: bool, study_file) -> Report:
-        from workflows.sweep.report import fixed_width_table, value_text
-
         labels = list(outcome.cases[0].values)
         rows = []
         for case in outcome.cases:

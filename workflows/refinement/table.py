@@ -80,6 +80,12 @@ class Refinement(Record):
                     raise StudyError(f"spacings_m[{i}]", "each spacing must be at least 5% below the one before "
                                      f"(coarsest first), got {self.spacings_m[i - 1]:g} then {self.spacings_m[i]:g}")
 
+    def check_in_study(self, study) -> None:
+        """A refinement study computes a factor of safety: the study needs a strength-reduction stage."""
+        if study.strength_reduction is None:
+            raise StudyError("refinement", "a refinement study computes a factor of safety: it needs a "
+                             "strength_reduction stage")
+
     @property
     def adaptive(self) -> bool:
         return self.kind == ADAPTIVE

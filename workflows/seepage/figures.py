@@ -19,7 +19,7 @@ FLOWING = 1e-2
 
 def draw_seepage(ds: xr.Dataset, path: Path) -> Path:
     """The figure of the module doc into ``path``."""
-    import matplotlib.tri as mtri
+    import matplotlib.tri as mtri  # matplotlib: only when drawing
 
     x, y = ds["particle_x"].values, ds["particle_y"].values
     triangles = ds["mesh2d_face_nodes"].values

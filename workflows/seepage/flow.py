@@ -1,7 +1,7 @@
-"""A study's steady flow: its problem on the particles' first mesh, solved once per process, and
-what it does to the particles.
+"""A study's steady flow: its problem on the particles' first mesh, solved, and what it does to the
+particles.
 
-1. The mesh is the simulation's first mesh of the study's cloud (``workflows.scene.cloud``,
+1. The mesh is the simulation's first mesh of the study's cloud (``workflows.particles.cloud``,
    ``spfem_core.mesh.triangulate``); a triangle takes the conductivity of the material whose region
    holds its centroid (of the particles' material where the centroid lies in none).
 2. The conditions (``workflows.seepage.table``): ponded water first, then each
@@ -21,6 +21,10 @@ the particles' initial positions and is judged by the displacement at which a me
 well before the ground has moved far enough to change the flow; recomputing the flow on the
 deformed mesh would need the boundary conditions of a surface that is no longer where the study
 file put it (docs/method.md, section 15).
+
+:func:`study_flow` solves it each time it is called and keeps nothing: whoever has the flow passes
+it on as a value (the scene, the stage runner, the factor-of-safety engine, which ships it to its
+workers with the gravity state; :func:`flow_inputs` tells which studies share one).
 """
 
 from __future__ import annotations
@@ -30,12 +34,17 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
+from spfem_core.geometry import surface_height_m
 from spfem_core.mesh import boundary_edges, triangulate
 from spfem_core.seepage import FlowProblem, FlowSolution, conductivity_tensor, head_scale_m, solve_steady_flow
 from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
-from workflows.probabilistic.spatial import SEEPAGE_PROPERTY
+from workflows.particles import cloud_of_geometry, rows_of_materials
+from workflows.random_field.table import SEEPAGE_PROPERTY
+from workflows.random_field.values import node_properties
 from workflows.seepage.table import ROUND_OFF_SPACINGS
 
 POND = "pond"
@@ -77,11 +86,6 @@ class StudyFlow:
         return float((self.problem.node_inflow_m2_s[held_rain] - self.solution.node_inflow_m2_s[held_rain]).sum())
 
 
-FLOWS_KEPT = 4
-"""Flows a process keeps (:func:`study_flow`): those of the studies it serves at once."""
-_flows: dict[tuple, StudyFlow] = {}
-
-
 def flow_inputs(study) -> tuple:
     """What a study's flow depends on (equal inputs, equal flow): its geometry, materials, [seepage],
     ponded water, the alpha of its mesh, and a [random_field] of permeability."""
@@ -95,32 +99,13 @@ def flow_inputs(study) -> tuple:
 
 
 def study_flow(study) -> StudyFlow:
-    """The flow of ``study`` (module doc), solved once per process for the same inputs (a sweep's or a
-    probabilistic study's cases that share them share it) unless :func:`remember` was given it;
-    StudyError naming the field for a problem that has no solution, or whose iteration does not
-    converge."""
-    inputs = flow_inputs(study)
-    flow = _flows.pop(inputs, None)
-    if flow is None:
-        flow = _flow(*inputs)
-    remember(study, flow)
-    return flow
-
-
-def remember(study, flow: StudyFlow) -> None:
-    """Keep ``flow`` as the flow of ``study`` in this process (a dask worker handed the flow the client
-    solved does not solve it again)."""
-    inputs = flow_inputs(study)
-    _flows.pop(inputs, None)
-    _flows[inputs] = flow  # most recent last
-    while len(_flows) > FLOWS_KEPT:
-        del _flows[next(iter(_flows))]
+    """The flow of ``study`` (module doc), solved from its :func:`flow_inputs`; StudyError naming the
+    field for a problem that has no solution, or whose iteration does not converge."""
+    return _flow(*flow_inputs(study))
 
 
 def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit_weight_n_m3, alpha,
           random_field=None) -> StudyFlow:
-    from workflows.scene import cloud_of_geometry, rows_of_materials
-
     start = time.perf_counter()
     node_xy_m, node_spacing_m = cloud_of_geometry(geometry)
     spacing = node_spacing_m if geometry.refined else geometry.spacing_m
@@ -131,7 +116,7 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
     elem_material = np.where(centroid_material >= 0, centroid_material, majority)
     k1 = np.array([m.permeability_m_s for m in materials])[elem_material]
     if random_field is not None:  # a permeability field: a triangle takes the geometric mean of its particles'
-        node_k = random_field.node_properties(materials, node_xy_m, node_spacing_m, node_material)[SEEPAGE_PROPERTY]
+        node_k = node_properties(random_field, materials, node_xy_m, node_spacing_m, node_material)[SEEPAGE_PROPERTY]
         node_k = np.where(np.isnan(node_k), np.array([m.permeability_m_s for m in materials])[node_material], node_k)
         varies = np.isin(elem_material, [i for i, m in enumerate(materials) if any(
             e.material == m.name and e.property == SEEPAGE_PROPERTY for e in random_field.properties)])
@@ -235,8 +220,6 @@ def _check_no_water_above_the_ground(flow: StudyFlow, geometry, seepage, edges: 
     The ground surface is the boundary edges on the polygon's upper boundary y_top(x), and its
     particles those whose every boundary edge is one (not where it meets the base or a side, whose
     particles carry a positive pressure below the water table as any particle there does)."""
-    from spfem_core.geometry import surface_height_m
-
     xy = flow.node_xy_m
     tol = TOLERANCE_PER_SPACING * finest_m
     middle = xy[edges].mean(axis=1)
@@ -265,9 +248,6 @@ def _check_no_water_above_the_ground(flow: StudyFlow, geometry, seepage, edges: 
 def _check_every_part_has_a_head(node_xy_m: np.ndarray, elem_nodes: np.ndarray, held: np.ndarray) -> None:
     """StudyError when a part of the mesh (particles joined by triangles) has no particle whose head a
     condition fixes: its heads would be undetermined (a singular system, not a number)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     n = node_xy_m.shape[0]
     edges = np.concatenate([elem_nodes[:, [0, 1]], elem_nodes[:, [1, 2]], elem_nodes[:, [2, 0]]])
     graph = coo_matrix((np.ones(edges.shape[0]), (edges[:, 0], edges[:, 1])), shape=(n, n))

@@ -10,6 +10,8 @@ import xarray as xr
 from spfem_core.seepage import phreatic_segments
 from workflows.output.stage_file import provenance
 from workflows.output.variables import SEEPAGE_FILE
+from workflows.output.writing import write_dataset
+from workflows.seepage.figures import draw_seepage
 
 FILE_NAME = "seepage.nc"
 FIGURE_NAME = "seepage.png"
@@ -17,12 +19,8 @@ FIGURE_NAME = "seepage.png"
 
 def write_seepage(study, dataset: xr.Dataset, out_dir: Path) -> list[Path]:
     """``seepage.nc`` and, with the study's figures, ``seepage.png`` into ``out_dir``; their paths."""
-    from workflows.output.writing import write_dataset
-
     paths = [write_dataset(dataset.assign_attrs(provenance(study)), Path(out_dir) / FILE_NAME)]
     if study.output.figures:
-        from workflows.seepage.figures import draw_seepage  # matplotlib only when drawing
-
         paths.append(draw_seepage(dataset, Path(out_dir) / FIGURE_NAME))
     return paths
 

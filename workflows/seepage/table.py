@@ -85,7 +85,29 @@ class Seepage(Record):
     max_iterations: int = integer("most iterations of the free surface and seepage faces", default=2000, ge=1,
                                   le=20_000)
 
-    def check_in_study(self, polygon_m, pond_level_m: float | None, largest_permeability_m_s: float) -> None:
+    def check_in_study(self, study) -> None:
+        """[seepage] computes the water: no line or ru beside it, a permeability for every material; then
+        the fluxes and the tolerance (:meth:`_check_fluxes_and_tolerance`), their fields under ``seepage.``."""
+        water = study.water
+        for name in ("phreatic_line_m", "phreatic_level_m", "ru"):
+            if water is not None and getattr(water, name) is not None:
+                raise StudyError(f"water.{name}", "[seepage] computes the pore pressure: leave the line and ru out")
+        for i, material in enumerate(study.materials):
+            if material.phreatic_line_m is not None:
+                raise StudyError(f"materials[{i}].phreatic_line_m", "[seepage] computes the pore pressure: leave "
+                                 "the line out")
+            if material.permeability_m_s is None:
+                raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
+                                 "the study has [seepage]")
+        try:
+            largest_permeability = max(m.permeability_m_s * max(1.0, m.permeability_ratio) for m in study.materials)
+            self._check_fluxes_and_tolerance(study.geometry.polygon_m, None if water is None else water.pond_level_m,
+                                             largest_permeability)
+        except StudyError as error:
+            raise StudyError(f"seepage.{error.field}", error.problem) from None
+
+    def _check_fluxes_and_tolerance(self, polygon_m, pond_level_m: float | None,
+                                    largest_permeability_m_s: float) -> None:
         """StudyError on a flux that needs a hydraulic gradient above ``MAX_GRADIENT`` where it crosses
         the boundary; on ``tolerance`` when it asks for head changes below the spacing of doubles at
         the section's heads, eps max|h| (the heads at least the elevations and the fixed heads the

@@ -8,8 +8,10 @@ starts (:meth:`StageBase.materials`, :meth:`StageBase.acceleration_m_s2`, :meth:
 (:meth:`StageBase.run`), what it adds to its result file and figures, and its flags.  Like
 pyro2's ``NullSimulation``, the base gives every method a default that a kind overrides.
 
-The methods take the simulation, the study and the result dataset as arguments; nothing here
-imports numba or xarray (the study reader imports this package before anything is compiled).
+The methods take what they work on as values (the simulation, the study, the study's water, the
+result dataset): a stage kind is a declaration the study reader imports, so it imports no code that
+runs (no scene, no water computed, no runner) and nothing heavy (numba, xarray) before anything is
+compiled.
 """
 
 from __future__ import annotations
@@ -20,7 +22,6 @@ from typing import ClassVar
 import numpy as np
 
 from workflows.fields import Record, StudyError, boolean, name_field, names, number, text
-from workflows.water import study_water
 
 ORIGINAL_POSITIONS = "original_positions"
 CONTINUE = "continue"
@@ -83,9 +84,10 @@ class StageBase(Record):
         strength reduction (``[loads.seismic] in_gravity``)."""
         return study.loads.acceleration_m_s2(study.geometry.polygon_m, strength_reduction=False)
 
-    def water(self, study, node_material: np.ndarray):
-        """(piezometric lines, line of each particle, pond level or None) of the stage: the study's."""
-        return study_water(study, node_material)
+    def water(self, study_water: tuple, study, node_material: np.ndarray) -> tuple:
+        """(piezometric lines, line of each particle, pond level or None) of the stage, from the study's
+        ``study_water`` (the same triple, ``workflows.water.pressure.study_water``): the study's."""
+        return study_water
 
     # ------------------------------------------------------------------ running
     def run(self, sim, monitor_nodes: np.ndarray, *, progress=None, snapshot=None, next_starts_over: bool = False):

@@ -38,9 +38,11 @@ from workflows.output.paraview import SnapshotWriter
 from workflows.output.stage_file import is_up_to_date, result_paths, stage_dataset
 from workflows.output.writing import interrupts_deferred, make_output_folder, write_dataset
 from workflows.progress import Progress
-from workflows.scene import build_scene, monitor_particles, solver_settings, supports
+from workflows.scene import monitor_particles, scene_and_flow, solver_settings, supports
+from workflows.seepage.results import flow_line, seepage_dataset, write_seepage
 from workflows.stages.base import CONTINUE, ORIGINAL_POSITIONS
 from workflows.study import Study, StudyError
+from workflows.water.pressure import study_water
 
 MAX_STEPS_PER_STAGE = 1e9
 """A stage that would take more explicit steps than this is refused (days of wall time)."""
@@ -124,7 +126,7 @@ def stage_setup(study: Study, sim: Simulation, index: int, start_from: StressSta
     left off, as the stage says."""
     stage = study.stages[index]
     scene = sim.scene
-    lines, node_line, pond = stage.water(study, scene.node_material)
+    lines, node_line, pond = stage.water(study_water(study, scene.node_material), study, scene.node_material)
     if start_from is not None:
         start = start_from
     else:
@@ -237,7 +239,7 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         return StudyRun(paths=paths, up_to_date=True)
 
     check_memory(study, processes=1, limit_bytes=max_memory_bytes)
-    scene = build_scene(study)
+    scene, flow = scene_and_flow(study)
     monitor_nodes = monitor_particles(study, scene)
     sim = new_simulation(study, scene)
 
@@ -246,11 +248,7 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         path.unlink(missing_ok=True)
         partial_path(path).unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
-    if study.seepage is not None:  # the flow every stage's pore pressure comes from
-        from workflows.seepage.flow import study_flow
-        from workflows.seepage.results import flow_line, seepage_dataset, write_seepage
-
-        flow = study_flow(study)
+    if flow is not None:  # the flow every stage's pore pressure comes from
         write_seepage(study, seepage_dataset(study, flow), out_dir)
         progress.message(flow_line(flow))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):

@@ -20,9 +20,11 @@ import numpy as np
 from spfem_core.geometry import downslope_sign
 from workflows.fields import StudyError, number
 from workflows.loads.seismic import OUT_OF_SLOPE, horizontal_sign, with_horizontal
+from workflows.output.variables import RUNOUT_METRICS
+from workflows.runout.figures import runout_fields
 from workflows.runout.rest import rest_rule
 from workflows.stages.base import StageBase
-from workflows.water import level_line, study_water
+from workflows.water.table import level_line
 
 DEFAULT_REST_KINETIC_FRACTION = 1e-3
 DEFAULT_RUNOUT_REST_WINDOW_S = 0.5
@@ -92,10 +94,10 @@ class RunoutStage(StageBase):
         return with_horizontal(study.loads.gravity_m_s2, self.horizontal_coefficient,
                                horizontal_sign(OUT_OF_SLOPE, polygon))
 
-    def water(self, study, node_material: np.ndarray):
+    def water(self, study_water: tuple, study, node_material: np.ndarray) -> tuple:
         """The study's water, or the stage's own piezometric level (for the materials without a line of
         their own) and ponded water."""
-        lines, node_line, pond = study_water(study, node_material)
+        lines, node_line, pond = study_water
         if self.phreatic_level_m is not None:
             lines = lines + (np.array(level_line(self.phreatic_level_m)),)
             own = np.array([m.phreatic_line_m is not None for m in study.materials])[node_material]
@@ -113,7 +115,6 @@ class RunoutStage(StageBase):
     def add_results(self, dataset, study, series, final) -> None:
         """The runout metrics of ``workflows.runout.metrics`` (on the particles in the final mesh)."""
         # imported here: the metrics need scipy, which the study reader must not import
-        from workflows.output.variables import RUNOUT_METRICS
         from workflows.runout.metrics import final_surface, runout_summary, surface_change
 
         meshed = final.meshed
@@ -149,8 +150,6 @@ class RunoutStage(StageBase):
 
     def figures(self, study, result_path, out_dir) -> list:
         """``<stage>.png``: the final state over the initial outline (``runout.figures``)."""
-        from workflows.runout.figures import runout_fields  # matplotlib: only when drawing
-
         if not study.output.figures:
             return []
         return [runout_fields(result_path, Path(out_dir) / f"{self.name}.png", self.strength_factor,

@@ -146,7 +146,7 @@ def _dxf_line(path: Path, layer: str, field: str) -> list[list[float]]:
     arcs as chords (``ARC_TOLERANCE``).  A drawing in units other than metres is refused:
     ``$INSUNITS`` is often the template's rather than the drawing's, and a conversion would
     rescale such a section silently."""
-    from ezdxf import units
+    from ezdxf import units  # ezdxf: only for a study that reads a DXF file
 
     document = _read_dxf(path, field)
     code = document.header.get("$INSUNITS", 0)
@@ -180,7 +180,7 @@ def _world_points(entity) -> list[list[float]]:
     for one mirrored in CAD), turned into world coordinates; a 3D polyline's are in world
     coordinates already; the spline frame's control points of a spline-fit POLYLINE are skipped
     (the line is its fit vertices)."""
-    from ezdxf.lldxf.const import VTX_SPLINE_FRAME_CONTROL_POINT
+    from ezdxf.lldxf.const import VTX_SPLINE_FRAME_CONTROL_POINT  # ezdxf: only for a study that reads a DXF file
     from ezdxf.math import Vec3
 
     if entity.dxftype() == "LINE":
@@ -205,6 +205,7 @@ def _with_arcs(vertices: list[tuple[float, float, float]]) -> list[tuple[float, 
     """The points of a polyline of (x, y, bulge) vertices, each arc (a bulge b != 0 from its vertex
     to the next: an included angle of 4 atan b) as chords of sagitta at most ``ARC_TOLERANCE``
     times the line's size."""
+    # ezdxf: only for a study that reads a DXF file
     from ezdxf.math import BoundingBox2d, ConstructionArc, Vec2, bulge_to_arc
 
     arcs = {}

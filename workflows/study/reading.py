@@ -16,9 +16,11 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from workflows import engineering_units
 from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
-from workflows.study import engineering_units, line_files, section_form, slope_form
-from workflows.study.tables import SectionForm, SlopeForm, Study
+from workflows.study import line_files, section_form, slope_form
+from workflows.study.geometry import SectionForm, SlopeForm
+from workflows.study.tables import Study
 from workflows.study.toml_text import to_toml
 
 
@@ -158,7 +160,7 @@ class FieldAt:
 def resolve_field(raw: dict, path: str) -> FieldAt:
     """The field at a sweep ``path`` in the study dict ``raw`` (a missing optional table is created); a
     field named in other units than its declaration's (``materials.soil.cohesion_kpa``,
-    ``unit_weight_kn_m3``: ``workflows.study.engineering_units``) is found with its declaration in those
+    ``unit_weight_kn_m3``: ``workflows.engineering_units``) is found with its declaration in those
     units.  StudyError (field ``path``) otherwise."""
     parts = path.split(".")
     cls, node, i, where = Study, raw, 0, ""
@@ -258,9 +260,15 @@ def sweep_cases(study: Study) -> list[SweepCase]:
         try:
             case_study = dataclasses.replace(_build_study(case_raw), source_text=text)
         except StudyError as error:
-            raise StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}") from None
+            raise case_error(case_id, error) from None
         cases[case_id] = SweepCase(case_id, position, values, case_study)
     return list(cases.values())
+
+
+def case_error(case_id: str, error: StudyError) -> StudyError:
+    """The StudyError of one case of a sweep (``case_id`` as :func:`sweep_cases` makes it), the case
+    named before the field it names."""
+    return StudyError("sweep", f"the case {case_id.replace('__', ', ')}: {error}")
 
 
 def _case_value(value) -> str:

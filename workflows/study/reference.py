@@ -12,8 +12,8 @@ import argparse
 import json
 import sys
 
+from workflows import engineering_units
 from workflows.fields import MAX_NAME_LENGTH, NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
-from workflows.study import engineering_units
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
@@ -84,7 +84,7 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
         properties[field_name] = schema
         if default is REQUIRED:
             required.append(field_name)
-    one_of_names = []  # a field that may be given in other units (workflows.study.engineering_units)
+    one_of_names = []  # a field that may be given in other units (workflows.engineering_units)
     for field_name, spec in specs(cls).items():
         others = engineering_units.other_names(field_name) if spec.type == "number" else []
         if spec.unit == "Pa" or field_name in engineering_units.UNIT_WEIGHTS.values():

@@ -28,7 +28,7 @@ import numpy as np
 
 from spfem_core.geometry import polygon_problem, size_m
 from workflows.fields import StudyError
-from workflows.study.tables import SectionForm, SectionLayer
+from workflows.study.geometry import SectionForm, SectionLayer
 
 
 def polygon_m(form: SectionForm) -> list[list[float]]:

@@ -18,7 +18,7 @@ take the layers from the top, in file order.
 from __future__ import annotations
 
 from workflows.fields import StudyError
-from workflows.study.tables import SlopeForm
+from workflows.study.geometry import SlopeForm
 
 
 def polygon_m(form: SlopeForm) -> list[list[float]]:

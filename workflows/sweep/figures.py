@@ -126,7 +126,7 @@ def fos_map(ds: xr.Dataset, ax=None):
     x, y = picked[x_name].values.astype(float), picked[y_name].values.astype(float)
     finite = np.isfinite(fos)
     if finite.sum() >= 3 and np.nanmax(fos) > np.nanmin(fos):
-        from matplotlib.ticker import MaxNLocator
+        from matplotlib.ticker import MaxNLocator  # matplotlib: only when drawing
 
         levels = MaxNLocator(nbins=12).tick_values(np.nanmin(fos), np.nanmax(fos))
         filled = ax.contourf(x, y, np.ma.masked_invalid(fos), levels=levels, cmap="RdYlGn")

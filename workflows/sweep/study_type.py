@@ -28,13 +28,16 @@ import numpy as np
 import xarray as xr
 
 from spfem_core.divergence import DivergenceError
-from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType, case_error
+from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.fos.discretisation import note
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import result_paths
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study, StudyError
-from workflows.study.reading import SweepCase, sweep_cases
+from workflows.study.reading import SweepCase, case_error, sweep_cases
+from workflows.sweep.figures import draw_runout_sweep, draw_sweep_figures
+from workflows.sweep.report import stage_table_lines, table_lines
 from workflows.sweep.results import (
     CASE_TEXT_NAME,
     CASES_FOLDER,
@@ -116,7 +119,7 @@ class SweepStudy(StudyType):
         largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
         check_memory(largest.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
         if self.study.random_field is not None:  # the fields' embeddings, once per distinct particles and scales
-            from workflows.scene import build_scene
+            from workflows.scene import build_scene  # the core (numba): once the study is known to be valid
 
             checked = set()
             for case in self.sweep_cases:
@@ -193,8 +196,6 @@ class SweepStudy(StudyType):
         write_dataset(dataset, study_path)
         figures = []
         if self.study.output.figures:
-            from workflows.sweep.figures import draw_sweep_figures  # matplotlib only when drawing
-
             figures = draw_sweep_figures(self.out_dir, dataset)
         self._remove_stale_figures(figures)
         runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
@@ -221,8 +222,6 @@ class SweepStudy(StudyType):
         write_dataset(dataset, study_path)
         figures = []
         if self.study.output.figures and runout_stage_names(self.study):
-            from workflows.sweep.figures import draw_runout_sweep  # matplotlib only when drawing
-
             figures = draw_runout_sweep(self.out_dir, dataset)
         self._remove_stale_figures(figures)
         return StageSweepOutcome(self.out_dir, study_path, self.sweep_cases, results, runout_stage_names(self.study),
@@ -239,8 +238,6 @@ class SweepStudy(StudyType):
         return [line] if line else []
 
     def report(self, outcome, quiet: bool, study_file) -> Report:
-        from workflows.sweep.report import stage_table_lines, table_lines
-
         wrote = (f"wrote {outcome.study_path}, {outcome.out_dir / CASES_FOLDER}/"
                  + "".join(f", {path.name}" for path in outcome.figures))
         if not self.fos:
@@ -259,7 +256,6 @@ class SweepStudy(StudyType):
                 if outcome.n_distinct < len(outcome.cases) else "")
         header = (f"{self.study.name}: {len(outcome.cases)} cases{same}, {outcome.runs_made} SRF runs{reused}, "
                   f"wall time {outcome.timings_s['total']:.1f} s")
-        from workflows.fos.discretisation import note
 
         return Report([header, *table, note(self.study, "each case's FOS"), wrote, *self.removed])
 

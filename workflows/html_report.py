@@ -20,9 +20,12 @@ import html
 import io
 from pathlib import Path
 
+from spfem_core import __version__
 from workflows.fields import Record, specs
 from workflows.output.figures import drawn_by_us
 from workflows.output.writing import write_bytes
+from workflows.scene import scene_and_flow
+from workflows.section_figure import draw_section
 from workflows.study import Study
 
 REPORT_FILE = "report.html"
@@ -86,8 +89,6 @@ def write_html_report(kind, outcome, study_file) -> Path:
 
 def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, kind_name: str) -> str:
     """The HTML text of the page (module doc)."""
-    from spfem_core import __version__
-
     created = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     esc = html.escape
     parts = [
@@ -132,14 +133,13 @@ def _figure(png: bytes, caption: str, alt: str) -> str:
 
 
 def _section_figure(study: Study, kind_name: str) -> list[str]:
-    """The section drawing (``workflows.check.draw_section``), unless the study draws no figures."""
+    """The section drawing (``workflows.section_figure.draw_section``), unless the study draws no figures."""
     if not study.output.figures:
         return []
-    from workflows.check import draw_section
-    from workflows.scene import build_scene
 
     buffer = io.BytesIO()
-    draw_section(study, build_scene(study), buffer)
+    scene, flow = scene_and_flow(study)
+    draw_section(study, scene, buffer, flow=flow)
     varied = ("; the base study, before its random variables are drawn" if "Probabilistic" in kind_name else
               "; the base study, before the sweep sets its values" if "Sweep" in kind_name else "")
     return [_figure(buffer.getvalue(), SECTION_CAPTION.format(varied), "section")]

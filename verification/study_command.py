@@ -1,5 +1,5 @@
-"""Running a study text as a user does, for the benchmarks: ``python -m workflows.cli`` in a folder
-of its own, quiet, timed as a whole command."""
+"""Running a study text as a user does, for the verification and the benchmarks: ``python -m
+workflows.cli`` in a folder of its own, quiet, timed as a whole command."""
 
 from __future__ import annotations
 

@@ -49,7 +49,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-MODELS = ("markov", "gaussian")
+from workflows.random_field.table import CORRELATION_MODELS
+
 NEGATIVE_SHARE = 1e-3
 """Largest share of negative eigenvalues of an embedding (module doc): every covariance of the grid
 within 1e-3 of the variance, far below what 1,000 realisations resolve (a standard error of 0.03)."""
@@ -72,7 +73,7 @@ def correlation(model: str, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float
         return np.exp(-2.0 * np.sqrt(r2))
     if model == "gaussian":
         return np.exp(-math.pi * r2)
-    raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(MODELS)})")
+    raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(CORRELATION_MODELS)})")
 
 
 class EmbeddingError(ValueError):
@@ -85,7 +86,7 @@ def embedding(model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, 
     """sqrt(lambda / N) of the smallest periodic grid, from twice the ``nx`` x ``ny`` grid up to
     :data:`MAX_EMBEDDING` times it, whose negative eigenvalues are at most :data:`NEGATIVE_SHARE` of
     their sum (module doc; :meth:`GridField.build`); None when none is."""
-    from scipy import fft  # scipy only when drawing: the study reader imports this module
+    from scipy import fft  # scipy.fft: only when a field is drawn
 
     for factor in range(2, MAX_EMBEDDING + 1):
         mx, my = fft.next_fast_len(factor * nx), fft.next_fast_len(factor * ny)
@@ -137,7 +138,7 @@ class GridField:
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
-        from scipy import fft
+        from scipy import fft  # scipy.fft: only when a field is drawn
 
         shape = self.sqrt_eigen.shape
         z = rng.standard_normal(shape) + 1j * rng.standard_normal(shape)
@@ -195,7 +196,7 @@ def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, 
 def cell_averages(grid_values: np.ndarray, cell_points: int) -> np.ndarray:
     """The average of ``grid_values`` over the ``cell_points`` x ``cell_points`` box about each
     grid point (a box filter; the box shrinks to the grid at its edges)."""
-    from scipy import ndimage
+    from scipy import ndimage  # scipy.ndimage: only when a field is drawn
 
     return ndimage.uniform_filter(grid_values, size=cell_points, mode="nearest")
 
@@ -299,10 +300,3 @@ class ParticleField:
             mine = self.cell_points == size
             out[mine] = cell_averages(grid_values, int(size))[self.ix[mine], self.iy[mine]]
         return out
-
-
-def lognormal_parameters(mean: float, cov: float) -> tuple[float, float]:
-    """(mu_ln, sigma_ln) of a lognormal variable of ``mean`` and coefficient of variation ``cov``:
-    sigma_ln^2 = ln(1 + cov^2), mu_ln = ln(mean) - sigma_ln^2 / 2."""
-    sigma2 = math.log1p(cov * cov)
-    return math.log(mean) - 0.5 * sigma2, math.sqrt(sigma2)
