@@ -27,10 +27,9 @@ from spfem_core.schedule import StageSchedule
 from spfem_core.settings import SolverSettings
 from spfem_core.smoothing import smooth_velocity_gradient
 from spfem_core.snapshot import Snapshot, StressState
+from spfem_core.stage_setup import StageSetup, Supports, body_force_m_s2, pore_pressure_pa, with_load_ramp, with_water
 from spfem_core.state import (
     SLIP,
-    SLIP_COHESION,
-    SLIP_FRICTION,
     SLIP_SIDE,
     ExternalLoads,
     MaterialArrays,
@@ -96,30 +95,6 @@ class DetachedParticlesError(ValueError):
     """Particles in no triangle of the first mesh (without ``allow_detached``)."""
 
 
-@dataclass(frozen=True, eq=False)
-class StageSetup:
-    """What a stage sets before it starts; :meth:`Simulation.begin_stage` applies it in the order
-    of the fields: where it starts from, then the materials (which fix the time step), supports,
-    body force, water and load ramp.
-
-    ``start``: "continue" (the state the last stage left), "original_positions" (at rest at the
-    initial positions and mesh, stresses kept, displacements discarded) or a ``StressState`` (that
-    stress and plastic strain, at rest at the initial positions).
-    """
-
-    materials: MaterialTable  # same rows as Simulation.particle_materials (elastic, reduced, ...)
-    node_fixed: np.ndarray  # (n, 2) bool: velocity prescribed
-    node_fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity
-    gravity_m_s2: np.ndarray  # (2,) body acceleration, gravity with any pseudo-static seismic part
-    node_slip_length_m: np.ndarray | None = None  # (n,) share L_k of a slip support (0 or None: none)
-    node_slip_side: np.ndarray | None = None  # (n,) side s = +-1 the support lies on along the prescribed direction
-    phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x increasing
-    node_phreatic_line: np.ndarray | None = None  # (n,) line of each particle, -1: none (default: the first, or none)
-    pond_level_m: float | None = None  # ponded water level; None: none
-    load_ramp_s: float = 0.0  # the surface loads grow from zero over this stage time (0: at once)
-    start: "str | StressState" = "continue"
-
-
 @dataclass
 class RunCounters:
     """Totals over every stage of a simulation."""
@@ -180,7 +155,8 @@ class Simulation:
             pond_x_range_m=np.array(scene.pond_x_range_m, dtype=np.float64).reshape(2),
             boundary_edges=np.zeros((0, 2), dtype=np.int64), at_initial_positions=False, ramp_time_s=0.0,
         )
-        self._set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)
+        self.loads = with_water(self.loads, scene, None, scene.phreatic_lines_m, scene.node_phreatic_line,
+                                scene.pond_level_m)
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
@@ -191,8 +167,8 @@ class Simulation:
         self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
         self._last_critical_dt = None  # (mesh, its inputs, the step) of the last critical step computed
         self._set_material_arrays(self.particle_materials)
-        self._set_supports(scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
-                           scene.node_slip_side)
+        self.set_supports(Supports.of(n, scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
+                                      scene.node_slip_side))
 
         self._set_mesh(self.remesher.triangulate(self.nodes.xy_m) if initial_mesh is None else initial_mesh)
         self._initial_mesh = self.mesh
@@ -260,11 +236,11 @@ class Simulation:
             raise ValueError(f"StageSetup.start: must be 'continue', 'original_positions' or a StressState, "
                              f"got {setup.start!r}")
         self.set_materials(setup.materials)
-        self._set_supports(setup.node_fixed, setup.node_fixed_velocity_m_s, setup.node_slip_length_m,
-                           setup.node_slip_side)
-        self._set_gravity(setup.gravity_m_s2)
-        self._set_water(setup.phreatic_lines_m, setup.node_phreatic_line, setup.pond_level_m)
-        self._set_load_ramp(setup.load_ramp_s)
+        self.set_supports(setup.supports(self.n_particles))
+        self.gravity_m_s2 = body_force_m_s2(setup.gravity_m_s2)
+        self.loads = with_water(self.loads, self.scene, self.mesh, setup.phreatic_lines_m, setup.node_phreatic_line,
+                                setup.pond_level_m)
+        self.loads = with_load_ramp(self.loads, setup.load_ramp_s)
 
     def set_materials(self, materials: MaterialTable):
         """Use another material table from now on, with the rows of ``particle_materials`` (the
@@ -274,79 +250,13 @@ class Simulation:
             raise ValueError(f"materials: expected {self.particle_materials.n_rows} rows, got {materials.n_rows}")
         self._set_material_arrays(materials)
         self._choose_time_step()
-        self._set_slip_strength()
+        self.supports.apply(self.nodes, materials)
 
-    def _set_gravity(self, gravity_m_s2):
-        """Body acceleration (m/s^2) from now on, e.g. gravity with a pseudo-static seismic part."""
-        gravity = np.asarray(gravity_m_s2, dtype=np.float64).reshape(2)
-        if not np.all(np.isfinite(gravity)):
-            raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
-        self.gravity_m_s2 = np.ascontiguousarray(gravity)
-
-    def _set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
-        """Pore and ponded water from now on (a water-level change): the piezometric lines, the line
-        of each particle (-1: none; default: the first line for all, or none), the ponded water level
-        (None: none); a simulation starts with the scene's own.  The loads are active (their kernel
-        runs) when there are surface loads, an ru pore pressure, a line or a pond."""
-        lines = tuple(np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2) for line in phreatic_lines_m)
-        if node_phreatic_line is None:
-            node_phreatic_line = np.full(self.n_particles, 0 if lines else -1, dtype=np.int64)
-        node_line = np.ascontiguousarray(node_phreatic_line, dtype=np.int64).reshape(self.n_particles)
-        pond = np.nan if pond_level_m is None else float(pond_level_m)
-        self.water_lines_m = lines
-        self.loads = self.loads._replace(
-            active=bool(self.scene.node_load_n is not None or self.scene.node_pore_pressure_pa is not None
-                        or np.any(node_line >= 0) or pond == pond),
-            phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *lines])),
-            phreatic_start=np.cumsum([0] + [line.shape[0] for line in lines], dtype=np.int64),
-            node_phreatic_line=node_line, pond_level_m=pond,
-            boundary_edges=(boundary_edges(self.mesh.elem_nodes) if pond == pond and self.mesh is not None
-                            else np.zeros((0, 2), dtype=np.int64)),
-        )
-
-    def _set_load_ramp(self, ramp_time_s: float):
-        """From the next stage on, the surface loads grow linearly from zero over ``ramp_time_s`` of
-        stage time (0: applied at once); a relaxation does not converge before the ramp ends."""
-        if not ramp_time_s >= 0.0:
-            raise ValueError(f"ramp_time_s: must be >= 0, got {ramp_time_s}")
-        self.loads = self.loads._replace(ramp_time_s=float(ramp_time_s))
-
-    def _set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray,
-                      node_slip_length_m: np.ndarray | None = None, node_slip_side: np.ndarray | None = None):
-        """Prescribed velocities from now on (e.g. release a retaining side for a collapse), and the
-        slip supports (``StageSetup``)."""
-        n = self.n_particles
-        self.nodes.fixed[:] = np.asarray(node_fixed, dtype=bool).reshape(n, 2)
-        self.nodes.fixed_velocity_m_s[:] = np.asarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(n, 2)
-        length = np.zeros(n) if node_slip_length_m is None else np.asarray(node_slip_length_m, float).reshape(n)
-        side = np.zeros(n) if node_slip_side is None else np.asarray(node_slip_side, float).reshape(n)
-        slipping = side != 0.0
-        if np.any(slipping & ((self.nodes.fixed.sum(axis=1) != 1) | ~(length > 0.0))):
-            raise ValueError("node_slip_side: a slip support needs exactly one prescribed direction and a share "
-                             "L_k > 0 of the support")
-        self._slip_length_m, self._slip_side = length, side
-        self._stage_fixed = (self.nodes.fixed.copy(), self.nodes.fixed_velocity_m_s.copy())
-        self._set_slip_strength()
-
-    def _set_slip_strength(self):
-        """``nodes.slip`` from the slip supports and the strength of the materials in use:
-        C = c L_k + tan(phi) N (``integration``); a particle that cannot slide (an elastic row,
-        c = inf) is held fixed."""
-        slip = self.nodes.slip
-        slip[:] = 0.0
-        side = self._slip_side
-        if not np.any(side):
-            return
-        self.nodes.fixed[:], self.nodes.fixed_velocity_m_s[:] = self._stage_fixed
-        cohesion, tan_friction = self.materials.slip_strength()
-        row = self.nodes.material_row
-        sliding = (side != 0.0) & np.isfinite(cohesion[row])
-        slip[sliding, SLIP_COHESION] = cohesion[row[sliding]] * self._slip_length_m[sliding]
-        slip[sliding, SLIP_FRICTION] = tan_friction[row[sliding]]
-        slip[sliding, SLIP_SIDE] = side[sliding]
-        held = np.flatnonzero((side != 0.0) & ~sliding)  # the free direction too, at rest
-        self.nodes.fixed_velocity_m_s[held] = np.where(self.nodes.fixed[held], self.nodes.fixed_velocity_m_s[held], 0.0)
-        self.nodes.fixed[held] = True
+    def set_supports(self, supports: Supports) -> None:
+        """Use ``supports`` from now on (``stage_setup.Supports``), with the strength of the
+        materials in use."""
+        self.supports = supports
+        supports.apply(self.nodes, self.materials)
 
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""
@@ -744,15 +654,9 @@ class Simulation:
     @property
     def pore_pressure_pa(self) -> np.ndarray:
         """Pore pressure u of every particle at its current position (n,), Pa, compression positive
-        (``external_forces``; at the initial positions, x - u, within a relaxation that asks for it);
-        zeros without water."""
-        u = self.loads.node_pore_pressure_pa.copy()
-        xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
-        for i, line in enumerate(self.water_lines_m):
-            on = self.loads.node_phreatic_line == i
-            head = np.interp(xy[on, 0], line[:, 0], line[:, 1]) - xy[on, 1]
-            u[on] += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
-        return u
+        (``stage_setup.pore_pressure_pa``; at the initial positions, x - u, within a relaxation that
+        asks for it); zeros without water."""
+        return pore_pressure_pa(self.loads, self.nodes)
 
     def snapshot(self, time_s: float = math.nan) -> Snapshot:
         """The particles as they are now (copies), at stage time ``time_s``."""
