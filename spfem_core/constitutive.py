@@ -32,6 +32,7 @@ from spfem_core.materials.elastic import elastic_increment
 from spfem_core.materials.mohr_coulomb import mohr_coulomb_update, softened_strength
 from spfem_core.materials.tension_cutoff import tension_cutoff
 from spfem_core.materials.tresca import tresca_update
+from spfem_core.state import L_XX, L_XY, L_YX, L_YY, XX, XY, YY
 
 NO_UNREGISTERED_MODEL = -1
 """What :func:`update_stress_range` reports when every row it met had its model's branch."""
@@ -41,12 +42,12 @@ NO_UNREGISTERED_MODEL = -1
 def rotate_jaumann(stress, k, lxy, lyx, dt):
     """Objective rotation of particle k's stress by the spin of L over dt (see module doc)."""
     omega = 0.5 * (lxy - lyx) * dt
-    sxx = stress[k, 0]
-    syy = stress[k, 1]
-    sxy = stress[k, 3]
-    stress[k, 0] = sxx + 2.0 * omega * sxy
-    stress[k, 1] = syy - 2.0 * omega * sxy
-    stress[k, 3] = sxy + omega * (syy - sxx)
+    sxx = stress[k, XX]
+    syy = stress[k, YY]
+    sxy = stress[k, XY]
+    stress[k, XX] = sxx + 2.0 * omega * sxy
+    stress[k, YY] = syy - 2.0 * omega * sxy
+    stress[k, XY] = sxy + omega * (syy - sxx)
 
 
 @inner_kernel
@@ -111,10 +112,10 @@ def update_stress_range(
         area = node_area[k]
         if area <= 0.0:
             continue  # a particle in no triangle carries its stress unchanged
-        lxx = node_L[k, 0]
-        lxy = node_L[k, 1]
-        lyx = node_L[k, 2]
-        lyy = node_L[k, 3]
+        lxx = node_L[k, L_XX]
+        lxy = node_L[k, L_XY]
+        lyx = node_L[k, L_YX]
+        lyy = node_L[k, L_YY]
         rotate_jaumann(node_stress, k, lxy, lyx, dt)
         row = node_material_row[k]
         dxx = lxx * dt

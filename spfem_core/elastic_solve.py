@@ -35,10 +35,14 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from spfem_core.state import SLIP_SIDE
+from spfem_core.state import SLIP_SIDE, STRESS_WIDTH, XX, XY, YY, ZZ
 from spfem_core.stepper import unbalanced_force_at_rest
 
-VOIGT = 3  # eps_xx, eps_yy, gamma_xy
+VOIGT_STRAIN = ("xx", "yy", "gamma_xy")
+"""Components of a strain in Voigt form (engineering shear gamma_xy = 2 eps_xy): the rows of the
+strain operator of a node, and of its D."""
+EPS_XX, EPS_YY, GAMMA_XY = range(len(VOIGT_STRAIN))
+VOIGT = len(VOIGT_STRAIN)
 
 SOLVE_MARGIN = 0.1
 """:func:`solve_elastic` solves until the unbalanced-force ratio is below this times the
@@ -77,7 +81,8 @@ def strain_operator(node_xy: np.ndarray, elem_nodes: np.ndarray) -> tuple[scipy.
     w = np.repeat(third_area, 9).reshape(-1, 9)
     bb = np.tile(b, (1, 3)) * w
     cc = np.tile(c, (1, 3)) * w
-    rows = np.concatenate([VOIGT * k, VOIGT * k + 1, VOIGT * k + 2, VOIGT * k + 2], axis=None)
+    rows = np.concatenate([VOIGT * k + EPS_XX, VOIGT * k + EPS_YY, VOIGT * k + GAMMA_XY, VOIGT * k + GAMMA_XY],
+                          axis=None)
     cols = np.concatenate([2 * col, 2 * col + 1, 2 * col, 2 * col + 1], axis=None)
     values = np.concatenate([bb, cc, cc, bb], axis=None)
     inv_area = np.divide(1.0, area, out=np.zeros(n), where=area > 0.0)
@@ -89,10 +94,10 @@ def strain_operator(node_xy: np.ndarray, elem_nodes: np.ndarray) -> tuple[scipy.
 def elasticity_blocks(lame_lambda_pa: np.ndarray, shear_modulus_pa: np.ndarray) -> np.ndarray:
     """(n, 3, 3) plane-strain D of every node (Voigt with engineering shear)."""
     lam, g = lame_lambda_pa, shear_modulus_pa
-    d = np.zeros((lam.size, 3, 3))
-    d[:, 0, 0] = d[:, 1, 1] = lam + 2.0 * g
-    d[:, 0, 1] = d[:, 1, 0] = lam
-    d[:, 2, 2] = g
+    d = np.zeros((lam.size, VOIGT, VOIGT))
+    d[:, EPS_XX, EPS_XX] = d[:, EPS_YY, EPS_YY] = lam + 2.0 * g
+    d[:, EPS_XX, EPS_YY] = d[:, EPS_YY, EPS_XX] = lam
+    d[:, GAMMA_XY, GAMMA_XY] = g
     return d
 
 
@@ -128,7 +133,7 @@ class ElasticSystem:
                 from None
 
     def increment(self, unbalanced_force_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(du (n, 2) m, d_sigma (n, 4) Pa as xx, yy, zz, xy): the elastic increment that balances
+        """(du (n, 2) m, d_sigma (n, 4) Pa, columns ``state.STRESS``): the elastic increment that balances
         ``unbalanced_force_n`` (n, 2) on the free directions, du = 0 on the others (module doc)."""
         n = self.n_nodes
         du = np.zeros(2 * n)
@@ -137,12 +142,12 @@ class ElasticSystem:
             raise NotSolvable("the stiffness is singular: the supports leave a rigid-body motion free")
         eps = (self.strain @ du).reshape(n, VOIGT)
         lam, g = self.lame_lambda_pa, self.shear_modulus_pa
-        volumetric = eps[:, 0] + eps[:, 1]
-        d_sigma = np.empty((n, 4))
-        d_sigma[:, 0] = lam * volumetric + 2.0 * g * eps[:, 0]
-        d_sigma[:, 1] = lam * volumetric + 2.0 * g * eps[:, 1]
-        d_sigma[:, 2] = lam * volumetric
-        d_sigma[:, 3] = g * eps[:, 2]
+        volumetric = eps[:, EPS_XX] + eps[:, EPS_YY]
+        d_sigma = np.empty((n, STRESS_WIDTH))
+        d_sigma[:, XX] = lam * volumetric + 2.0 * g * eps[:, EPS_XX]
+        d_sigma[:, YY] = lam * volumetric + 2.0 * g * eps[:, EPS_YY]
+        d_sigma[:, ZZ] = lam * volumetric
+        d_sigma[:, XY] = g * eps[:, GAMMA_XY]
         return du.reshape(n, 2), d_sigma
 
 

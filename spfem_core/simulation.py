@@ -31,7 +31,7 @@ from spfem_core.smoothing import smooth_velocity_gradient
 from spfem_core.snapshot import Snapshot, StressState
 from spfem_core.stage_loop import PeriodicAction, SnapshotHook, StopRule
 from spfem_core.stage_setup import StageSetup, Supports, body_force_m_s2, pore_pressure_pa, with_load_ramp, with_water
-from spfem_core.state import SLIP, ExternalLoads, MaterialArrays, NodeState, StepScratch, Walls
+from spfem_core.state import SLIP, STRESS_WIDTH, ExternalLoads, MaterialArrays, NodeState, StepScratch, Walls
 from spfem_core.stepper import new_accumulators
 from spfem_core.timestep import (
     DT_COLLAPSE_FACTOR,
@@ -89,8 +89,8 @@ class Simulation:
         self.particle_materials, material_row = scene.particle_materials()
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
-            stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n), inertia_kg=np.zeros(n),
-            material_row=material_row, fixed=scene.node_fixed.copy(),
+            stress_pa=np.zeros((n, STRESS_WIDTH)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n),
+            inertia_kg=np.zeros(n), material_row=material_row, fixed=scene.node_fixed.copy(),
             fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(), slip=np.zeros((n, len(SLIP))),
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)

@@ -16,7 +16,7 @@ from spfem_core.materials import MODELS, elastic
 from spfem_core.materials.table import MaterialTable
 
 DT_S = 1.0
-VELOCITY_GRADIENT = (1e-3, 5e-4, 5e-4, -2e-3)  # (xx, xy, yx, yy) 1/s: symmetric, so no Jaumann rotation
+VELOCITY_GRADIENT_1_S = (1e-3, 5e-4, 5e-4, -2e-3)  # (xx, xy, yx, yy) 1/s: symmetric, so no Jaumann rotation
 STRESS_PA = (-1e5, -2e5, -1.5e5, 3e4)  # (xx, yy, zz, xy), in compression
 AREA_M2 = 0.25
 RETURN_MAP_LEADING = ("stress", "k_row", "dxx", "dyy", "dxy", "lame_lambda", "shear_modulus")
@@ -44,7 +44,7 @@ def weak_row(model) -> MaterialTable:
 
 def through_dispatch(table: MaterialTable, n_particles: int = 1, threaded: bool = False):
     """(stress, plastic strain, plastic work) of ``n_particles`` of row 0 after one update."""
-    node_L = np.tile(VELOCITY_GRADIENT, (n_particles, 1))
+    node_L = np.tile(VELOCITY_GRADIENT_1_S, (n_particles, 1))
     stress = np.tile(STRESS_PA, (n_particles, 1))
     strain = np.zeros(n_particles)
     rows = np.zeros(n_particles, dtype=np.int64)
@@ -55,7 +55,7 @@ def through_dispatch(table: MaterialTable, n_particles: int = 1, threaded: bool 
 
 def directly(model, table: MaterialTable):
     """(stress, plastic strain, plastic work) of the model's own return map on the same increment."""
-    lxx, lxy, lyx, lyy = VELOCITY_GRADIENT
+    lxx, lxy, lyx, lyy = VELOCITY_GRADIENT_1_S
     increment = (lxx * DT_S, lyy * DT_S, 0.5 * (lxy + lyx) * DT_S)
     stress = np.array([STRESS_PA])
     moduli = (table.lame_lambda_pa[0], table.shear_modulus_pa[0])
@@ -91,7 +91,7 @@ def test_a_model_code_without_its_branch_stops_the_update(threaded):
     unregistered = len(MODELS)
     table_model = np.array([unregistered], dtype=np.int64)
     n = 2 * PARALLEL_CHUNK + 7  # three chunks; the row of the last particle only is unregistered
-    node_L = np.tile(VELOCITY_GRADIENT, (n, 1))
+    node_L = np.tile(VELOCITY_GRADIENT_1_S, (n, 1))
     stress, strain = np.tile(STRESS_PA, (n, 1)), np.zeros(n)
     rows = np.zeros(n, dtype=np.int64)
     rows[-1] = 1
