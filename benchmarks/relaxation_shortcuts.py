@@ -107,10 +107,10 @@ def kinetic_advance(real_advance, resets: list, damping: float):
 
 def kinetic_runs(spacing_m: float, srf_values) -> None:
     """The ``kinetic`` shortcut (module doc)."""
-    import spfem_core.simulation as simulation
+    import spfem_core.stage_loop as stage_loop
     from workflows.fos.task import run_srf
 
-    real_advance = simulation.advance
+    real_advance = stage_loop.advance
     base = study_at(spacing_m)
     state = gravity_state(base, build_scene(base))
     for label, local, kinetic in (("local 0.7 (shipped)", 0.7, False), ("kinetic, local 0", 0.0, True),
@@ -118,11 +118,11 @@ def kinetic_runs(spacing_m: float, srf_values) -> None:
         study = base
         for srf in srf_values:
             resets: list = []
-            simulation.advance = kinetic_advance(real_advance, resets, local) if kinetic else real_advance
+            stage_loop.advance = kinetic_advance(real_advance, resets, local) if kinetic else real_advance
             try:
                 record = run_srf(study, state, srf).record
             finally:
-                simulation.advance = real_advance
+                stage_loop.advance = real_advance
             print(f"{label:>20}  SRF {srf:g}: steps {record.n_steps:6d}  t {record.stop_time_s:.3f} s  largest u "
                   f"{record.max_displacement_m:.5f} m  {record.status}" + (f"  ({len(resets)} resets)" if kinetic else ""),
                   flush=True)

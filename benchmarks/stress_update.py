@@ -36,8 +36,9 @@ from spfem_core.simulation import Simulation  # noqa: E402
 
 h = 0.0032
 xy = particles_in_polygon([[0.0, 0.0], [0.2, 0.0], [0.2, 0.4], [0.0, 0.4]], h)
-strength = (0.0, 30.0, 0.0) if model != "tresca" else (2000.0,)
-scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.single("sand", model, 2000.0, 5e6, 0.3, *strength),
+strength = ({"cohesion_pa": 0.0, "friction_deg": 30.0, "dilation_deg": 0.0} if model != "tresca"
+            else {"undrained_shear_strength_pa": 2000.0})
+scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), MaterialTable.single("sand", model, 2000.0, 5e6, 0.3, **strength),
               h, gravity_m_s2=[0.0, -9.81])
 scene.add_wall(-0.1, 0.0, 2.0, 0.0, friction=0.5)
 scene.add_wall(0.0, 1.0, 0.0, 0.0, friction=0.0)

@@ -11,6 +11,10 @@ velocity gradient L over a step dt:
               the tension cut-off where the row's tensile strength is finite: the one dispatch
               on the model code, in :func:`update_stress_range`
 
+A model code without a branch there (a model registered in ``materials.MODELS`` and not here)
+stops the update with a ValueError naming the code, raised outside the threads (an exception
+raised on a numba thread is lost), instead of running another model's return map.
+
 Particle k reads row ``material_row[k]`` of the material arrays (``materials.table``).
 """
 
@@ -28,18 +32,22 @@ from spfem_core.materials.elastic import elastic_increment
 from spfem_core.materials.mohr_coulomb import mohr_coulomb_update, softened_strength
 from spfem_core.materials.tension_cutoff import tension_cutoff
 from spfem_core.materials.tresca import tresca_update
+from spfem_core.state import L_XX, L_XY, L_YX, L_YY, XX, XY, YY
+
+NO_UNREGISTERED_MODEL = -1
+"""What :func:`update_stress_range` reports when every row it met had its model's branch."""
 
 
 @kernel
 def rotate_jaumann(stress, k, lxy, lyx, dt):
     """Objective rotation of particle k's stress by the spin of L over dt (see module doc)."""
     omega = 0.5 * (lxy - lyx) * dt
-    sxx = stress[k, 0]
-    syy = stress[k, 1]
-    sxy = stress[k, 3]
-    stress[k, 0] = sxx + 2.0 * omega * sxy
-    stress[k, 1] = syy - 2.0 * omega * sxy
-    stress[k, 3] = sxy + omega * (syy - sxx)
+    sxx = stress[k, XX]
+    syy = stress[k, YY]
+    sxy = stress[k, XY]
+    stress[k, XX] = sxx + 2.0 * omega * sxy
+    stress[k, YY] = syy - 2.0 * omega * sxy
+    stress[k, XY] = sxy + omega * (syy - sxx)
 
 
 @inner_kernel
@@ -53,33 +61,40 @@ def update_stress(
     model.  Adds the equivalent plastic strain increment to ``node_plastic_strain`` and returns
     the plastic work of the step, sum_k A_k sigma:d_eps_p (J/m), summed in fixed chunks of
     particles (``jit`` module doc); on threads unless ``n_threads`` is None (``jit.kernel_threads``).
+    A ValueError when a row's model code has no branch in :func:`update_stress_range`.
     """
     n_node = node_stress.shape[0]
     n_chunk = n_chunks(n_node)
     chunk_work = np.zeros(n_chunk)
+    chunk_unregistered = np.empty(n_chunk, dtype=np.int64)
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model,
-                               mat_lambda, mat_shear, mat_params, dt, chunk_work)
+                               mat_lambda, mat_shear, mat_params, dt, chunk_work, chunk_unregistered)
     else:  # the same chunks
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
-            chunk_work[chunk] = update_stress_range(
+            chunk_work[chunk], chunk_unregistered[chunk] = update_stress_range(
                 node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model, mat_lambda,
                 mat_shear, mat_params, dt, start, end)
-    plastic_work = 0.0
     for chunk in range(n_chunk):
+        if chunk_unregistered[chunk] != NO_UNREGISTERED_MODEL:
+            raise ValueError("constitutive.update_stress_range has no branch for the material model of code",
+                             chunk_unregistered[chunk])
+    plastic_work = 0.0
+    for chunk in range(n_chunk):  # a loop of its own: the sum compiles as it always has (the same bits)
         plastic_work += chunk_work[chunk]
     return plastic_work
 
 
 @parallel_inner_kernel
 def update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model,
-                           mat_lambda, mat_shear, mat_params, dt, chunk_work):
-    """:func:`update_stress_range` of every chunk of particles on threads, its work in ``chunk_work``."""
+                           mat_lambda, mat_shear, mat_params, dt, chunk_work, chunk_unregistered):
+    """:func:`update_stress_range` of every chunk of particles on threads, its work in ``chunk_work``
+    and any unregistered model code in ``chunk_unregistered``."""
     n_node = node_stress.shape[0]
     for chunk in prange(chunk_work.shape[0]):
         start, end = chunk_bounds(chunk, n_node)
-        chunk_work[chunk] = update_stress_range(
+        chunk_work[chunk], chunk_unregistered[chunk] = update_stress_range(
             node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model, mat_lambda, mat_shear,
             mat_params, dt, start, end)
 
@@ -89,16 +104,18 @@ def update_stress_range(
     node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model, mat_lambda, mat_shear,
     mat_params, dt, start, end,
 ):
-    """:func:`update_stress` of particles start..end-1; their plastic work (J/m)."""
+    """:func:`update_stress` of particles start..end-1: (their plastic work in J/m,
+    :data:`NO_UNREGISTERED_MODEL` or the code of a row's model that has no branch here, where the
+    update stopped)."""
     plastic_work = 0.0
     for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         area = node_area[k]
         if area <= 0.0:
             continue  # a particle in no triangle carries its stress unchanged
-        lxx = node_L[k, 0]
-        lxy = node_L[k, 1]
-        lyx = node_L[k, 2]
-        lyy = node_L[k, 3]
+        lxx = node_L[k, L_XX]
+        lxy = node_L[k, L_XY]
+        lyx = node_L[k, L_YX]
+        lyy = node_L[k, L_YY]
         rotate_jaumann(node_stress, k, lxy, lyx, dt)
         row = node_material_row[k]
         dxx = lxx * dt
@@ -126,10 +143,12 @@ def update_stress_range(
                 d_eq, work = mohr_coulomb_update(node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus, cohesion,
                                                  sin_phi, cos_phi, sin_psi)
             tensile_strength = mat_params[row, mohr_coulomb.TENSILE_STRENGTH]
-        else:  # tresca: MaterialTable admits the codes of MODELS only
+        elif model == tresca.CODE:
             d_eq, work = tresca_update(node_stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus,
                                        mat_params[row, tresca.UNDRAINED_SHEAR_STRENGTH])
             tensile_strength = mat_params[row, tresca.TENSILE_STRENGTH]
+        else:  # a model of materials.MODELS without its branch: update_stress raises
+            return plastic_work, model
         if tensile_strength < math.inf:
             d_eq_t, work_t = tension_cutoff(node_stress, k, model == drucker_prager.CODE, tensile_strength,
                                             lame_lambda, shear_modulus)
@@ -137,4 +156,4 @@ def update_stress_range(
             work += work_t
         node_plastic_strain[k] += d_eq
         plastic_work += area * work
-    return plastic_work
+    return plastic_work, NO_UNREGISTERED_MODEL

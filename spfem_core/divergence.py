@@ -9,6 +9,8 @@ Three signs, checked between compiled calls from what the loop reports and recor
   (kinetic + strain + |gravity potential| + |load potential|) seen so far.  A stable run only loses energy (about 1-2%
   leapfrog wobble).  Only checked when no particle has a prescribed non-zero velocity (that
   work is not in the budget).
+
+A mesh rebuild that would stall the run (:class:`MeshCollapse`) ends it as a divergence too.
 """
 
 from __future__ import annotations
@@ -28,6 +30,12 @@ class DivergenceError(RuntimeError):
         self.step = step
         self.time_s = time_s
         self.partial = partial
+
+
+class MeshCollapse(Exception):
+    """A mesh rebuild that would stall the run: its critical time step fell below
+    ``timestep.DT_COLLAPSE_FACTOR`` of the stage's first (``Simulation.rebuild_mesh``); the stage
+    loop turns it into a DivergenceError with the records so far."""
 
 
 def speed_reason(not_finite: bool, max_speed_m_s: float, speed_limit_m_s: float) -> str:

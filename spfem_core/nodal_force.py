@@ -19,6 +19,7 @@ from numba import prange
 from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
 from spfem_core.smoothing import scaled_gradients
 from spfem_core.stabilisation import bond_force
+from spfem_core.state import XX, XY, YY
 
 
 @kernel
@@ -90,9 +91,9 @@ def add_element_forces(node_xy, elem_nodes, node_stress, start, end, node_force)
         i = np.uint64(elem_nodes[e, 0])
         j = np.uint64(elem_nodes[e, 1])
         k = np.uint64(elem_nodes[e, 2])
-        sxx = (node_stress[i, 0] + node_stress[j, 0] + node_stress[k, 0]) * third
-        syy = (node_stress[i, 1] + node_stress[j, 1] + node_stress[k, 1]) * third
-        sxy = (node_stress[i, 3] + node_stress[j, 3] + node_stress[k, 3]) * third
+        sxx = (node_stress[i, XX] + node_stress[j, XX] + node_stress[k, XX]) * third
+        syy = (node_stress[i, YY] + node_stress[j, YY] + node_stress[k, YY]) * third
+        sxy = (node_stress[i, XY] + node_stress[j, XY] + node_stress[k, XY]) * third
         bi, bj, bk, ci, cj, ck = scaled_gradients(node_xy, i, j, k)
         node_force[i, 0] -= bi * sxx + ci * sxy
         node_force[i, 1] -= bi * sxy + ci * syy

@@ -22,6 +22,7 @@ from spfem_core.energy_budget import (
 )
 from spfem_core.jit import kernel
 from spfem_core.materials.elastic import elastic_energy_density
+from spfem_core.state import STRESS_WIDTH, XX, XY, YY, ZZ
 
 
 class RecordBuffers(NamedTuple):
@@ -43,7 +44,7 @@ class RecordBuffers(NamedTuple):
             np.zeros(capacity),
             np.zeros((capacity, n_monitor, 2)),
             np.zeros((capacity, n_monitor, 2)),
-            np.zeros((capacity, n_monitor, 4)),
+            np.zeros((capacity, n_monitor, STRESS_WIDTH)),
             np.zeros((capacity, len(ENERGY_COLUMNS))),
             np.zeros(capacity),
             np.zeros(capacity),
@@ -85,7 +86,7 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
         for d in range(2):
             records.monitor_displacement_m[slot, m, d] = node_u[k, d]
             records.monitor_velocity_m_s[slot, m, d] = node_v[k, d]
-        for c in range(4):
+        for c in range(STRESS_WIDTH):
             records.monitor_stress_pa[slot, m, c] = node_stress[k, c]
     kinetic = 0.0
     strain = 0.0
@@ -102,7 +103,7 @@ def record_state(slot, time_s, nodes, node_area, materials, gravity, monitor_nod
         potential -= mass * (gravity[0] * ux + gravity[1] * uy)
         row = nodes.material_row[k]
         strain += node_area[k] * elastic_energy_density(
-            node_stress[k, 0], node_stress[k, 1], node_stress[k, 2], node_stress[k, 3],
+            node_stress[k, XX], node_stress[k, YY], node_stress[k, ZZ], node_stress[k, XY],
             materials.youngs_modulus_pa[row], materials.poisson_ratio[row],
         )
         u_sq = ux * ux + uy * uy

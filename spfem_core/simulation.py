@@ -1,9 +1,12 @@
-"""A simulation owns the particle state of a scene and drives the compiled time loop.
+"""A simulation: the particle state of a scene and the stages run on it.
 
-Python decides only what happens between compiled calls (``stepper.advance``): when to check
-or rebuild the mesh (``remeshing``), which time step to take (``timestep.TimeStepPolicy``),
-whether the run has diverged (``divergence``), when to grow the record buffers
-(``records``), and when to stop, snapshot or report progress (``schedule``).
+:class:`Simulation` owns the state (the particles, their mesh, the materials, supports, body force
+and loads in use, the time step) and ties together the rooms that act on it: a stage is set up
+from a ``stage_setup.StageSetup`` (:meth:`Simulation.begin_stage`), runs in the loop between
+compiled calls of ``stage_loop`` (:meth:`Simulation.run`, :meth:`Simulation.relax`), and a
+relaxation may start from the direct solve of ``elastic_solve`` (:meth:`Simulation.solve_elastic`).
+What follows from the state it keeps itself: the mesh, rebuilt by ``remeshing``; the critical and
+chosen time steps (``timestep.TimeStepPolicy``); the inertia of a relaxation.
 """
 
 from __future__ import annotations
@@ -11,51 +14,25 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Callable, NamedTuple
+from typing import Callable
 
 import numpy as np
 
-from spfem_core.divergence import DivergenceError, EnergyWatch, speed_reason
-from spfem_core.elastic_solve import ElasticSystem, NotSolvable
+from spfem_core import elastic_solve, stage_loop
+from spfem_core.divergence import MeshCollapse
 from spfem_core.jit import kernel_threads, set_threads
 from spfem_core.materials.table import MaterialTable
 from spfem_core.mesh import Mesh, boundary_edges
-from spfem_core.records import RecordBuffers, TimeSeries, record_state
-from spfem_core.remeshing import ANGLE_MARGIN_RAD, Remesher
+from spfem_core.records import TimeSeries
+from spfem_core.remeshing import Remesher
 from spfem_core.scene import Scene
-from spfem_core.schedule import StageSchedule
 from spfem_core.settings import SolverSettings
 from spfem_core.smoothing import smooth_velocity_gradient
 from spfem_core.snapshot import Snapshot, StressState
-from spfem_core.state import (
-    SLIP,
-    SLIP_COHESION,
-    SLIP_FRICTION,
-    SLIP_SIDE,
-    ExternalLoads,
-    MaterialArrays,
-    NodeState,
-    StepParameters,
-    StepScratch,
-    Walls,
-)
-from spfem_core.stepper import (
-    LOOP_CONTACTS,
-    LOOP_LAST_MAX_SPEED,
-    LOOP_LAST_RATIO,
-    LOOP_MESH_CHECKS,
-    LOOP_NEXT_RECORD,
-    STATUS_BUFFER_FULL,
-    STATUS_CONVERGED,
-    STATUS_DONE,
-    STATUS_INVERTED,
-    STATUS_MESH_CHECK,
-    STATUS_NOT_FINITE,
-    STATUS_RUNAWAY,
-    advance,
-    new_accumulators,
-    unbalanced_force_at_rest,
-)
+from spfem_core.stage_loop import PeriodicAction, SnapshotHook, StopRule
+from spfem_core.stage_setup import StageSetup, Supports, body_force_m_s2, pore_pressure_pa, with_load_ramp, with_water
+from spfem_core.state import SLIP, STRESS_WIDTH, ExternalLoads, MaterialArrays, NodeState, StepScratch, Walls
+from spfem_core.stepper import new_accumulators
 from spfem_core.timestep import (
     DT_COLLAPSE_FACTOR,
     TimeStepPolicy,
@@ -64,60 +41,9 @@ from spfem_core.timestep import (
     equalised_inertia,
 )
 
-SOLVE_MARGIN = 0.1
-"""``Simulation.solve_elastic`` solves until the unbalanced-force ratio is below this times the
-relaxation's tolerance, so that the damped steps after it have nothing left to do."""
-MAX_SOLVES = 4
-"""At most this many direct solves per relaxation (two reach 3.1e-7 on the reference slope)."""
-SOLVE_GAIN = 0.1
-"""Each solve must divide the unbalanced-force ratio by at least 1 / this, or the state goes back to
-how it was and the damped steps relax it (a stiffness the supports leave near singular, whose LU
-does not fail outright, would otherwise move the particles by its round-off)."""
-DIRECT_SOLVE_MAX_DOFS = 120_000
-"""Larger clouds relax without the direct solve: the sparse LU's fill grows faster than the
-relaxation's steps (the reference slope's gravity stage on one thread, solves against damped
-steps: 6,927 particles 0.45 s against 0.80 s, 27,120 particles 3.6 s against 7.5 s;
-``python -m benchmarks.relaxation_steps --spacing 0.3 0.15``)."""
-
-StopRule = Callable[[np.ndarray, np.ndarray, np.ndarray], "str | None"]
-"""Asked between compiled calls with the records so far (time_s, max_displacement_m,
-energy_j_per_m with the columns of ``energy_budget.ENERGY_COLUMNS``; read-only views): a reason (one
-line) to end the stage now, or None."""
-
-SnapshotHook = tuple[float, Callable[[Snapshot], None]]
-"""(interval in s, callback(the particles at that moment, a ``snapshot.Snapshot``))."""
-
-PeriodicAction = tuple[float, Callable[[float], None]]
-"""(interval in s, callback(stage time in s)) called every interval of stage time, not at the
-start or the end: it may change the simulation (a step of a strength ramp: ``set_materials``)."""
-
 
 class DetachedParticlesError(ValueError):
     """Particles in no triangle of the first mesh (without ``allow_detached``)."""
-
-
-@dataclass(frozen=True, eq=False)
-class StageSetup:
-    """What a stage sets before it starts; :meth:`Simulation.begin_stage` applies it in the order
-    of the fields: where it starts from, then the materials (which fix the time step), supports,
-    body force, water and load ramp.
-
-    ``start``: "continue" (the state the last stage left), "original_positions" (at rest at the
-    initial positions and mesh, stresses kept, displacements discarded) or a ``StressState`` (that
-    stress and plastic strain, at rest at the initial positions).
-    """
-
-    materials: MaterialTable  # same rows as Simulation.particle_materials (elastic, reduced, ...)
-    node_fixed: np.ndarray  # (n, 2) bool: velocity prescribed
-    node_fixed_velocity_m_s: np.ndarray  # (n, 2) the prescribed velocity
-    gravity_m_s2: np.ndarray  # (2,) body acceleration, gravity with any pseudo-static seismic part
-    node_slip_length_m: np.ndarray | None = None  # (n,) share L_k of a slip support (0 or None: none)
-    node_slip_side: np.ndarray | None = None  # (n,) side s = +-1 the support lies on along the prescribed direction
-    phreatic_lines_m: tuple = ()  # piezometric lines, each (n_points, 2) with x increasing
-    node_phreatic_line: np.ndarray | None = None  # (n,) line of each particle, -1: none (default: the first, or none)
-    pond_level_m: float | None = None  # ponded water level; None: none
-    load_ramp_s: float = 0.0  # the surface loads grow from zero over this stage time (0: at once)
-    start: "str | StressState" = "continue"
 
 
 @dataclass
@@ -163,8 +89,8 @@ class Simulation:
         self.particle_materials, material_row = scene.particle_materials()
         self.nodes = NodeState(
             xy_m=scene.node_xy_m.copy(), displacement_m=np.zeros((n, 2)), velocity_m_s=np.zeros((n, 2)),
-            stress_pa=np.zeros((n, 4)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n), inertia_kg=np.zeros(n),
-            material_row=material_row, fixed=scene.node_fixed.copy(),
+            stress_pa=np.zeros((n, STRESS_WIDTH)), plastic_strain=np.zeros(n), mass_kg=np.zeros(n),
+            inertia_kg=np.zeros(n), material_row=material_row, fixed=scene.node_fixed.copy(),
             fixed_velocity_m_s=scene.node_fixed_velocity_m_s.copy(), slip=np.zeros((n, len(SLIP))),
         )
         self.walls = Walls(scene.wall_xy_m, scene.wall_friction)
@@ -180,7 +106,8 @@ class Simulation:
             pond_x_range_m=np.array(scene.pond_x_range_m, dtype=np.float64).reshape(2),
             boundary_edges=np.zeros((0, 2), dtype=np.int64), at_initial_positions=False, ramp_time_s=0.0,
         )
-        self._set_water(scene.phreatic_lines_m, scene.node_phreatic_line, scene.pond_level_m)
+        self.loads = with_water(self.loads, scene, None, scene.phreatic_lines_m, scene.node_phreatic_line,
+                                scene.pond_level_m)
         self.scratch = StepScratch.for_nodes(n)
         self.dissipated, self.loop = new_accumulators()
         self.counters = RunCounters()
@@ -188,11 +115,11 @@ class Simulation:
         self.remesher = Remesher(scene.spacing_m if scene.node_spacing_m is None else scene.node_spacing_m,
                                  scene.alpha, self.settings.min_angle_deg, self.settings.crowded_fraction)
         self.time_step = TimeStepPolicy(self.settings)
-        self._relaxing = False  # True inside relax(): steps at the largest accepted cfl
+        self.relaxing = False  # True inside relax(): steps at the largest accepted cfl
         self._last_critical_dt = None  # (mesh, its inputs, the step) of the last critical step computed
         self._set_material_arrays(self.particle_materials)
-        self._set_supports(scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
-                           scene.node_slip_side)
+        self.set_supports(Supports.of(n, scene.node_fixed, scene.node_fixed_velocity_m_s, scene.node_slip_length_m,
+                                      scene.node_slip_side))
 
         self._set_mesh(self.remesher.triangulate(self.nodes.xy_m) if initial_mesh is None else initial_mesh)
         self._initial_mesh = self.mesh
@@ -206,7 +133,7 @@ class Simulation:
         cell_area[orphans] = self.node_spacing_m[orphans] ** 2
         self.nodes.mass_kg[:] = scene.particle_density_kg_m3 * cell_area
         self.nodes.inertia_kg[:] = self.nodes.mass_kg
-        self._choose_time_step()
+        self.choose_time_step()
         self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
 
     # ------------------------------------------------------------------ set-up
@@ -227,27 +154,27 @@ class Simulation:
                                  mesh.elem_colour_ptr, mesh.elem_colour_block, self.scratch.velocity_gradient,
                                  self.scratch.area_m2, kernel_threads(self.threads))
 
-    def _critical_dt(self) -> float:
-        """The critical step of the current mesh, positions, inertia and moduli; the last one again
-        when none of them has changed (a stage set up from the original positions asks three times)."""
+    def update_critical_dt(self) -> float:
+        """``critical_dt_s``: the critical step of the current mesh, positions, inertia and moduli,
+        computed again only when one of them has changed (a stage set up from the original
+        positions asks three times); returns it."""
         mesh = self.mesh
         inputs = (self.nodes.xy_m, self.nodes.inertia_kg, self.nodes.material_row,
                   self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa)
         last = self._last_critical_dt
-        if last is not None and last[0] is mesh and all(np.array_equal(a, b) for a, b in zip(last[1], inputs)):
-            return last[2]
-        value = float(critical_time_step(
-            self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.inertia_kg,
-            self.nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
-        ))
-        self._last_critical_dt = (mesh, tuple(a.copy() for a in inputs), value)
-        return value
+        if last is None or last[0] is not mesh or not all(np.array_equal(a, b) for a, b in zip(last[1], inputs)):
+            value = float(critical_time_step(
+                self.nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, self.nodes.inertia_kg,
+                self.nodes.material_row, self.material_arrays.lame_lambda_pa, self.material_arrays.shear_modulus_pa,
+            ))
+            self._last_critical_dt = (mesh, tuple(a.copy() for a in inputs), value)
+        self.critical_dt_s = self._last_critical_dt[2]
+        return self.critical_dt_s
 
-    def _choose_time_step(self):
+    def choose_time_step(self):
         """dt of a dynamic stage on the current mesh (``timestep.TimeStepPolicy``)."""
-        self.critical_dt_s = self._critical_dt()
-        self.dt_s = self.time_step.dynamic(self.critical_dt_s)
-        self._stage_first_dt_s = self.dt_s  # a stage sets it again when it starts
+        self.dt_s = self.time_step.dynamic(self.update_critical_dt())
+        self.stage_first_dt_s = self.dt_s  # a stage sets it again when it starts
 
     def begin_stage(self, setup: StageSetup) -> None:
         """Set what a stage changes before it starts (``StageSetup``, in the order of its fields):
@@ -260,11 +187,11 @@ class Simulation:
             raise ValueError(f"StageSetup.start: must be 'continue', 'original_positions' or a StressState, "
                              f"got {setup.start!r}")
         self.set_materials(setup.materials)
-        self._set_supports(setup.node_fixed, setup.node_fixed_velocity_m_s, setup.node_slip_length_m,
-                           setup.node_slip_side)
-        self._set_gravity(setup.gravity_m_s2)
-        self._set_water(setup.phreatic_lines_m, setup.node_phreatic_line, setup.pond_level_m)
-        self._set_load_ramp(setup.load_ramp_s)
+        self.set_supports(setup.supports(self.n_particles))
+        self.gravity_m_s2 = body_force_m_s2(setup.gravity_m_s2)
+        self.loads = with_water(self.loads, self.scene, self.mesh, setup.phreatic_lines_m, setup.node_phreatic_line,
+                                setup.pond_level_m)
+        self.loads = with_load_ramp(self.loads, setup.load_ramp_s)
 
     def set_materials(self, materials: MaterialTable):
         """Use another material table from now on, with the rows of ``particle_materials`` (the
@@ -273,80 +200,14 @@ class Simulation:
         if materials.n_rows != self.particle_materials.n_rows:
             raise ValueError(f"materials: expected {self.particle_materials.n_rows} rows, got {materials.n_rows}")
         self._set_material_arrays(materials)
-        self._choose_time_step()
-        self._set_slip_strength()
+        self.choose_time_step()
+        self.supports.apply(self.nodes, materials)
 
-    def _set_gravity(self, gravity_m_s2):
-        """Body acceleration (m/s^2) from now on, e.g. gravity with a pseudo-static seismic part."""
-        gravity = np.asarray(gravity_m_s2, dtype=np.float64).reshape(2)
-        if not np.all(np.isfinite(gravity)):
-            raise ValueError(f"gravity_m_s2: must be finite, got {gravity.tolist()}")
-        self.gravity_m_s2 = np.ascontiguousarray(gravity)
-
-    def _set_water(self, phreatic_lines_m=(), node_phreatic_line=None, pond_level_m: float | None = None):
-        """Pore and ponded water from now on (a water-level change): the piezometric lines, the line
-        of each particle (-1: none; default: the first line for all, or none), the ponded water level
-        (None: none); a simulation starts with the scene's own.  The loads are active (their kernel
-        runs) when there are surface loads, an ru pore pressure, a line or a pond."""
-        lines = tuple(np.ascontiguousarray(line, dtype=np.float64).reshape(-1, 2) for line in phreatic_lines_m)
-        if node_phreatic_line is None:
-            node_phreatic_line = np.full(self.n_particles, 0 if lines else -1, dtype=np.int64)
-        node_line = np.ascontiguousarray(node_phreatic_line, dtype=np.int64).reshape(self.n_particles)
-        pond = np.nan if pond_level_m is None else float(pond_level_m)
-        self.water_lines_m = lines
-        self.loads = self.loads._replace(
-            active=bool(self.scene.node_load_n is not None or self.scene.node_pore_pressure_pa is not None
-                        or np.any(node_line >= 0) or pond == pond),
-            phreatic_xy_m=np.ascontiguousarray(np.vstack([np.zeros((0, 2)), *lines])),
-            phreatic_start=np.cumsum([0] + [line.shape[0] for line in lines], dtype=np.int64),
-            node_phreatic_line=node_line, pond_level_m=pond,
-            boundary_edges=(boundary_edges(self.mesh.elem_nodes) if pond == pond and self.mesh is not None
-                            else np.zeros((0, 2), dtype=np.int64)),
-        )
-
-    def _set_load_ramp(self, ramp_time_s: float):
-        """From the next stage on, the surface loads grow linearly from zero over ``ramp_time_s`` of
-        stage time (0: applied at once); a relaxation does not converge before the ramp ends."""
-        if not ramp_time_s >= 0.0:
-            raise ValueError(f"ramp_time_s: must be >= 0, got {ramp_time_s}")
-        self.loads = self.loads._replace(ramp_time_s=float(ramp_time_s))
-
-    def _set_supports(self, node_fixed: np.ndarray, node_fixed_velocity_m_s: np.ndarray,
-                      node_slip_length_m: np.ndarray | None = None, node_slip_side: np.ndarray | None = None):
-        """Prescribed velocities from now on (e.g. release a retaining side for a collapse), and the
-        slip supports (``StageSetup``)."""
-        n = self.n_particles
-        self.nodes.fixed[:] = np.asarray(node_fixed, dtype=bool).reshape(n, 2)
-        self.nodes.fixed_velocity_m_s[:] = np.asarray(node_fixed_velocity_m_s, dtype=np.float64).reshape(n, 2)
-        length = np.zeros(n) if node_slip_length_m is None else np.asarray(node_slip_length_m, float).reshape(n)
-        side = np.zeros(n) if node_slip_side is None else np.asarray(node_slip_side, float).reshape(n)
-        slipping = side != 0.0
-        if np.any(slipping & ((self.nodes.fixed.sum(axis=1) != 1) | ~(length > 0.0))):
-            raise ValueError("node_slip_side: a slip support needs exactly one prescribed direction and a share "
-                             "L_k > 0 of the support")
-        self._slip_length_m, self._slip_side = length, side
-        self._stage_fixed = (self.nodes.fixed.copy(), self.nodes.fixed_velocity_m_s.copy())
-        self._set_slip_strength()
-
-    def _set_slip_strength(self):
-        """``nodes.slip`` from the slip supports and the strength of the materials in use:
-        C = c L_k + tan(phi) N (``integration``); a particle that cannot slide (an elastic row,
-        c = inf) is held fixed."""
-        slip = self.nodes.slip
-        slip[:] = 0.0
-        side = self._slip_side
-        if not np.any(side):
-            return
-        self.nodes.fixed[:], self.nodes.fixed_velocity_m_s[:] = self._stage_fixed
-        cohesion, tan_friction = self.materials.slip_strength()
-        row = self.nodes.material_row
-        sliding = (side != 0.0) & np.isfinite(cohesion[row])
-        slip[sliding, SLIP_COHESION] = cohesion[row[sliding]] * self._slip_length_m[sliding]
-        slip[sliding, SLIP_FRICTION] = tan_friction[row[sliding]]
-        slip[sliding, SLIP_SIDE] = side[sliding]
-        held = np.flatnonzero((side != 0.0) & ~sliding)  # the free direction too, at rest
-        self.nodes.fixed_velocity_m_s[held] = np.where(self.nodes.fixed[held], self.nodes.fixed_velocity_m_s[held], 0.0)
-        self.nodes.fixed[held] = True
+    def set_supports(self, supports: Supports) -> None:
+        """Use ``supports`` from now on (``stage_setup.Supports``), with the strength of the
+        materials in use."""
+        self.supports = supports
+        supports.apply(self.nodes, self.materials)
 
     def discard_displacement(self):
         """Back to the initial positions and mesh, at rest, keeping the stresses (stage change)."""
@@ -354,7 +215,7 @@ class Simulation:
         self.nodes.displacement_m[:] = 0.0
         self.nodes.velocity_m_s[:] = 0.0
         self._set_mesh(self._initial_mesh)
-        self._choose_time_step()
+        self.choose_time_step()
         self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
 
     def start_from(self, state: StressState):
@@ -370,7 +231,7 @@ class Simulation:
     def rebuild_mesh(self):
         """Spread crowded particles and triangulate again (``remeshing``); the time step follows the
         new mesh.  A stage calls it when the mesh quality falls or a detached particle can rejoin.
-        Raises ``_MeshCollapse`` (a DivergenceError for the stage) when the new mesh would cut the
+        Raises ``MeshCollapse`` (a DivergenceError for the stage) when the new mesh would cut the
         step below ``timestep.DT_COLLAPSE_FACTOR`` of the stage's first."""
         start = time.perf_counter()
         try:
@@ -379,15 +240,14 @@ class Simulation:
             self._set_mesh(mesh)
             self.counters.rebuilds += 1
             self.remesher.reset_angle_budget(self.nodes.xy_m, self.mesh, self.loop, after_rebuild=True)
-            if self._relaxing:
-                self._set_inertia()  # the equalised inertia belongs to the mesh
-            critical = self._critical_dt()
-            self.critical_dt_s = critical
-            new_dt = self.time_step.after_rebuild(critical, self.beta if self._relaxing else None)
-            if new_dt < DT_COLLAPSE_FACTOR * self._stage_first_dt_s:
-                raise _MeshCollapse(
+            if self.relaxing:
+                self.set_inertia()  # the equalised inertia belongs to the mesh
+            critical = self.update_critical_dt()
+            new_dt = self.time_step.after_rebuild(critical, self.beta if self.relaxing else None)
+            if new_dt < DT_COLLAPSE_FACTOR * self.stage_first_dt_s:
+                raise MeshCollapse(
                     f"the mesh degenerated: its critical time step fell to {critical:.3g} s "
-                    f"(the stage started with dt = {self._stage_first_dt_s:.3g} s)"
+                    f"(the stage started with dt = {self.stage_first_dt_s:.3g} s)"
                 )
             self.dt_s = new_dt
         finally:
@@ -414,9 +274,8 @@ class Simulation:
         every interval and at the end (:meth:`snapshot`).  ``periodic`` (see
         :data:`PeriodicAction`) may change the simulation every interval.
         """
-        self.loads = self.loads._replace(at_initial_positions=False)
-        return self._stage(duration_s, damping, 0.0, record_interval_s, monitor_nodes, progress, stop, snapshot,
-                           periodic)
+        return stage_loop.run(self, duration_s, damping, record_interval_s, monitor_nodes, progress, stop, snapshot,
+                              periodic)
 
     def relax(
         self,
@@ -435,12 +294,8 @@ class Simulation:
 
         The ratio is over the free directions of all particles (2-norms).  Stops at
         ``max_duration_s`` otherwise, with ``converged = False``, or when ``stop`` (as in
-        :meth:`run`) gives a reason.
-
-        Only the end state of a relaxation counts, not its path, so it steps at the largest
-        accepted cfl, 1 / (1 + beta), whatever the solver's cfl or dt_s (the dynamic stages
-        keep those).  On the reference slope: 2,758 steps instead of 4,938 at cfl 0.5, with
-        the relaxed stresses equal within 3.4e-6 of their largest value (tolerance 1e-5).
+        :meth:`run`) gives a reason.  Only the end state of a relaxation counts, so it steps at
+        the largest accepted cfl whatever the solver's cfl or dt_s (``stage_loop.relax``):
         ``max_duration_s`` is pseudo-time at that step.
 
         ``water_at_initial_positions``: the water pressures act as at the initial positions
@@ -452,86 +307,16 @@ class Simulation:
         then only correct the large-deformation geometry.  The series' note ``elastic_solve``
         says whether it applied.
         """
-        if not tolerance > 0.0:
-            raise ValueError(f"tolerance must be > 0, got {tolerance}")
-        self._relaxing = True
-        self.loads = self.loads._replace(at_initial_positions=bool(water_at_initial_positions))
-        solve_note = self.solve_elastic(tolerance) if elastic_solve_first else "off"
-        self._set_inertia()
-        self.dt_s = self.time_step.relaxation(self.critical_dt_s, self.beta)
-        try:
-            series = self._stage(max_duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop,
-                                 snapshot)
-            series.notes["elastic_solve"] = solve_note
-            return series
-        finally:
-            self._relaxing = False
-            self._set_inertia()
-            self._choose_time_step()
+        return stage_loop.relax(self, damping, tolerance, max_duration_s, record_interval_s, monitor_nodes, progress,
+                                snapshot, stop, water_at_initial_positions, elastic_solve_first)
 
     def solve_elastic(self, tolerance: float) -> str:
-        """Bring the particles to static equilibrium by direct solves (``elastic_solve``), where that
-        is the state a relaxation approaches: every material elastic, supports that hold still, no
-        walls, no particle sliding along a slip support (an elastic row holds them fixed), no load
-        ramp, every particle in a triangle.  The unbalanced force at rest (weight, water and loads
-        at the current stage time, the current stress) is balanced by the small-strain increment,
-        the particles move by it and take its stress; the residual the moved geometry leaves is
-        solved again with the same factorisation, until the unbalanced-force ratio is below
-        ``SOLVE_MARGIN`` x ``tolerance`` (at most ``MAX_SOLVES`` times; each must divide it by
-        1 / ``SOLVE_GAIN``, else the state is put back).  At rest afterwards.  Returns one line:
-        what was done, or why not.  On the reference slope at h = 0.3 m the ratio fell
-        1 -> 2.9e-4 -> 3.1e-7."""
-        nodes = self.nodes
-        reason = None
-        if self.materials.plastic:
-            reason = "a material is not elastic"
-        elif self.walls.xy_m.shape[0]:
-            reason = "walls"
-        elif np.any(nodes.slip[:, SLIP_SIDE] != 0.0):  # (an elastic row on a slip support is held fixed)
-            reason = "slip supports"
-        elif self.prescribes_motion:
-            reason = "prescribed motion"
-        elif self.loads.ramp_time_s > 0.0:
-            reason = "a load ramp"
-        elif self.n_orphans:
-            reason = "particles outside the mesh"
-        elif np.count_nonzero(~nodes.fixed) > DIRECT_SOLVE_MAX_DOFS:
-            reason = f"more than {DIRECT_SOLVE_MAX_DOFS} free directions"
-        if reason is not None:
-            return f"not applicable ({reason})"
-        start = time.perf_counter()
-        row = nodes.material_row
-        free = ~nodes.fixed
-        weight_sq = float(np.sum((nodes.mass_kg[:, None] * self.gravity_m_s2[None, :])[free] ** 2))
-        unbalanced = np.zeros((self.n_particles, 2))
-        before = (nodes.xy_m.copy(), nodes.displacement_m.copy(), nodes.stress_pa.copy())
-        try:
-            system = ElasticSystem(nodes.xy_m, self.mesh.elem_nodes, self.material_arrays.lame_lambda_pa[row],
-                                   self.material_arrays.shear_modulus_pa[row], free)
-            ratios = []
-            for _ in range(MAX_SOLVES + 1):
-                unbalanced_force_at_rest(nodes, self.scratch, self.mesh_arrays, self.material_arrays, self.loads,
-                                         self.gravity_m_s2, 0.0, unbalanced)
-                ratios.append(math.sqrt(float(np.sum(unbalanced[free] ** 2)) / weight_sq) if weight_sq > 0 else 0.0)
-                if len(ratios) > 1 and not ratios[-1] < SOLVE_GAIN * ratios[-2]:
-                    raise NotSolvable(f"a solve left the unbalanced-force ratio at {ratios[-1]:.3g} from "
-                                      f"{ratios[-2]:.3g}: the stiffness is near singular or the geometry moved too far")
-                if ratios[-1] < SOLVE_MARGIN * tolerance or len(ratios) > MAX_SOLVES:
-                    break
-                du, d_stress = system.increment(unbalanced)
-                nodes.xy_m[:] += du
-                nodes.displacement_m[:] += du
-                nodes.stress_pa[:] += d_stress
-        except NotSolvable as error:
-            nodes.xy_m[:], nodes.displacement_m[:], nodes.stress_pa[:] = before  # as it was: the steps relax it
-            return f"not applicable ({error})"
-        nodes.velocity_m_s[:] = 0.0
-        self.critical_dt_s = self._critical_dt()
-        trail = " -> ".join(f"{r:.2g}" for r in ratios)
-        return (f"{len(ratios) - 1} direct solves in {time.perf_counter() - start:.2f} s, unbalanced-force ratio "
-                f"{trail}")
+        """Bring the particles to static equilibrium by direct solves, where that is the state a
+        relaxation approaches (``elastic_solve.solve_elastic``); at rest afterwards.  Returns one
+        line: what was done, or why not."""
+        return elastic_solve.solve_elastic(self, tolerance)
 
-    def _set_inertia(self) -> None:
+    def set_inertia(self) -> None:
         """The inertia the forces accelerate from now on, and the critical step on it.  Outside a
         relaxation, the masses m_k.  Only the end state of a relaxation counts, so its inertia is
         free (the weight stays m_k g), and it is density-scaled:
@@ -548,9 +333,9 @@ class Simulation:
           steps (docs/method.md, section 5)."""
         nodes = self.nodes
         nodes.inertia_kg[:] = nodes.mass_kg
-        if self._relaxing and self.settings.density_scaling and self.scene.node_spacing_m is not None:
+        if self.relaxing and self.settings.density_scaling and self.scene.node_spacing_m is not None:
             nodes.inertia_kg[:] *= (self.node_spacing_m.max() / self.node_spacing_m) ** 2
-        if self._relaxing and self.settings.uniform_relaxation_step:
+        if self.relaxing and self.settings.uniform_relaxation_step:
             mesh = self.mesh
             omega_sq = cell_frequency_bounds(
                 nodes.xy_m, mesh.elem_nodes, mesh.node_node_ptr, mesh.node_node_idx, nodes.inertia_kg,
@@ -558,7 +343,7 @@ class Simulation:
             )
             nodes.inertia_kg[:] = equalised_inertia(nodes.inertia_kg, omega_sq, mesh.node_node_ptr,
                                                     mesh.node_node_idx)
-        self.critical_dt_s = self._critical_dt()
+        self.update_critical_dt()
 
     @property
     def prescribes_motion(self) -> bool:
@@ -576,155 +361,9 @@ class Simulation:
         relaxation with plasticity keeps them: its end state depends on its path, and without
         the bonds the quasi-static SRF runs of the undrained slope of Griffiths & Lane found
         an FOS of 1.346 instead of 1.446 (docs/method.md, section 8)."""
-        if self._relaxing and not self.materials.plastic:
+        if self.relaxing and not self.materials.plastic:
             return 0.0
         return float(self.settings.stabilisation_beta)
-
-    def _parameters(self, damping: float, tolerance: float) -> StepParameters:
-        return StepParameters(
-            self.gravity_m_s2, self.dt_s, float(damping), self.beta,
-            self.scene.spacing_m, self.speed_limit_m_s, float(tolerance), self.remesher.threshold_rad,
-            ANGLE_MARGIN_RAD, kernel_threads(self.threads),
-        )
-
-    def _stage(self, duration_s, damping, tolerance, record_interval_s, monitor_nodes, progress, stop=None,
-               snapshot=None, periodic=None):
-        if not duration_s > 0.0:
-            raise ValueError(f"duration_s must be > 0, got {duration_s}")
-        if not 0.0 <= damping < 1.0:
-            raise ValueError(f"damping must be in [0, 1), got {damping}")
-        start_wall = time.perf_counter()
-        self.threads = set_threads(self.settings.threads, self.n_particles)  # numba's choice is per calling thread
-        monitor_nodes = np.ascontiguousarray(monitor_nodes, dtype=np.int64).reshape(-1)
-        interval = float(record_interval_s) if record_interval_s else max(duration_s / 1000.0, self.dt_s)
-        records = RecordBuffers.empty(int(min(duration_s / interval, 1e6)) + 2, monitor_nodes.size)
-        self.loop[LOOP_NEXT_RECORD] = interval
-        self.dissipated[:] = 0.0  # dissipation is recorded since the stage start
-        self._record(records, 0.0, monitor_nodes)
-
-        self._stage_first_dt_s = self.dt_s
-        start = _StageStart(self.counters.rebuilds, self.counters.smoothed, self.counters.remesh_wall_s,
-                            float(self.loop[LOOP_MESH_CHECKS]))
-        # prescribed motion does work the budget does not count
-        energy_watch = None if self.prescribes_motion else EnergyWatch(records)
-        stage_time = 0.0
-        n_steps = 0
-        converged = None if tolerance == 0.0 else False
-        stop_reason = ""
-        schedule = StageSchedule(duration_s, self.n_particles, stop is not None,
-                                 None if snapshot is None else float(snapshot[0]),
-                                 None if periodic is None else float(periodic[0]))
-        if snapshot is not None:
-            snapshot[1](self.snapshot(0.0))
-
-        def partial_series():
-            return self._series(records, n_steps, start, start_wall, converged)
-
-        while schedule.running(stage_time, self.dt_s):
-            schedule.plan_landing_check(self.n_orphans > 0, n_steps, float(np.abs(self.nodes.velocity_m_s).max()),
-                                        self.scene.spacing_m, self.dt_s)
-            n_want = schedule.next_call_steps(stage_time, self.dt_s, n_steps)
-            call_start = time.perf_counter()
-            status, done = advance(
-                self.nodes, self.scratch, self.mesh_arrays, self.material_arrays,
-                self.walls, self.loads, self._parameters(damping, tolerance), n_want, stage_time, interval, monitor_nodes,
-                records, self.dissipated, self.loop,
-            )
-            schedule.adapt(done, time.perf_counter() - call_start)
-            stage_time += done * self.dt_s
-            n_steps += done
-            self.counters.steps += done
-
-            reason = None
-            if status in (STATUS_NOT_FINITE, STATUS_RUNAWAY):
-                reason = speed_reason(status == STATUS_NOT_FINITE, self.loop[LOOP_LAST_MAX_SPEED],
-                                      self.speed_limit_m_s)
-            elif energy_watch is not None:
-                reason = energy_watch.reason(records)
-            if reason is not None:
-                raise DivergenceError(reason, self.counters.steps, stage_time, partial_series())
-            try:
-                if status in (STATUS_INVERTED, STATUS_MESH_CHECK):
-                    self.rebuild_mesh()
-                elif schedule.landing_check_due(n_steps):
-                    if self.n_orphans and self.remesher.orphans_can_rejoin(self.nodes.xy_m, self.mesh):
-                        self.rebuild_mesh()
-            except _MeshCollapse as collapse:
-                raise DivergenceError(str(collapse), self.counters.steps, stage_time, partial_series()) from None
-            if status == STATUS_BUFFER_FULL:
-                records = records.grown()
-            elif status == STATUS_CONVERGED:
-                converged = True
-                break
-            elif status not in (STATUS_DONE, STATUS_MESH_CHECK, STATUS_INVERTED):
-                raise RuntimeError(f"unknown status {status} from the time loop")
-            if schedule.stop_check_due(stage_time, self.dt_s):
-                n_rec = records.n_filled
-                early = stop(records.time_s[:n_rec], records.max_displacement_m[:n_rec],
-                             records.energy_j_per_m[:n_rec])
-                if early:
-                    stop_reason = str(early)
-                    break
-            if schedule.snapshot_due(stage_time, self.dt_s):
-                snapshot[1](self.snapshot(stage_time))
-            if schedule.action_due(stage_time, self.dt_s):
-                periodic[1](stage_time)
-            if progress is not None:
-                progress(min(stage_time / duration_s, 1.0))
-        if schedule.final_snapshot_due(stage_time, self.dt_s):
-            snapshot[1](self.snapshot(stage_time))  # the end, unless it was a snapshot time already
-        if records.time_s[records.n_filled - 1] < stage_time - 1e-12 * max(stage_time, 1.0):
-            if records.n_filled >= records.capacity:
-                records = records.grown()
-            self._record(records, stage_time, monitor_nodes)
-        if progress is not None:
-            progress(1.0)
-        series = self._series(records, n_steps, start, start_wall, converged)
-        if stop_reason:
-            series.notes["early_stop"] = f"stopped at t = {series.time_s[-1]:.4g} s of {duration_s:g} s: {stop_reason}"
-        return series
-
-    def _record(self, records: RecordBuffers, time_s: float, monitor_nodes: np.ndarray):
-        slot = records.n_filled
-        record_state(slot, time_s, self.nodes, self.scratch.area_m2, self.material_arrays, self.gravity_m_s2,
-                     monitor_nodes, self.dissipated, records)
-        records.count[0] = slot + 1
-
-    def _series(self, records: RecordBuffers, n_steps: int, start: "_StageStart", start_wall: float,
-                converged) -> TimeSeries:
-        beta = self.beta
-        n_remesh = self.counters.rebuilds - start.rebuilds
-        n_checks = int(self.loop[LOOP_MESH_CHECKS] - start.mesh_checks)
-        n_walls = self.walls.xy_m.shape[0]
-        plastic = self.materials.plastic
-        notes = {
-            "stabilisation": (
-                f"on (beta = {beta:g})" if beta > 0
-                else "off in a relaxation of elastic materials (the bonds vanish at rest): bond loop skipped"
-                if self._relaxing and self.settings.stabilisation_beta > 0 else "off (beta = 0): bond loop skipped"
-            ),
-            "contact": (
-                f"on ({n_walls} walls, {int(self.loop[LOOP_CONTACTS])} particles touching at the end)"
-                if n_walls
-                else "off (no walls): contact loop skipped"
-            ),
-            "remesh": (
-                f"{n_remesh} rebuilds and {n_checks} exact quality checks in {n_steps} steps; "
-                f"{self.counters.smoothed - start.smoothed} crowded particles smoothed; "
-                f"{self.counters.remesh_wall_s - start.remesh_wall_s:.2f} s rebuilding"
-            ),
-            "plasticity": "on" if plastic else "off (all materials elastic)",
-            "water_and_loads": "on" if self.loads.active else "off (no water, no surface loads): skipped",
-            "particles_outside_mesh": f"{self.n_orphans} at the end",
-        }
-        series = TimeSeries.from_records(
-            records, dt_s=self.dt_s, n_steps=n_steps, n_remesh=n_remesh, n_mesh_checks=n_checks,
-            wall_time_s=time.perf_counter() - start_wall, converged=converged,
-            unbalanced_force_ratio=float(self.loop[LOOP_LAST_RATIO]), notes=notes,
-        )
-        if converged is True:
-            notes["early_stop"] = f"relaxation converged after {n_steps} steps (t = {series.time_s[-1]:.4g} s)"
-        return series
 
     # ------------------------------------------------------------------ views
     @property
@@ -744,15 +383,9 @@ class Simulation:
     @property
     def pore_pressure_pa(self) -> np.ndarray:
         """Pore pressure u of every particle at its current position (n,), Pa, compression positive
-        (``external_forces``; at the initial positions, x - u, within a relaxation that asks for it);
-        zeros without water."""
-        u = self.loads.node_pore_pressure_pa.copy()
-        xy = self.nodes.xy_m - self.nodes.displacement_m if self.loads.at_initial_positions else self.nodes.xy_m
-        for i, line in enumerate(self.water_lines_m):
-            on = self.loads.node_phreatic_line == i
-            head = np.interp(xy[on, 0], line[:, 0], line[:, 1]) - xy[on, 1]
-            u[on] += self.loads.water_unit_weight_n_m3 * np.maximum(head, 0.0)
-        return u
+        (``stage_setup.pore_pressure_pa``; at the initial positions, x - u, within a relaxation that
+        asks for it); zeros without water."""
+        return pore_pressure_pa(self.loads, self.nodes)
 
     def snapshot(self, time_s: float = math.nan) -> Snapshot:
         """The particles as they are now (copies), at stage time ``time_s``."""
@@ -767,16 +400,3 @@ class Simulation:
             spacing_m=float(self.scene.spacing_m), dt_s=float(self.dt_s), critical_dt_s=float(self.critical_dt_s),
             particle_spacing_m=None if self.scene.node_spacing_m is None else self.scene.node_spacing_m.copy(),
         )
-
-
-class _StageStart(NamedTuple):
-    """Counters at the start of a stage, to report the stage's own share."""
-
-    rebuilds: int
-    smoothed: int
-    remesh_wall_s: float
-    mesh_checks: float
-
-
-class _MeshCollapse(Exception):
-    """Raised by a rebuild that would stall the run; turned into DivergenceError by the stage."""

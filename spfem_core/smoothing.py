@@ -19,6 +19,7 @@ import numpy as np
 from numba import prange
 
 from spfem_core.jit import fill_zero, inline_kernel, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.state import L_XX, L_XY, L_YX, L_YY
 
 
 @inline_kernel
@@ -126,8 +127,8 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, node_L, node_area):
         w = area / 3.0
         for n in (i, j, k):
             node_area[n] += w
-            node_L[n, 0] += w * lxx
-            node_L[n, 1] += w * lxy
-            node_L[n, 2] += w * lyx
-            node_L[n, 3] += w * lyy
+            node_L[n, L_XX] += w * lxx
+            node_L[n, L_XY] += w * lxy
+            node_L[n, L_YX] += w * lyx
+            node_L[n, L_YY] += w * lyy
     return n_inverted, max_rate_sq

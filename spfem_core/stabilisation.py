@@ -33,6 +33,7 @@ direction combine into one factor, without a square root:
 from __future__ import annotations
 
 from spfem_core.jit import inline_kernel
+from spfem_core.state import L_XX, L_XY, L_YX, L_YY
 
 
 @inline_kernel
@@ -50,8 +51,10 @@ def bond_force(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs
     if length0_sq <= 0.0 or length_sq <= 0.0:
         return 0.0, 0.0, 0.0
     # (L x0 - dv) . x for node i and node j: the velocity error of each one's linear field along the bond
-    err_i = (node_L[i, 0] * x0x + node_L[i, 1] * x0y - dvx) * dx + (node_L[i, 2] * x0x + node_L[i, 3] * x0y - dvy) * dy
-    err_j = (node_L[j, 0] * x0x + node_L[j, 1] * x0y - dvx) * dx + (node_L[j, 2] * x0x + node_L[j, 3] * x0y - dvy) * dy
+    err_i = ((node_L[i, L_XX] * x0x + node_L[i, L_XY] * x0y - dvx) * dx
+             + (node_L[i, L_YX] * x0x + node_L[i, L_YY] * x0y - dvy) * dy)
+    err_j = ((node_L[j, L_XX] * x0x + node_L[j, L_XY] * x0y - dvx) * dx
+             + (node_L[j, L_YX] * x0x + node_L[j, L_YY] * x0y - dvy) * dy)
     ea_i = mat_youngs[node_material_row[i]] * node_area[i]
     ea_j = mat_youngs[node_material_row[j]] * node_area[j]
     factor = half_beta_dt * (ea_i * err_i + ea_j * err_j) / (length_sq * max(length0_sq, min_bond_sq))

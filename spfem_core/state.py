@@ -3,7 +3,10 @@
 Named tuples of arrays and scalars: numba compiles attribute access to the same code as
 separate arguments, and :func:`spfem_core.stepper.advance` gets a signature a reader can
 follow.  All arrays are float64, int64 or bool, C-contiguous, SI units; vectors are (n, 2),
-the plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive.
+the plane-strain stress is (n, 4) ordered (xx, yy, zz, xy), tension positive, and the velocity
+gradient (n, 4) ordered (xx, xy, yx, yy): the kernels and the Python around them name the
+components (:data:`XX` ... :data:`XY`, :data:`L_XX` ... :data:`L_YY`, module-level integers that
+numba compiles as constants) instead of numbering them.
 """
 
 from __future__ import annotations
@@ -22,6 +25,18 @@ a wall."""
  LEAPFROG_CONTACT_LOSS, LEAPFROG_CONTACTS) = range(len(LEAPFROG_OUT))
 LEAPFROG_OUT_WIDTH = len(LEAPFROG_OUT)
 
+STRESS = ("xx", "yy", "zz", "xy")
+"""Components of a plane-strain stress row (``NodeState.stress_pa``, Pa, tension positive; zz out of
+the plane, where the strain is zero)."""
+XX, YY, ZZ, XY = range(len(STRESS))
+STRESS_WIDTH = len(STRESS)
+
+VELOCITY_GRADIENT = ("xx", "xy", "yx", "yy")
+"""Components of a smoothed velocity gradient row (``StepScratch.velocity_gradient``, 1/s):
+L_ab = d v_a / d x_b, row by row."""
+L_XX, L_XY, L_YX, L_YY = range(len(VELOCITY_GRADIENT))
+VELOCITY_GRADIENT_WIDTH = len(VELOCITY_GRADIENT)
+
 SLIP = ("cohesion_n_m", "tan_friction", "side")
 """Columns of ``NodeState.slip``: c L_k (N per m of thickness), tan(phi), and the side s = +-1 the support
 lies on along the particle's prescribed direction (0: not a slip support, the default)."""
@@ -34,7 +49,7 @@ class NodeState(NamedTuple):
     xy_m: np.ndarray  # (n, 2) current positions
     displacement_m: np.ndarray  # (n, 2) since the particles last left their initial positions
     velocity_m_s: np.ndarray  # (n, 2) leapfrog half-step velocity
-    stress_pa: np.ndarray  # (n, 4) Cauchy stress xx, yy, zz, xy
+    stress_pa: np.ndarray  # (n, 4) Cauchy stress, columns STRESS
     plastic_strain: np.ndarray  # (n,) equivalent plastic strain, sum of sqrt(2/3 de_p:de_p)
     mass_kg: np.ndarray  # (n,) per metre of thickness, fixed at the start: m_k = rho_k A_k
     inertia_kg: np.ndarray  # (n,) the mass that the force accelerates: m_k, or density-scaled (simulation.relax)
@@ -47,7 +62,7 @@ class NodeState(NamedTuple):
 class StepScratch(NamedTuple):
     """Arrays every step recomputes; their last values describe the current mesh."""
 
-    velocity_gradient: np.ndarray  # (n, 4) smoothed L_k as (xx, xy, yx, yy), 1/s
+    velocity_gradient: np.ndarray  # (n, 4) smoothed L_k, columns VELOCITY_GRADIENT, 1/s
     area_m2: np.ndarray  # (n,) smoothing-cell area A_k
     force_n: np.ndarray  # (n, 2) f_int + f_stab per metre of thickness
     contact: np.ndarray  # (n,) int64, 1 where a wall acted in the last step
@@ -58,7 +73,7 @@ class StepScratch(NamedTuple):
     @classmethod
     def for_nodes(cls, n: int) -> "StepScratch":
         """Scratch for ``n`` particles."""
-        return cls(np.zeros((n, 4)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
+        return cls(np.zeros((n, VELOCITY_GRADIENT_WIDTH)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
                    np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))
 
 

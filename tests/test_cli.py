@@ -13,6 +13,7 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from spfem_core import simulation
+from spfem_core.divergence import DivergenceError
 from workflows.cli import app
 from workflows.materials import MATERIAL_MODELS
 
@@ -147,7 +148,7 @@ def test_boundary_box_without_particles_exits_2(tmp_path):
 
 def test_divergence_exits_1_without_result(tmp_path, monkeypatch):
     def diverge(self, *args, **kwargs):
-        raise simulation.DivergenceError("velocity is not finite", step=7, time_s=0.0007)
+        raise DivergenceError("velocity is not finite", step=7, time_s=0.0007)
 
     monkeypatch.setattr(simulation.Simulation, "run", diverge)
     study = write_study(tmp_path, TINY_BEAM)

@@ -11,6 +11,7 @@ import pytest
 
 from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
+from spfem_core.state import XX, YY, ZZ
 
 RHO, G, H, NU = 2000.0, 10.0, 10.0, 0.3
 
@@ -28,15 +29,15 @@ def test_relaxed_column_matches_uniaxial_strain(make_column, beta):
     sigma_yy = -RHO * G * (H - y0)
     sigma_xx = NU / (1 - NU) * sigma_yy
     away = (y0 >= 0.1 * H) & (y0 <= 0.8 * H)
-    rel_yy = np.abs(sim.nodes.stress_pa[away, 1] - sigma_yy[away]) / np.abs(sigma_yy[away])
-    rel_xx = np.abs(sim.nodes.stress_pa[away, 0] - sigma_xx[away]) / np.abs(sigma_xx[away])
+    rel_yy = np.abs(sim.nodes.stress_pa[away, YY] - sigma_yy[away]) / np.abs(sigma_yy[away])
+    rel_xx = np.abs(sim.nodes.stress_pa[away, XX] - sigma_xx[away]) / np.abs(sigma_xx[away])
     assert rel_yy.max() < 0.02
     assert rel_xx.max() < 0.02
     # everywhere (edges included) the error stays below 1% of the base stress rho g H
-    assert np.abs(sim.nodes.stress_pa[:, 1] - sigma_yy).max() < 0.01 * RHO * G * H
+    assert np.abs(sim.nodes.stress_pa[:, YY] - sigma_yy).max() < 0.01 * RHO * G * H
     # plane strain: sigma_zz = nu (sigma_xx + sigma_yy)
     np.testing.assert_allclose(
-        sim.nodes.stress_pa[:, 2], NU * (sim.nodes.stress_pa[:, 0] + sim.nodes.stress_pa[:, 1]), rtol=1e-9, atol=1e-6
+        sim.nodes.stress_pa[:, ZZ], NU * (sim.nodes.stress_pa[:, XX] + sim.nodes.stress_pa[:, YY]), rtol=1e-9, atol=1e-6
     )
 
 

@@ -12,6 +12,7 @@ from spfem_core.cloud import particles_in_polygon
 from spfem_core.elastic_solve import ElasticSystem, NotSolvable
 from spfem_core.mesh import triangulate
 from spfem_core.simulation import Simulation
+from spfem_core.state import YY
 
 H = 0.25
 
@@ -45,7 +46,7 @@ def test_the_solve_reaches_the_state_the_damped_steps_converge_to():
     # and the column's own answer: sigma_yy = -rho g (H - y) away from the ends (K0 on rollers)
     depth = 4.0 - solved.initial_xy_m[:, 1]
     inside = (depth > 1.0) & (depth < 3.0)
-    np.testing.assert_allclose(solved.nodes.stress_pa[inside, 1], -2000.0 * 10.0 * depth[inside], rtol=0.05)
+    np.testing.assert_allclose(solved.nodes.stress_pa[inside, YY], -2000.0 * 10.0 * depth[inside], rtol=0.05)
 
 
 def test_a_support_that_leaves_the_column_free_to_fall_is_refused_and_nothing_moves():

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from workflows.fos.limit_equilibrium import Slices, spencer
+from workflows.fos.limit_equilibrium import Slices, material_strengths, spencer
+from workflows.materials import MATERIAL_MODELS
 
 # Fredlund & Krahn (1977), Can. Geotech. J. 14: 429-439, cases 1 and 3: a 2H:1V slope 40 ft high
 # (crest at y = 60 ft from x = 0 to 60, toe at y = 20 ft from x = 140 to 170), c' = 600 psf,
@@ -77,3 +78,21 @@ def test_a_mass_that_drives_nothing_has_no_fos():
     flat = Slices(**{**slices.__dict__, "alpha_rad": np.zeros(50)})
     result = spencer(flat)
     assert np.isnan(result.fos) and "no motion" in result.reason
+
+
+def test_a_slice_has_the_strength_its_materials_core_model_gives_a_slip_support():
+    """The strength of a study's material along a slip line is its core model's ``slip_strength``
+    (the strength of a support the soil slides along), whatever its fields are called: c' and
+    phi' (the peak values of a softening soil), c_u and phi = 0 of Tresca, none (c = inf) elastic."""
+    shared = {"density_kg_m3": 2000.0, "youngs_modulus_pa": 1e8, "poisson_ratio": 0.3}
+    materials = [
+        MATERIAL_MODELS["mohr_coulomb"](name="sand", cohesion_pa=5e3, friction_deg=30.0, softening="linear",
+                                        residual_cohesion_pa=1e3, residual_friction_deg=25.0,
+                                        softening_end_strain=0.1, **shared),
+        MATERIAL_MODELS["drucker_prager"](name="silt", cohesion_pa=8e3, friction_deg=20.0, **shared),
+        MATERIAL_MODELS["tresca"](name="clay", undrained_shear_strength_pa=30e3, **shared),
+        MATERIAL_MODELS["elastic"](name="rock", **shared),
+    ]
+    cohesion_pa, tan_friction = material_strengths(materials)
+    np.testing.assert_array_equal(cohesion_pa, [5e3, 8e3, 30e3, np.inf])
+    np.testing.assert_array_equal(tan_friction, [np.tan(np.radians(30.0)), np.tan(np.radians(20.0)), 0.0, 0.0])

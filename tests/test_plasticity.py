@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from spfem_core.materials.drucker_prager import DP_FITS, default_dp_fit, dp_constants, drucker_prager_update
 from spfem_core.materials.elastic import elastic_increment
 from spfem_core.materials.mohr_coulomb import mohr_coulomb_update
+from spfem_core.state import XX, XY, YY
 
 PROPERTY = settings(deadline=None, max_examples=200)
 SURFACE_RTOL = 1e-9
@@ -388,12 +389,12 @@ def biaxial_limit(update, constants, d_yy=-2e-4, n_steps=300):
     """
     lam, shear, _ = lame(COLLAPSE_E, COLLAPSE_NU)
     stress = np.full((1, 4), -COLLAPSE_P0)
-    stress[0, 3] = 0.0
+    stress[0, XY] = 0.0
 
     def residual(d_xx):
         trial = stress.copy()
         update(trial, 0, d_xx, d_yy, 0.0, lam, shear, *constants)
-        return trial[0, 0] + COLLAPSE_P0, trial
+        return trial[0, XX] + COLLAPSE_P0, trial
 
     for _ in range(n_steps):
         x0 = -lam * d_yy / (lam + 2 * shear)
@@ -409,7 +410,7 @@ def biaxial_limit(update, constants, d_yy=-2e-4, n_steps=300):
             h1, trial = residual(x1)
         assert abs(h1) <= 1e-8 * COLLAPSE_P0
         stress = trial
-    return stress[0, 1]
+    return stress[0, YY]
 
 
 @pytest.mark.parametrize("phi", [20.0, 30.0, 40.0])

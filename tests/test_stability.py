@@ -8,6 +8,7 @@ import pytest
 from spfem_core.divergence import DivergenceError
 from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation
+from spfem_core.state import XX
 from spfem_core.timestep import UnstableTimeStepError, max_stable_cfl
 
 
@@ -41,7 +42,7 @@ def test_forced_unstable_step_is_reported_as_divergence_with_step_and_time(make_
 
 def test_nan_stress_is_reported_as_divergence(make_beam):
     sim = Simulation(make_beam(0.05), SolverSettings(cfl=0.5))
-    sim.nodes.stress_pa[10, 0] = np.nan
+    sim.nodes.stress_pa[10, XX] = np.nan
     with pytest.raises(DivergenceError, match="not finite|created energy"):
         sim.run(0.01)
 

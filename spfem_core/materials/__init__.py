@@ -10,13 +10,16 @@ A model module (``elastic``, ``drucker_prager``, ``mohr_coulomb``, ``tresca``) h
 - ``reduced(properties, srf, associated)``: what strength reduction by F does to its properties;
 - ``slip_strength(properties, n_rows)``: (c, tan phi) of a support the soil slides along, the
   Mohr-Coulomb envelope tau = c + sigma_n tan(phi) of its (reduced) strength (c = inf: it cannot slide);
-- its return map, a compiled kernel of one particle's stress taking its constants as numbers
-  (``<model>_update``), returning (equivalent plastic strain increment, dissipation in J/m^3).
+- its return map ``<NAME>_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus, *constants)``,
+  a compiled kernel of one particle's stress taking its leading constants as numbers in the
+  order of ``CONSTANTS``, returning (equivalent plastic strain increment, dissipation in J/m^3).
 
 :data:`MODELS` lists them; ``constitutive.update_stress_range`` is the one dispatch on the code
 (it reads each model's named columns of the particle's row and calls its return map, then the
 tension cut-off: written there, not in an inlined function of each model, which made the plastic
-update 25-50% slower, docs/benchmarks.md); ``table.MaterialTable``
+update 25-50% slower, docs/benchmarks.md); a code without its branch there stops the update
+with a ValueError (``tests/test_material_dispatch.py`` runs a row of every model of
+:data:`MODELS` through it against its own return map).  ``table.MaterialTable``
 holds the rows of any mix of models, one row per material or per particle.  Shared pieces:
 ``return_map`` (elastic trial, plastic measures, principal stresses), ``frictional`` (c, phi,
 psi and their reduction) and ``tension_cutoff``.  Adding a model: its module here, a line in

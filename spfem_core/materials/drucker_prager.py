@@ -24,6 +24,7 @@ from spfem_core.materials.frictional import (
 )
 from spfem_core.materials.properties import Property
 from spfem_core.materials.return_map import YIELD_RTOL, accept_trial, elastic_trial, plastic_measures
+from spfem_core.state import XX, XY, YY, ZZ
 
 NAME = "drucker_prager"
 CODE = 1
@@ -196,9 +197,9 @@ def drucker_prager_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modul
     nyy = p_new + factor * syy
     nzz = p_new + factor * szz
     nxy = factor * txy
-    stress[k_row, 0] = nxx
-    stress[k_row, 1] = nyy
-    stress[k_row, 2] = nzz
-    stress[k_row, 3] = nxy
+    stress[k_row, XX] = nxx
+    stress[k_row, YY] = nyy
+    stress[k_row, ZZ] = nzz
+    stress[k_row, XY] = nxy
     return plastic_measures(txx - nxx, tyy - nyy, tzz - nzz, txy - nxy, nxx, nyy, nzz, nxy, bulk, g)
 

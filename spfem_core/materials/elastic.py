@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from spfem_core.jit import inner_kernel, kernel
+from spfem_core.state import XX, XY, YY, ZZ
 
 NAME = "elastic"
 CODE = 0
@@ -46,10 +47,10 @@ def slip_strength(properties: dict, n_rows: int) -> tuple:
 def elastic_increment(stress, k, dxx, dyy, dxy, lame_lambda, shear_modulus):
     """sigma_k += lambda tr(d) I + 2 G d, plane strain (d_zz = 0); d_xy is the tensor shear."""
     volumetric = lame_lambda * (dxx + dyy)
-    stress[k, 0] += volumetric + 2.0 * shear_modulus * dxx
-    stress[k, 1] += volumetric + 2.0 * shear_modulus * dyy
-    stress[k, 2] += volumetric
-    stress[k, 3] += 2.0 * shear_modulus * dxy
+    stress[k, XX] += volumetric + 2.0 * shear_modulus * dxx
+    stress[k, YY] += volumetric + 2.0 * shear_modulus * dyy
+    stress[k, ZZ] += volumetric
+    stress[k, XY] += 2.0 * shear_modulus * dxy
 
 
 @inner_kernel

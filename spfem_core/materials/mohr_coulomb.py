@@ -39,6 +39,7 @@ from spfem_core.materials.return_map import (
     principal_direction,
     store_principal,
 )
+from spfem_core.state import XX, XY, YY, ZZ
 
 NAME = "mohr_coulomb"
 CODE = 2
@@ -175,10 +176,10 @@ def mohr_coulomb_update(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus
     two_c_cos = 2.0 * cohesion * cos_phi
     f = (s1 - s3) + (s1 + s3) * sin_phi - two_c_cos
     if f <= YIELD_RTOL * (abs(s1) + abs(s3) + two_c_cos):
-        stress[k_row, 0] = txx
-        stress[k_row, 1] = tyy
-        stress[k_row, 2] = tzz
-        stress[k_row, 3] = txy
+        stress[k_row, XX] = txx
+        stress[k_row, YY] = tyy
+        stress[k_row, ZZ] = tzz
+        stress[k_row, XY] = txy
         return 0.0, 0.0
 
     sin_prod = sin_phi * sin_psi

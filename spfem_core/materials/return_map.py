@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from spfem_core.jit import inline_kernel, inner_kernel
+from spfem_core.state import XX, XY, YY, ZZ
 
 YIELD_RTOL = 1e-12
 """Relative tolerance of the yield check: f <= YIELD_RTOL * scale counts as elastic."""
@@ -54,20 +55,20 @@ def elastic_trial(stress, k_row, dxx, dyy, dxy, lame_lambda, shear_modulus):
     returned as (xx, yy, zz, xy) without writing it."""
     volumetric = lame_lambda * (dxx + dyy)
     return (
-        stress[k_row, 0] + (volumetric + 2.0 * shear_modulus * dxx),
-        stress[k_row, 1] + (volumetric + 2.0 * shear_modulus * dyy),
-        stress[k_row, 2] + volumetric,
-        stress[k_row, 3] + 2.0 * shear_modulus * dxy,
+        stress[k_row, XX] + (volumetric + 2.0 * shear_modulus * dxx),
+        stress[k_row, YY] + (volumetric + 2.0 * shear_modulus * dyy),
+        stress[k_row, ZZ] + volumetric,
+        stress[k_row, XY] + 2.0 * shear_modulus * dxy,
     )
 
 
 @inline_kernel
 def accept_trial(stress, k_row, txx, tyy, tzz, txy):
     """Write an admissible trial stress to row ``k_row`` as it is: no plastic strain, no dissipation, (0, 0)."""
-    stress[k_row, 0] = txx
-    stress[k_row, 1] = tyy
-    stress[k_row, 2] = tzz
-    stress[k_row, 3] = txy
+    stress[k_row, XX] = txx
+    stress[k_row, YY] = tyy
+    stress[k_row, ZZ] = tzz
+    stress[k_row, XY] = txy
     return 0.0, 0.0
 
 
@@ -97,10 +98,10 @@ def store_principal(stress, k_row, na, nb, nz, cos_2t, sin_2t):
     nxx = new_centre + new_half * cos_2t
     nyy = new_centre - new_half * cos_2t
     nxy = new_half * sin_2t
-    stress[k_row, 0] = nxx
-    stress[k_row, 1] = nyy
-    stress[k_row, 2] = nz
-    stress[k_row, 3] = nxy
+    stress[k_row, XX] = nxx
+    stress[k_row, YY] = nyy
+    stress[k_row, ZZ] = nz
+    stress[k_row, XY] = nxy
     return nxx, nyy, nxy
 
 

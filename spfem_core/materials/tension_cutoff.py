@@ -15,6 +15,7 @@ from spfem_core.materials.return_map import (
     principal_direction,
     store_principal,
 )
+from spfem_core.state import XX, XY, YY, ZZ
 
 
 @kernel
@@ -33,20 +34,20 @@ def tension_cutoff(stress, k_row, mean_stress_cap, tensile_strength, lame_lambda
     """
     g = shear_modulus
     bulk = lame_lambda + 2.0 * g / 3.0
-    sxx = stress[k_row, 0]
-    syy = stress[k_row, 1]
-    szz = stress[k_row, 2]
-    sxy = stress[k_row, 3]
+    sxx = stress[k_row, XX]
+    syy = stress[k_row, YY]
+    szz = stress[k_row, ZZ]
+    sxy = stress[k_row, XY]
     if mean_stress_cap:
         mean = (sxx + syy + szz) / 3.0
         excess = mean - tensile_strength
         if excess <= YIELD_RTOL * (abs(mean) + abs(tensile_strength)):
             return 0.0, 0.0
         nxx, nyy, nzz, nxy = sxx - excess, syy - excess, szz - excess, sxy
-        stress[k_row, 0] = nxx
-        stress[k_row, 1] = nyy
-        stress[k_row, 2] = nzz
-        stress[k_row, 3] = nxy
+        stress[k_row, XX] = nxx
+        stress[k_row, YY] = nyy
+        stress[k_row, ZZ] = nzz
+        stress[k_row, XY] = nxy
         return plastic_measures(sxx - nxx, syy - nyy, szz - nzz, sxy - nxy, nxx, nyy, nzz, nxy, bulk, g)
     centre, half_diff, radius = mohr_circle(sxx, syy, sxy)
     largest = max(centre + radius, szz)

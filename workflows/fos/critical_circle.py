@@ -30,7 +30,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from spfem_core.geometry import downslope_sign, relief_m, surface_height_m
-from workflows.fos.slip_surface import material_strength
+from workflows.fos.limit_equilibrium import material_strengths
 from workflows.particles import material_rows
 from workflows.water.pressure import phreatic_lines, ru_pore_pressure_pa
 
@@ -104,9 +104,9 @@ class _Section:
         self.cumulative = np.vstack([np.zeros((1, xs.size)), np.cumsum(self.unit_weight, axis=0)])
         self.pore = pore.reshape(grid_x.shape)
         self.material = material.reshape(grid_x.shape)
-        strength = [_strength(m) for m in study.materials]
-        self.cohesion = np.array([s[0] if s else np.inf for s in strength] + [0.0])
-        self.tan_phi = np.array([s[1] if s else 0.0 for s in strength] + [0.0])
+        cohesion, tan_phi = material_strengths(study.materials)  # c = inf: no strength (elastic)
+        self.cohesion = np.append(cohesion, 0.0)
+        self.tan_phi = np.append(tan_phi, 0.0)
         self.ys = ys
         # the searched section faces +x: x' = sign x
         order = np.argsort(self.sign * xs)
@@ -124,11 +124,6 @@ class _Section:
 
     def row(self, y) -> np.ndarray:
         return np.clip(np.floor((y - self.base) / self.cell).astype(np.int64), 0, self.ys.size - 1)
-
-
-def _strength(material) -> tuple[float, float] | None:
-    """(c, tan phi) of a material, None for an elastic one (``workflows.fos.slip_surface``)."""
-    return material_strength(material)
 
 
 def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[float, float, float]:

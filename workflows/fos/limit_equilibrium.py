@@ -19,6 +19,9 @@ and the mass is in equilibrium when the interslice forces balance in force and i
 (each Q_i acts through its base midpoint, where W_i, N_i and S_i meet; K_i's arm adds its
 moment).  The two equations give F and theta; Morgenstern-Price with a constant f(x) is the
 same method.  Verified against Fredlund & Krahn (1977) (tests/test_limit_equilibrium.py).
+
+A slice's strength is its material's (:func:`material_strengths`): the strength each material
+model of the core gives a support the soil slides along (its ``slip_strength``), unreduced.
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize
+
+from spfem_core.materials.table import MaterialTable
 
 
 @dataclass(frozen=True)
@@ -44,6 +49,15 @@ class Slices:
     pore_pressure_pa: np.ndarray  # u at the base midpoint (compression positive)
     cohesion_pa: np.ndarray
     tan_friction: np.ndarray
+
+
+def material_strengths(materials) -> tuple[np.ndarray, np.ndarray]:
+    """(c in Pa, tan phi) of each of a study's ``materials`` (``workflows.materials``), unreduced: the
+    shear strength tau = c + sigma_n tan(phi) its core model gives a support the soil slides along
+    (``MaterialTable.slip_strength``, each model's own ``slip_strength``: c' and phi' of the
+    frictional models, their peak values where they soften; c_u and phi = 0 of Tresca); c = inf for
+    a material without strength (elastic)."""
+    return MaterialTable.from_rows([material.core_row() for material in materials]).slip_strength()
 
 
 @dataclass(frozen=True)

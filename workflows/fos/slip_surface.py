@@ -24,9 +24,10 @@ the line (beyond the stable run's).
 **Limit equilibrium on it** (:mod:`workflows.fos.limit_equilibrium`): the mass above the line in
 SLICES slices, each particle's mass spread over its width h along x, its weight and horizontal
 body force from the runs' acceleration (gravity and the pseudo-static earthquake), the surface
-loads on the ground, the pore pressure and the strength (c', phi' of Mohr-Coulomb and
-Drucker-Prager soils, peak values of softening ones; s_u and phi = 0 of Tresca ones) of the
-particle nearest each slice's base midpoint, unreduced.  Spencer's FOS on the mechanism's line is a
+loads on the ground, the pore pressure and the strength of the particle nearest each slice's base
+midpoint, unreduced: its material model's own (``limit_equilibrium.material_strengths``: c', phi'
+of Mohr-Coulomb and Drucker-Prager soils, peak values of softening ones; s_u and phi = 0 of Tresca
+ones).  Spencer's FOS on the mechanism's line is a
 cross-check of the strength reduction; where they differ by more than ``CROSS_CHECK_MARGIN`` the
 report says the line may not be the mechanism.
 """
@@ -41,7 +42,7 @@ from scipy import sparse
 from scipy.spatial import cKDTree
 
 from spfem_core.geometry import surface_height_m
-from workflows.fos.limit_equilibrium import Slices, SpencerResult, spencer
+from workflows.fos.limit_equilibrium import Slices, SpencerResult, material_strengths, spencer
 from workflows.scene import surface_load_forces
 
 SLICES = 100
@@ -179,15 +180,6 @@ def band_line(xy0_m: np.ndarray, band: np.ndarray, gain: np.ndarray, spacing_m: 
     return line_x, line_y
 
 
-def material_strength(material) -> tuple[float, float] | None:
-    """(c in Pa, tan phi) of a material for limit equilibrium; None: no strength (elastic)."""
-    if getattr(material, "cohesion_pa", None) is not None and getattr(material, "friction_deg", None) is not None:
-        return float(material.cohesion_pa), float(np.tan(np.radians(material.friction_deg)))
-    if getattr(material, "undrained_shear_strength_pa", None) is not None:
-        return float(material.undrained_shear_strength_pa), 0.0
-    return None
-
-
 def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slices | str:
     """The slices of the mass above the line (module doc); a reason string when there are none.
     ``particles``: initial x0, y0, mass (kg m-1), spacing (m), material (row), pore_pressure (Pa)."""
@@ -234,11 +226,12 @@ def limit_equilibrium_slices(study, particles: dict, line_x_m, line_y_m) -> Slic
     horizontal = sign * acceleration[0] * slice_mass
     base_y = np.interp(middle, lx, ly)
     nearest = cKDTree(np.column_stack([px, y0])).query(np.column_stack([middle, base_y]))[1]
-    strengths = [material_strength(study.materials[m]) for m in particles["material"][nearest]]
-    if any(s is None for s in strengths):
-        names = sorted({study.materials[m].name for m, s in zip(particles["material"][nearest], strengths) if s is None})
+    material = particles["material"][nearest]
+    material_cohesion, material_tan_friction = material_strengths(study.materials)
+    cohesion, tan_friction = material_cohesion[material], material_tan_friction[material]
+    if not np.all(np.isfinite(cohesion)):
+        names = sorted({study.materials[m].name for m in material[~np.isfinite(cohesion)]})
         return f"the slip line runs through {', '.join(names)}, which has no strength (elastic)"
-    cohesion, tan_friction = (np.array(v) for v in zip(*strengths))
     return Slices(x_m=middle, y_m=base_y, width_m=width, alpha_rad=np.arctan(-np.diff(base) / width),
                   vertical_load_n=vertical, horizontal_load_n=horizontal, horizontal_arm_m=centroid_y - base_y,
                   pore_pressure_pa=particles["pore_pressure"][nearest], cohesion_pa=cohesion, tan_friction=tan_friction)
