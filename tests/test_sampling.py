@@ -46,6 +46,21 @@ def test_the_samples_correlation_is_the_one_asked_for(a, b, rho):
     assert sampler.normal[0, 1] != pytest.approx(rho, abs=1e-3)
 
 
+@pytest.mark.parametrize("spread", [1e-12, 1e-8, 1e-4])
+def test_a_variable_of_tiny_spread_is_correlated_as_the_normal_it_nearly_is(spread):
+    """A lognormal cohesion of mean 10 kPa and std ``spread`` Pa, correlated -0.5 with a truncated
+    normal friction angle: the copula's rho_z is the one a normal cohesion needs (a lognormal of COV
+    1e-12 is linear in its normal), with no warning.  Measured as x - E[x] over scipy's std, it was
+    rounding noise over 0: 5.8e-11 for 1e-8 Pa (no correlation at all), 'out of reach (from -inf to
+    -inf)' for 1e-12 Pa, each with a RuntimeWarning on stderr (found by the study-file fuzzer)."""
+    friction = Marginal("truncated_normal", 20.0, 2.0, low=15.0, high=25.0)
+    cohesion, as_normal = Marginal("lognormal", 10e3, spread), Marginal("normal", 10e3, 1.0)
+    assert normal_correlation(cohesion, friction, -0.5) == pytest.approx(
+        normal_correlation(as_normal, friction, -0.5), abs=1e-9)
+    assert normal_correlation(friction, cohesion, -0.5) == pytest.approx(
+        normal_correlation(friction, as_normal, -0.5), abs=1e-9)
+
+
 def test_the_lognormal_closed_form_agrees_with_the_quadrature():
     a, b = COHESION, Marginal("lognormal", 5.0, 4.0)
     closed = normal_correlation(a, b, 0.6)
