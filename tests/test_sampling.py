@@ -61,6 +61,22 @@ def test_a_variable_of_tiny_spread_is_correlated_as_the_normal_it_nearly_is(spre
         normal_correlation(friction, as_normal, -0.5), abs=1e-9)
 
 
+@pytest.mark.parametrize("low, high", [(15.0, math.inf), (-math.inf, 25.0), (-math.inf, math.inf)])
+def test_a_normal_truncated_on_one_side_is_correlated_as_one_with_a_far_bound(low, high):
+    """A friction angle truncated below only (high = inf, as a study gives it by leaving high out):
+    the quadrature's far nodes read Phi(z) = 1, whose quantile is the infinite bound (NaN: "The
+    function value at x=0.0 is NaN", blamed on probabilistic.correlation, with a RuntimeWarning;
+    found by the study-file fuzzer), or a far bound (a rho_z 0.002 off).  Either order of the two
+    variables gives the same rho_z; untruncated, the normal's."""
+    friction = Marginal("truncated_normal", 20.0, 2.0, low=low, high=high)
+    far = Marginal("truncated_normal", 20.0, 2.0, low=max(low, -1e6), high=min(high, 1e6))
+    rho_z = normal_correlation(COHESION, friction, -0.5)
+    assert rho_z == pytest.approx(normal_correlation(COHESION, far, -0.5), abs=1e-9)
+    assert rho_z == pytest.approx(normal_correlation(friction, COHESION, -0.5), abs=1e-6)
+    if math.isinf(low) and math.isinf(high):
+        assert rho_z == pytest.approx(normal_correlation(COHESION, Marginal("normal", 20.0, 2.0), -0.5), abs=1e-9)
+
+
 def test_the_lognormal_closed_form_agrees_with_the_quadrature():
     a, b = COHESION, Marginal("lognormal", 5.0, 4.0)
     closed = normal_correlation(a, b, 0.6)

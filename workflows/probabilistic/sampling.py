@@ -73,7 +73,9 @@ class Marginal:
         """(x - E[x]) / std(x) of x = F^-1(Phi(z)), computed without subtracting nearly equal numbers: a
         spread far below the mean (a lognormal of COV 1e-12) leaves x - E[x] as rounding noise and its
         std as 0.  A lognormal's is expm1(sigma_ln z - sigma_ln^2 / 2) / V (V = sqrt(expm1(sigma_ln^2)),
-        its COV); a truncated normal's that of the standard normal truncated to its bounds in stds."""
+        its COV); a truncated normal's that of the standard normal truncated to its bounds in stds, its
+        upper half from the upper tail (Phi(z) rounds to 1 beyond z = 8.3, whose quantile is the upper
+        bound: infinite, or far off)."""
         z = np.asarray(z, dtype=float)
         if self.distribution == "normal":
             return z
@@ -85,7 +87,8 @@ class Marginal:
         if self.distribution == "uniform":
             return (stats.norm.cdf(z) - 0.5) * math.sqrt(12.0)
         standard = stats.truncnorm((self.low - self.mean) / self.std, (self.high - self.mean) / self.std)
-        return (standard.ppf(stats.norm.cdf(z)) - standard.mean()) / standard.std()
+        t = np.where(z > 0.0, standard.isf(stats.norm.sf(z)), standard.ppf(stats.norm.cdf(z)))
+        return (t - standard.mean()) / standard.std()
 
 
 def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
