@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 import xarray as xr
 
@@ -76,6 +77,81 @@ def test_the_quickstarts_mechanism_stays_clear_of_the_box(quickstart_run):
     assert not [contact for contact in outcome.edges if contact.warning]
     with xr.open_dataset(out / "summary.nc") as ds:
         assert ds.attrs["box_decides"] == 0
+
+
+NARROW_SLOPE = """
+[study]
+name = "narrow"
+
+[geometry]
+polygon_m = [[8.0, 0.0], [20.5, 0.0], [20.5, 3.0], [20.0, 3.0], [10.0, 8.0], [8.0, 8.0]]
+spacing_m = 1.0
+
+[[materials]]
+name = "soil"
+model = "drucker_prager"
+density_kg_m3 = 2000.0
+youngs_modulus_pa = 1e8
+poisson_ratio = 0.3
+cohesion_pa = 10e3
+friction_deg = 20.0
+
+[loads]
+gravity_m_s2 = [0.0, -10.0]
+
+[[boundary]]
+name = "base"
+y_max_m = 0.0
+vx_m_s = 0.0
+vy_m_s = 0.0
+
+[[boundary]]
+name = "sides"
+x_max_m = 8.0
+vx_m_s = 0.0
+
+[[stages]]
+name = "gravity"
+kind = "relaxation"
+elastic = true
+max_duration_s = 5.0
+record_interval_s = 0.1
+
+[[stages]]
+name = "srf"
+kind = "strength_reduction"
+duration_s = 1.0
+record_interval_s = 0.05
+srf_min = 1.0
+srf_max = 1.4
+srf_step = 0.2
+"""
+"""A coarse slope (h = 1 m) drawn 2 m behind its crest, the fuzzer's seepage slope cut short
+(``verification.fuzz_study_files``, check (a))."""
+
+
+def test_a_back_scarp_at_a_side_reaches_it_however_few_particles_lie_between():
+    """A shear band that comes out on the ground one spacing from the side: its slip line enters half a
+    spacing from the side, and the one particle of the mechanism next to the side (fewer than
+    MIN_CONTACT) must not hide that the box decides."""
+    from spfem_core.geometry import distance_to_edges_m
+    from workflows.fos.domain_edges import MIN_CONTACT, SIDE, edge_contacts, mechanism_particles
+    from workflows.fos.slip_surface import slip_surface
+    from workflows.scene import cloud_of_geometry
+
+    study = parse_study(NARROW_SLOPE)
+    xy0, spacing = cloud_of_geometry(study.geometry)
+    band = np.array([[9.0, 8.0], [12.0, 5.0], [16.0, 3.0], [20.0, 3.0]])  # from the crest's corner to the toe
+    n = xy0.shape[0]
+    failed = {"x0": xy0[:, 0], "y0": xy0[:, 1], "ux": np.zeros(n), "uy": np.zeros(n), "spacing": spacing,
+              "plastic_strain": (distance_to_edges_m(xy0, band, closed=False) <= 0.5).astype(float),
+              "mass": np.full(n, 2000.0), "material": np.zeros(n, dtype=np.int64), "pore_pressure": np.zeros(n)}
+    slip = slip_surface(study, failed, None, 1.2, math.nan, limit_equilibrium=False)
+    assert slip.entry_m[0] == pytest.approx(8.5)  # within one spacing of the side x = 8 m
+    members = mechanism_particles(failed, None)
+    assert np.count_nonzero(members & (xy0[:, 0] <= 9.5)) < MIN_CONTACT  # the count alone would miss it
+    contacts = edge_contacts(study, failed, None, (slip.x_m, slip.y_m))
+    assert [(c.support, c.kind, c.warning) for c in contacts] == [("sides", SIDE, True)]
 
 
 def test_bishops_critical_circle_of_the_reference_slope_is_limit_equilibriums_and_sees_no_short_domain():

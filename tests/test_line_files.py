@@ -113,6 +113,14 @@ def test_a_drawing_in_other_units_is_refused_naming_them(tmp_path):
     assert read_line(tmp_path, "section.dxf#GROUND", FIELD) == [list(p) for p in GROUND]
 
 
+@pytest.mark.parametrize("units", [25, 99, -1])
+def test_a_unit_code_dxf_does_not_know_is_refused_as_such_not_as_unitless(tmp_path, units):
+    """ezdxf names a code it does not know "unitless" (the name of 0, which is read as metres)."""
+    _drawing(tmp_path, lambda s: s.add_lwpolyline(GROUND, dxfattribs={"layer": "GROUND"}), units=units)
+    problem = _refusal(tmp_path, "section.dxf#GROUND")
+    assert f"$INSUNITS = {units}, which is no unit of DXF" in problem and "unitless" not in problem
+
+
 @pytest.mark.parametrize("row", ["1" * 200_000 + ",1", '"' + "a" * 200_000],
                          ids=["long number", "unclosed quote"])
 def test_a_csv_field_longer_than_the_csv_module_reads_is_one_line(tmp_path, row):

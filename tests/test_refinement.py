@@ -115,6 +115,17 @@ def test_an_empty_refinement_table_is_adaptive_and_levels_make_it_uniform():
     assert not parse_study(QUICKSTART + "\n[refinement]\nlevels = 4\n").refinement.adaptive
 
 
+@pytest.mark.parametrize("mode", ["uniform", "adaptive"])
+def test_a_scene_the_first_level_refuses_is_refused_before_anything_is_written(tmp_path, mode):
+    """A material region off the domain: refused by the first level's scene, which the level's run builds
+    only after writing its folder and case.toml (found by the study-file fuzzer)."""
+    off = QUICKSTART.replace('name = "soil"', 'name = "soil"\nregion_m = [[1000.0, 0.0], [1060.0, 0.0], '
+                             '[1060.0, 15.0], [1000.0, 15.0]]', 1)
+    with pytest.raises(StudyError, match="lie in no material region"):
+        run_study(parse_study(off + f'\n[refinement]\nmode = "{mode}"\n'), tmp_path / "out", RunOptions(workers=1))
+    assert not (tmp_path / "out").exists()
+
+
 UNIFORM = "\n[refinement]\nspacings_m = [2.0, 1.68, 1.41, 1.19]\n"
 LEVELS_STUDY = (REPO / "studies" / "refinement_levels.toml").read_text()
 CONTROLLED_STUDY = (REPO / "studies" / "fos_controlled.toml").read_text()

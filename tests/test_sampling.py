@@ -46,6 +46,37 @@ def test_the_samples_correlation_is_the_one_asked_for(a, b, rho):
     assert sampler.normal[0, 1] != pytest.approx(rho, abs=1e-3)
 
 
+@pytest.mark.parametrize("spread", [1e-12, 1e-8, 1e-4])
+def test_a_variable_of_tiny_spread_is_correlated_as_the_normal_it_nearly_is(spread):
+    """A lognormal cohesion of mean 10 kPa and std ``spread`` Pa, correlated -0.5 with a truncated
+    normal friction angle: the copula's rho_z is the one a normal cohesion needs (a lognormal of COV
+    1e-12 is linear in its normal), with no warning.  Measured as x - E[x] over scipy's std, it was
+    rounding noise over 0: 5.8e-11 for 1e-8 Pa (no correlation at all), 'out of reach (from -inf to
+    -inf)' for 1e-12 Pa, each with a RuntimeWarning on stderr (found by the study-file fuzzer)."""
+    friction = Marginal("truncated_normal", 20.0, 2.0, low=15.0, high=25.0)
+    cohesion, as_normal = Marginal("lognormal", 10e3, spread), Marginal("normal", 10e3, 1.0)
+    assert normal_correlation(cohesion, friction, -0.5) == pytest.approx(
+        normal_correlation(as_normal, friction, -0.5), abs=1e-9)
+    assert normal_correlation(friction, cohesion, -0.5) == pytest.approx(
+        normal_correlation(friction, as_normal, -0.5), abs=1e-9)
+
+
+@pytest.mark.parametrize("low, high", [(15.0, math.inf), (-math.inf, 25.0), (-math.inf, math.inf)])
+def test_a_normal_truncated_on_one_side_is_correlated_as_one_with_a_far_bound(low, high):
+    """A friction angle truncated below only (high = inf, as a study gives it by leaving high out):
+    the quadrature's far nodes read Phi(z) = 1, whose quantile is the infinite bound (NaN: "The
+    function value at x=0.0 is NaN", blamed on probabilistic.correlation, with a RuntimeWarning;
+    found by the study-file fuzzer), or a far bound (a rho_z 0.002 off).  Either order of the two
+    variables gives the same rho_z; untruncated, the normal's."""
+    friction = Marginal("truncated_normal", 20.0, 2.0, low=low, high=high)
+    far = Marginal("truncated_normal", 20.0, 2.0, low=max(low, -1e6), high=min(high, 1e6))
+    rho_z = normal_correlation(COHESION, friction, -0.5)
+    assert rho_z == pytest.approx(normal_correlation(COHESION, far, -0.5), abs=1e-9)
+    assert rho_z == pytest.approx(normal_correlation(friction, COHESION, -0.5), abs=1e-6)
+    if math.isinf(low) and math.isinf(high):
+        assert rho_z == pytest.approx(normal_correlation(COHESION, Marginal("normal", 20.0, 2.0), -0.5), abs=1e-9)
+
+
 def test_the_lognormal_closed_form_agrees_with_the_quadrature():
     a, b = COHESION, Marginal("lognormal", 5.0, 4.0)
     closed = normal_correlation(a, b, 0.6)

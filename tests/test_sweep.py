@@ -107,16 +107,23 @@ def test_a_bad_sweep_is_one_line_exit_2_and_nothing_written(name, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_a_case_whose_scene_fails_is_named_before_the_field(tmp_path):
+def test_a_case_whose_scene_fails_is_named_before_the_field_and_nothing_is_written(tmp_path):
     """A value that only the scene refuses (a support box left empty) names the case first: the
-    field it names is the case's, not the study file's."""
+    field it names is the case's, not the study file's.  The scenes are built before the case folders
+    are written (they were built only as each case ran, after every case.toml was written: the
+    study-file fuzzer's material region off the domain)."""
     path = tmp_path / "bad.toml"
     path.write_text(with_sweep(SWEEP, '[sweep]\n[[sweep.axes]]\npath = "boundary.base.y_max_m"\nvalues = [-10.0]\n'))
     run = cli(path, "--out", tmp_path / "out")
     assert run.returncode == 2, run.stderr
-    last = run.stderr.splitlines()[-1]  # after the progress bar of the cases started
-    assert last == f"error: {path}: sweep: the case y_max_m=-10: boundary[0]: the box of 'base' holds no particle", last
-    assert "Traceback" not in run.stderr
+    assert run.stderr == f"error: {path}: sweep: the case y_max_m=-10: boundary[0]: the box of 'base' holds no particle\n"
+    assert not (tmp_path / "out").exists()
+    off = SWEEP.replace('name = "soil"', 'name = "soil"\nregion_m = [[1000.0, 0.0], [1060.0, 0.0], [1060.0, 15.0]]', 1)
+    assert off != SWEEP
+    path.write_text(with_sweep(off, '[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [8e3, 12e3]\n'))
+    run = cli(path, "--out", tmp_path / "out")
+    assert run.returncode == 2 and run.stderr.count("\n") == 1 and "lie in no material region" in run.stderr, run.stderr
+    assert not (tmp_path / "out").exists()
 
 
 def test_zip_of_unequal_axes_is_refused_and_a_stage_study_may_be_swept():

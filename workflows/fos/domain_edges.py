@@ -2,9 +2,11 @@
 
 A support (``[[boundary]]`` of the strength-reduction stage) is reached when at least
 ``MIN_CONTACT`` particles of the mechanism lie within ``REACH`` spacings of its particles (each
-particle's own spacing).  The mechanism is the first failed run's shear band and the soil it bounds
-(``slip_surface``: the band of plastic strain, and the particles above the line through it).  Each support
-reached is named with what it is and what to do:
+particle's own spacing), or when the slip line's entry or exit (where the mechanism comes out on the
+ground) lies within ``REACH`` spacings of one of them: a back scarp at a side holds few particles
+between the line and the ground, fewer than ``MIN_CONTACT`` at a coarse spacing.  The mechanism is the
+first failed run's shear band and the soil it bounds (``slip_surface``: the band of plastic strain, and
+the particles above the line through it).  Each support reached is named with what it is and what to do:
 
 - a side (a support on a vertical line at the domain's left or right end, behind the crest or beyond
   the toe): the domain is too short there; widen it;
@@ -115,8 +117,9 @@ def mechanism_particles(failed: dict, stable: dict | None) -> np.ndarray:
     return moving_mass(xy0, displacement, float(np.max(spacing)))[0]
 
 
-def edge_contacts(study, failed: dict, stable: dict | None) -> list[EdgeContact]:
-    """The supports of the strength-reduction stage that the mechanism reaches (module doc)."""
+def edge_contacts(study, failed: dict, stable: dict | None, slip_line_m=None) -> list[EdgeContact]:
+    """The supports of the strength-reduction stage that the mechanism reaches (module doc);
+    ``slip_line_m``: (x, y) of its slip line from entry to exit, or None."""
     xy0 = np.column_stack([failed["x0"], failed["y0"]])
     spacing = np.asarray(failed["spacing"], dtype=float)
     members = mechanism_particles(failed, stable)
@@ -125,6 +128,10 @@ def edge_contacts(study, failed: dict, stable: dict | None) -> list[EdgeContact]
     h = float(np.min(spacing))
     active = study.strength_reduction.boundary
     tree = cKDTree(xy0[members])
+    ends = np.empty((0, 2))
+    if slip_line_m is not None and len(slip_line_m[0]):
+        x, y = np.asarray(slip_line_m[0], dtype=float), np.asarray(slip_line_m[1], dtype=float)
+        ends = np.array([[x[0], y[0]], [x[-1], y[-1]]])
     contacts = []
     for boundary in study.boundary:
         if active is not None and boundary.name not in active:
@@ -134,7 +141,8 @@ def edge_contacts(study, failed: dict, stable: dict | None) -> list[EdgeContact]
             continue
         near = tree.query_ball_point(xy0[nodes], REACH * spacing[nodes])
         touching = np.unique(np.concatenate([np.asarray(each, dtype=np.int64) for each in near]))
-        if touching.size >= MIN_CONTACT:
+        end_at_it = any(np.any(np.hypot(*(xy0[nodes] - end).T) <= REACH * spacing[nodes]) for end in ends)
+        if touching.size >= MIN_CONTACT or end_at_it:
             kind, where, advice = _support_kind(study, boundary, xy0, nodes, h)
             contacts.append(EdgeContact(boundary.name, kind, where, int(touching.size), advice))
     return contacts

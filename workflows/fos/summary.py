@@ -129,7 +129,7 @@ def case_mechanism(study, out_dir: Path, status) -> tuple[SlipSurface | str, lis
     if not math.isnan(status.fos_low):
         stable = run_particles(out_dir / run_file_name(status.fos_low), study)
     slip = slip_surface(study, failed, stable, status.fos_high, status.fos_low if stable is not None else math.nan)
-    return slip, edge_contacts(study, failed, stable)
+    return slip, edge_contacts(study, failed, stable, (slip.x_m, slip.y_m) if isinstance(slip, SlipSurface) else None)
 
 
 def _slip_variables(ds: xr.Dataset, slip: SlipSurface | str) -> None:

@@ -69,6 +69,27 @@ class Marginal:
 
         return self.frozen().ppf(stats.norm.cdf(z))
 
+    def standardised_from_normal(self, z: np.ndarray) -> np.ndarray:
+        """(x - E[x]) / std(x) of x = F^-1(Phi(z)), computed without subtracting nearly equal numbers: a
+        spread far below the mean (a lognormal of COV 1e-12) leaves x - E[x] as rounding noise and its
+        std as 0.  A lognormal's is expm1(sigma_ln z - sigma_ln^2 / 2) / V (V = sqrt(expm1(sigma_ln^2)),
+        its COV); a truncated normal's that of the standard normal truncated to its bounds in stds, its
+        upper half from the upper tail (Phi(z) rounds to 1 beyond z = 8.3, whose quantile is the upper
+        bound: infinite, or far off)."""
+        z = np.asarray(z, dtype=float)
+        if self.distribution == "normal":
+            return z
+        if self.distribution == "lognormal":
+            sigma2 = math.log1p((self.std / self.mean) ** 2)
+            return np.expm1(math.sqrt(sigma2) * z - 0.5 * sigma2) / math.sqrt(math.expm1(sigma2))
+        from scipy import stats
+
+        if self.distribution == "uniform":
+            return (stats.norm.cdf(z) - 0.5) * math.sqrt(12.0)
+        standard = stats.truncnorm((self.low - self.mean) / self.std, (self.high - self.mean) / self.std)
+        t = np.where(z > 0.0, standard.isf(stats.norm.sf(z)), standard.ppf(stats.norm.cdf(z)))
+        return (t - standard.mean()) / standard.std()
+
 
 def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
     """rho_z of the copula's normals that gives ``a`` and ``b`` the correlation ``rho`` (module
@@ -86,13 +107,11 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
     weights = weights / weights.sum()
     u, v = np.meshgrid(nodes, nodes, indexing="ij")
     w = np.outer(weights, weights)
-    xa, xb = a.frozen(), b.frozen()
-    mean_a, std_a, mean_b, std_b = xa.mean(), xa.std(), xb.mean(), xb.std()
-    values_a = a.from_normal(u)
+    standard_a = a.standardised_from_normal(u)
 
     def achieved(rho_z: float) -> float:
         z2 = rho_z * u + math.sqrt(1.0 - rho_z * rho_z) * v
-        return float((w * (values_a - mean_a) * (b.from_normal(z2) - mean_b)).sum() / (std_a * std_b)) - rho
+        return float((w * standard_a * b.standardised_from_normal(z2)).sum()) - rho
 
     low, high = achieved(-0.9999), achieved(0.9999)
     if low > 0.0 or high < 0.0:

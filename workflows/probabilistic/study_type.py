@@ -531,7 +531,8 @@ class ProbabilisticStudy(SweepStudy):
             if particles is None:
                 return None, []
             slip = slip_surface(study, particles, None, failed[0], math.nan, limit_equilibrium=False)
-            edges = edge_contacts(study, particles, None)
+            edges = edge_contacts(study, particles, None,
+                                  (slip.x_m, slip.y_m) if isinstance(slip, SlipSurface) else None)
         return ((slip.x_m, slip.y_m), edges) if isinstance(slip, SlipSurface) else (None, [])
 
     def edge_fractions(self, case_ids) -> list[tuple[str, float, bool]]:

@@ -220,13 +220,19 @@ class RefinementStudy(StudyType):
     def check(self, options: RunOptions) -> None:
         """Each planned uniform level's resolution and the memory of the finest (an adaptive study's
         levels are not known before they run: its first level's, and ``max_particles`` particles
-        for the memory)."""
+        for the memory); the scene and simulation of the first level, which its run builds only once
+        its folder is written (what the scene refuses, a material region that holds no particle, must
+        be refused before anything is)."""
+        from workflows.scene import build_scene
+        from workflows.stages.running import new_simulation
+
         processes = 1 + (0 if options.scheduler else options.workers)
         first = self.levels[0].study
         try:
             first.strength_reduction.check_resolution(first)
         except StudyError as error:
             raise StudyError("refinement", f"level 0 (h = {self.spacings[0]:g} m): {error}") from None
+        new_simulation(first, build_scene(first))
         if self.table.adaptive:
             limit = options.max_memory_bytes if options.max_memory_bytes is not None else available_memory_bytes()
             need = self.table.max_particles * BYTES_PER_PARTICLE * processes

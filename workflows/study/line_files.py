@@ -152,9 +152,10 @@ def _dxf_line(path: Path, layer: str, field: str) -> list[list[float]]:
     code = document.header.get("$INSUNITS", 0)
     if code not in (0, DXF_METRES):
         try:
-            name = units.unit_name(code).lower()
-        except (IndexError, TypeError):
-            name = "unknown units"
+            name = units.InsertUnits(code).name.lower()  # not units.unit_name: "unitless" for a code it does not know
+        except (ValueError, TypeError):
+            raise StudyError(field, f"{path.name} has $INSUNITS = {code}, which is no unit of DXF: set its units to "
+                             f"metres ($INSUNITS = {DXF_METRES}) if its numbers are metres") from None
         raise StudyError(field, f"{path.name} is drawn in {name} ($INSUNITS = {code}) and lines are read in metres: "
                          f"scale the drawing to metres and set its units to metres ($INSUNITS = {DXF_METRES}), or "
                          "only set its units if its numbers are metres already")

@@ -106,9 +106,14 @@ class SweepStudy(StudyType):
         return sweep_cases(self.study)
 
     def check(self, options: RunOptions) -> None:
-        """Each strength-reduction case's resolution; the memory of the largest case; with a
-        ``[random_field]``, the scene of each case whose fields draw on other particles or scales (their
-        embeddings; StudyError)."""
+        """Each strength-reduction case's resolution; the memory of the largest case; the scene and
+        simulation of one case per distinct gravity state (what they refuse, a material region that holds
+        no particle, must be refused before the case folders are written), and with a ``[random_field]``
+        of each case whose fields draw on other particles or scales (their embeddings; StudyError)."""
+        from workflows.fos.keys import gravity_key  # the core (numba): once the study is known to be valid
+        from workflows.scene import build_scene
+        from workflows.stages.running import new_simulation
+
         self.sweep_cases = self.make_cases()
         if self.fos:
             for case in self.sweep_cases:
@@ -118,18 +123,16 @@ class SweepStudy(StudyType):
                     raise case_error(case.case_id, error) from None
         largest = max(self.sweep_cases, key=lambda case: estimated_particles(case.study))
         check_memory(largest.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
-        if self.study.random_field is not None:  # the fields' embeddings, once per distinct particles and scales
-            from workflows.scene import build_scene  # the core (numba): once the study is known to be valid
-
-            checked = set()
-            for case in self.sweep_cases:
-                key = case.study.random_field.embeddings_key(case.study)
-                if key not in checked:
-                    checked.add(key)
-                    try:
-                        build_scene(case.study)
-                    except StudyError as error:
-                        raise case_error(case.case_id, error) from None
+        checked = set()
+        for case in self.sweep_cases:
+            fields = case.study.random_field
+            key = (gravity_key(case.study), None if fields is None else fields.embeddings_key(case.study))
+            if key not in checked:
+                checked.add(key)
+                try:
+                    new_simulation(case.study, build_scene(case.study))
+                except StudyError as error:
+                    raise case_error(case.case_id, error) from None
 
     def processes(self, options: RunOptions) -> int:
         """Each local worker of a strength-reduction sweep (its cases' gravity runs as tasks); one
