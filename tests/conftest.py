@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import distributed
 import pytest
 
 from verification.scenes import beam_scene, column_scene
@@ -98,6 +99,8 @@ def _separate_cluster(tmp_path):
                 [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
             ))
+        with distributed.Client(address, timeout=60) as client:  # both joined: a loaded machine starts them late
+            client.wait_for_workers(2, timeout=120)
         yield address, processes
     finally:
         for process in processes:
