@@ -163,12 +163,15 @@ def test_bishops_critical_circle_of_the_reference_slope_is_limit_equilibriums_an
     assert domain_warnings(study, circle) == []
 
 
-def test_for_phi_0_the_critical_circle_is_the_least_circle():
-    """Bishop's method on a circle is its moment equilibrium, exact for phi = 0: Taylor's 60 deg toe
-    circle (verification.least_circle) within 1%."""
+@pytest.mark.parametrize("angle_deg", [60.0, 90.0])
+def test_for_phi_0_the_critical_circle_is_the_least_circle(angle_deg):
+    """Bishop's method on a circle is its moment equilibrium, exact for phi = 0: Taylor's toe circle
+    (verification.least_circle) within 1%.  The vertical cut's face is a free side of its polygon:
+    before, the section ran flat beyond it and no circle came out of the face (F = 7e13)."""
     text = (REPO / "studies" / "published" / "taylor_phi0.toml").read_text()
-    study = parse_study(text[:text.index("[sweep]")])
-    assert critical_circle(study).fos == pytest.approx(slope_least_circle(5.0, 60.0, 20e3, 20e3).fos, rel=0.01)
+    study = parse_study(text[:text.index("[sweep]")].replace("angle_deg = 60.0", f"angle_deg = {angle_deg}"))
+    least = slope_least_circle(5.0, angle_deg, 20e3, 20e3).fos
+    assert critical_circle(study).fos == pytest.approx(least, rel=0.01)
 
 
 def test_check_warns_before_the_run_that_the_domain_is_too_short():

@@ -7,19 +7,25 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from workflows.cases import Case
 from workflows.fos.prediction import (
     NO_CASE_SIGMA,
     FosPredictor,
     PredictedFeed,
     Prediction,
+    WindowPredictor,
     maximin_order,
     search_window,
 )
-from workflows.fos.search import RunOutcome, SrfSearch
+from workflows.fos.search import RunOutcome, SrfSearch, sweep_values
+from workflows.study import load_study
+
+REPO = Path(__file__).resolve().parents[1]
 
 FOS = 1.3742
 
@@ -54,6 +60,31 @@ def test_a_windowed_search_finds_the_full_sweeps_fos_and_a_window_that_misses_gr
     if window[0] < FOS < window[1]:
         assert len(made) <= 5 < len(full)
     assert all(1.0 <= srf <= 2.0 for srf in made)
+
+
+@pytest.mark.parametrize("window", [(1.0, 1.01, 0.002), (1.9, 1.95, 0.002), (6.0e13, 7.0e13, 1e12), (0.01, 0.02, 0.005)])
+def test_a_window_far_from_the_fos_or_beyond_the_range_costs_no_more_than_the_full_sweep(window):
+    """Before: a window wholly above srf_max ran SRF values up to 6e13 (its ends were clamped apart), and
+    a window far below the FOS grew at its own fine step (40 runs on a drawdown case whose full sweep
+    took 9).  Now both ends lie in [srf_min, srf_max], and a window that misses costs its own runs
+    besides the full sweep's."""
+    full, _ = _search(None)
+    made, search = _search(window)
+    assert all(1.0 <= srf <= 2.0 for srf in made)
+    assert search.knee().fos_low <= FOS <= search.knee().fos_high
+    assert len(made) <= len(full) + len(sweep_values(*search.window))
+
+
+def test_a_prediction_outside_the_stages_range_gives_the_full_search():
+    """A limit-equilibrium estimate that missed the mechanism (7e13 on a vertical cut before its face
+    was seen) predicts no window, and a concluded case whose FOS is far from its estimate joins no fit."""
+    study = load_study(REPO / "studies" / "quickstart.toml")
+    case = Case(study, REPO, case_id="far")
+    assert WindowPredictor().window(case, [0.0], 7.0e13) is None
+    assert WindowPredictor().window(case, [0.0], 1.4) is not None
+    predictor = FosPredictor()
+    predictor.observe([0.0], 7.0e13, 0.76)
+    assert predictor.ratios == []
 
 
 def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error():

@@ -2,8 +2,9 @@
 for ``spfem-fos check`` to say, before anything runs, whether the domain is long enough behind the
 crest and beyond the toe for the critical circle (``domain_warnings``).
 
-The section is the study's polygon with its ground extended flat beyond both ends by
-``EXTENSION_PER_HEIGHT`` slope heights (the ground a longer domain would have), the base y_b its
+The section is the study's polygon with its ground extended flat beyond each end that a support
+holds by ``EXTENSION_PER_HEIGHT`` slope heights (the ground a longer domain would have; beyond a
+free side, a face, no soil), the base y_b its
 lowest point: a circle may not pass below it.  The slope is turned to face +x.  The soil is sampled
 on a raster of cells ``RASTER_PER_HEIGHT`` per slope height: each cell's material (the study's
 regions, the end columns continued outwards), its unit weight (saturated below its piezometric
@@ -54,6 +55,20 @@ class CriticalCircle:
     water: str  # how the pore pressure was taken
 
 
+def _held_ends(study, polygon: np.ndarray, left_ground_m: float, right_ground_m: float) -> tuple[bool, bool]:
+    """Whether a support of the strength reduction holds the polygon's left and right side (the soil
+    goes on beyond it: the ground is extended), or the side is free (a face: nothing beyond it)."""
+    active = study.strength_reduction.boundary if study.strength_reduction is not None else None
+    spacing_m = float(study.geometry.spacing_m)
+    base = float(polygon[:, 1].min())
+    ends = []
+    for x, top in ((float(polygon[:, 0].min()), left_ground_m), (float(polygon[:, 0].max()), right_ground_m)):
+        side = np.column_stack([np.full(5, x), base + (top - base) * np.linspace(0.1, 0.9, 5)])
+        ends.append(any(boundary.holds(side, spacing_m).any() for boundary in study.boundary
+                        if active is None or boundary.name in active))
+    return ends[0], ends[1]
+
+
 class _Section:
     """The raster of the extended section (module doc), turned to face +x."""
 
@@ -71,7 +86,10 @@ class _Section:
         ys = np.arange(self.base + 0.5 * self.cell, top + self.cell, self.cell)
         self.x_study = xs  # raster columns in the study's coordinates
         ground = surface_height_m(polygon, np.clip(xs, x_min, x_max))
-        self.ground_study = np.where(np.isfinite(ground), ground, self.base)
+        ground = np.where(np.isfinite(ground), ground, self.base)
+        held = _held_ends(study, polygon, float(ground[0]), float(ground[-1]))
+        outside = ((xs < x_min) & ~held[0]) | ((xs > x_max) & ~held[1])
+        self.ground_study = np.where(outside, self.base, ground)  # beyond a free side: no soil
         clipped = np.clip(xs, x_min + 1e-9, x_max - 1e-9)
         grid_x, grid_y = np.meshgrid(clipped, ys)
         points = np.column_stack([grid_x.ravel(), grid_y.ravel()])
@@ -112,10 +130,15 @@ class _Section:
         order = np.argsort(self.sign * xs)
         self.x = (self.sign * xs)[order]
         self.ground = self.ground_study[order]
+        self.void = outside[order]  # beyond a free side: no soil, not even below the base
         self.columns = order
 
     def ground_at(self, x):
-        return np.interp(x, self.x, self.ground)
+        """The ground's height at the searched abscissae x; -inf beyond a free side (a circle there is
+        in the air, whatever its depth)."""
+        x = np.asarray(x, dtype=float)
+        void = self.void[np.clip(np.rint((x - self.x[0]) / self.cell).astype(np.int64), 0, self.x.size - 1)]
+        return np.where(void, -np.inf, np.interp(x, self.x, self.ground))
 
     def column(self, x) -> np.ndarray:
         """Raster column index of the searched abscissae x."""
@@ -135,7 +158,7 @@ def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[flo
     if not inside.any():
         return math.inf, math.nan, math.nan
     base_y = yc - np.sqrt(np.maximum(radius**2 - (x - xc) ** 2, 0.0))
-    cut = inside & (base_y < section.ground - 1e-9)
+    cut = inside & (base_y < section.ground - 1e-9) & ~section.void
     if cut.sum() < 3:
         return math.inf, math.nan, math.nan
     index = np.flatnonzero(cut)
@@ -197,15 +220,20 @@ def _grid(section: _Section, centres: int, depths: int) -> list[tuple[float, flo
     h = section.height
     toe_y, top_y = float(section.ground.min()), float(section.ground.max())
     sloping = section.x[(section.ground > toe_y + 0.02 * h) & (section.ground < top_y - 0.02 * h)]
-    x_low, x_high = (sloping.min(), sloping.max()) if sloping.size else (section.x[0], section.x[-1])
+    if not sloping.size:  # a vertical face between two raster columns: the columns of the steepest step
+        step = int(np.argmax(np.abs(np.diff(section.ground))))
+        sloping = section.x[step:step + 2]
+    x_low, x_high = sloping.min(), sloping.max()
     found = []
     for xc in np.linspace(x_low - h, x_high + h, centres):
         for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, centres):
-            for bottom in np.linspace(section.base, toe_y + 0.3 * h, depths):
-                if yc - bottom > 0.0:
-                    fos = _bishop(section, xc, yc, yc - bottom)[0]
+            radii = [yc - bottom for bottom in np.linspace(section.base, toe_y + 0.3 * h, depths)]
+            radii.append(math.hypot(xc - x_high, yc - toe_y))  # the toe circle (a steep face's lowest point is beyond the toe)
+            for radius in radii:
+                if radius > 0.0:
+                    fos = _bishop(section, xc, yc, radius)[0]
                     if math.isfinite(fos):
-                        found.append((fos, xc, yc, yc - bottom))
+                        found.append((fos, xc, yc, radius))
     return found
 
 

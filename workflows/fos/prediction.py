@@ -37,6 +37,9 @@ MIN_SIGMA = 0.004
 path scatter."""
 WINDOW_STEPS = 2
 SIGMA_PER_STEP = 1.0
+TRUSTED_RATIO = (0.5, 2.0)
+"""F_i / E_i of a concluded case outside this range means its limit-equilibrium estimate missed the
+mechanism (e.g. no circle through a vertical face): the case joins no fit."""
 
 
 @dataclass(frozen=True)
@@ -55,7 +58,8 @@ class FosPredictor:
 
     def observe(self, features, estimate: float, fos: float) -> None:
         """A concluded case: its numbers, its limit-equilibrium estimate and its FOS (NaN-free only)."""
-        if math.isfinite(estimate) and estimate > 0.0 and math.isfinite(fos) and fos > 0.0:
+        if (math.isfinite(estimate) and estimate > 0.0 and math.isfinite(fos) and fos > 0.0
+                and TRUSTED_RATIO[0] <= fos / estimate <= TRUSTED_RATIO[1]):
             self.features.append(np.asarray(features, dtype=float).ravel())
             self.ratios.append(fos / estimate)
 
@@ -164,9 +168,10 @@ class WindowPredictor:
         estimate = self._estimate(case.study) if estimate is None else estimate
         self.pending[case.case_id] = (np.asarray(features, dtype=float).ravel(), estimate)
         prediction = self.predictor.predict(features, estimate)
-        if prediction is None:
-            return None
-        window = search_window(prediction, case.study.strength_reduction.fos_tolerance)
+        stage = case.study.strength_reduction
+        if prediction is None or not stage.srf_min <= prediction.fos <= stage.srf_max:
+            return None  # the full search of the stage's range (a FOS outside it is found as without a window)
+        window = search_window(prediction, stage.fos_tolerance)
         self.windows[case.case_id] = (prediction, window)
         return window
 

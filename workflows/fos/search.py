@@ -7,9 +7,10 @@ maximum displacement and verdict, and says which SRF values to start next.
    order.  Once a run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.  With a **window**
    (``low, high, step`` about a predicted FOS, ``workflows.fos.prediction``) the sweep is the window's
-   values instead, within [srf_min, srf_max]; when its runs give no knee, it grows by its width (so
-   doubling) upwards when none failed, downwards when one failed (too few stable runs below it, or no
-   upturn), within [srf_min, srf_max], as often as it needs.  The knee and the bracket are then
+   values instead, within [srf_min, srf_max]; when its runs give no knee (the prediction missed), the
+   full sweep's values join on the side where the FOS lies: above the window when none of its runs
+   failed, below it when one did (too few stable runs below it, or no upturn).  A window that misses
+   costs its own few runs besides what the full sweep would have run.  The knee and the bracket are then
    found as without a window.
 2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
    failure while it has fewer than ``MIN_KNEE_RUNS`` runs up to that failure), the FOS bracket (the steepest rise after the
@@ -82,11 +83,17 @@ class SrfSearch:
     def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40,
                  failure_m=math.inf, window: tuple[float, float, float] | None = None):
         self.range = (round(float(srf_min), 4), round(float(srf_max), 4))
+        self.full_step = round(float(srf_step), 4)
+        self.grown = False  # has the window grown (module doc, step 1)
         self.window = None
         if window is not None:
             low, high, step = window
-            low, high = max(round(low, 4), self.range[0]), min(round(high, 4), self.range[1])
-            self.window = (low, max(high, low), max(round(step, 4), 1e-4))
+            step = max(round(step, 4), 1e-4)
+            low = min(max(round(low, 4), self.range[0]), self.range[1])  # both ends within [srf_min, srf_max]
+            high = max(min(round(high, 4), self.range[1]), self.range[0])
+            if high - low < step:  # a window at (or beyond) an end of the range: a step inside it
+                low, high = (max(high - step, self.range[0]), high) if high >= self.range[1] else (low, min(low + step, self.range[1]))
+            self.window = (low, max(high, low), step)
             self.sweep = sweep_values(*self.window)
         else:
             self.sweep = sweep_values(srf_min, srf_max, srf_step)
@@ -239,22 +246,19 @@ class SrfSearch:
         return points
 
     def _grown_window(self) -> list[float]:
-        """The window grown by its width (module doc, step 1): upwards when no run failed, downwards when
-        one did; its new values join the sweep.  [] without a window, or at the edge of [srf_min, srf_max]."""
-        if self.window is None:
+        """The window's miss (module doc, step 1): the stage's full sweep joins on the side where the FOS
+        lies, above the window when no run failed, below it when one did.  [] without a window, once
+        it has joined, or when no value of it is left on that side."""
+        if self.window is None or self.grown:
             return []
-        low, high, step = self.window
-        width = max(high - low, step)
-        if math.isinf(self.lowest_failed):
-            new_low, new_high = high, min(round(high + width, 4), self.range[1])
-        else:
-            new_low, new_high = max(round(low - width, 4), self.range[0]), low
-        if new_high <= new_low or (new_low, new_high) == (low, high):
-            return []
-        values = [f for f in sweep_values(new_low, new_high, step) if f not in self.outcomes and f not in self.sweep_set]
+        self.grown = True
+        low, high, _ = self.window
+        full = sweep_values(self.range[0], self.range[1], self.full_step)
+        upwards = math.isinf(self.lowest_failed)
+        values = [f for f in full if (f > high if upwards else f < low)
+                  and f not in self.outcomes and f not in self.sweep_set]
         if not values:
             return []
-        self.window = (min(low, new_low), max(high, new_high), step)
         self.sweep = sorted(self.sweep_set | set(values))
         self.sweep_set = set(self.sweep)
         return [f for f in values if f <= self.lowest_failed]
