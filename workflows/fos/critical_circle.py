@@ -131,14 +131,21 @@ class _Section:
         self.x = (self.sign * xs)[order]
         self.ground = self.ground_study[order]
         self.void = outside[order]  # beyond a free side: no soil, not even below the base
+        self.ground_list = self.ground.tolist()  # (for scalar look-ups)
         self.columns = order
 
     def ground_at(self, x):
         """The ground's height at the searched abscissae x; -inf beyond a free side (a circle there is
         in the air, whatever its depth)."""
-        x = np.asarray(x, dtype=float)
-        void = self.void[np.clip(np.rint((x - self.x[0]) / self.cell).astype(np.int64), 0, self.x.size - 1)]
-        return np.where(void, -np.inf, np.interp(x, self.x, self.ground))
+        last = self.x.size - 1
+        if np.ndim(x) == 0:  # (the crossings' bisection: scalars, many)
+            position = min(max((x - self.x[0]) / self.cell, 0.0), float(last))
+            if self.void[int(position + 0.5)]:
+                return -math.inf
+            left = min(int(position), last - 1)
+            return self.ground_list[left] + (self.ground_list[left + 1] - self.ground_list[left]) * (position - left)
+        columns = np.clip(np.rint((x - self.x[0]) / self.cell).astype(np.int64), 0, last)
+        return np.where(self.void[columns], -np.inf, np.interp(x, self.x, self.ground))
 
     def column(self, x) -> np.ndarray:
         """Raster column index of the searched abscissae x."""
@@ -147,6 +154,10 @@ class _Section:
 
     def row(self, y) -> np.ndarray:
         return np.clip(np.floor((y - self.base) / self.cell).astype(np.int64), 0, self.ys.size - 1)
+
+
+CROSSING_BISECTIONS = 26
+"""Bisections of the interval (at most a raster cell) in which an arc meets the ground: 1e-8 of a cell."""
 
 
 def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[float, float, float]:
@@ -166,7 +177,7 @@ def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[flo
         return math.inf, math.nan, math.nan
     def crossing(outside: float, inside: float) -> float:
         """Where the arc meets the ground between an abscissa outside the ground and one inside it."""
-        for _ in range(40):
+        for _ in range(CROSSING_BISECTIONS):
             middle = 0.5 * (outside + inside)
             depth = section.ground_at(middle) - (yc - math.sqrt(max(radius**2 - (middle - xc) ** 2, 0.0)))
             outside, inside = (middle, inside) if depth <= 0.0 else (outside, middle)
