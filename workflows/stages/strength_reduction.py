@@ -205,7 +205,7 @@ class StrengthReductionStage(StageBase):
             )
         if not any(m.plastic for m in study.materials):
             raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
-        if any(stage.kind == "runout" for stage in study.stages):
+        if any(stage.follows_runout for stage in study.stages):
             raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
         if study.metrics is not None:
             raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")

@@ -1,0 +1,41 @@
+"""Kinds as types: each kind of thing the study file names by a string is one object of its
+registry, asked for its behaviour; the study file's text and its refusals stay as they were."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from workflows.study import StudyError, parse_study
+
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+RUNOUT = (STUDIES / "runout_reference_slope.toml").read_text()
+SRF_STAGE = """[[stages]]
+name = "fos"
+kind = "strength_reduction"
+duration_s = 5.0
+record_interval_s = 0.01
+srf_min = 1.0
+srf_max = 2.0
+srf_step = 0.1
+
+[output]"""
+REFINED_ZONE = ('spacing_m = 0.3\nrefined = [{name = "z", region_m = [[10.0, 5.0], [30.0, 5.0], [30.0, 15.0], '
+                '[10.0, 15.0]], spacing_m = 0.15}]')
+
+
+def refusal(text: str) -> str:
+    with pytest.raises(StudyError) as caught:
+        parse_study(text)
+    return str(caught.value)
+
+
+def test_a_stage_that_follows_a_runout_says_so():
+    """The runout stage answers for itself where the study's checks ask (not its kind's name)."""
+    study = parse_study(RUNOUT)
+    assert [stage.follows_runout for stage in study.stages] == [False, True, True]
+    assert refusal(RUNOUT.replace("[output]", SRF_STAGE)) == (
+        "stages: runout stages and a strength_reduction stage belong in separate studies")
+    assert refusal(RUNOUT.replace("spacing_m = 0.3", REFINED_ZONE)).startswith(
+        "geometry.refined: refined zones apply to gravity and strength-reduction studies")
