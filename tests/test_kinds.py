@@ -39,3 +39,16 @@ def test_a_stage_that_follows_a_runout_says_so():
         "stages: runout stages and a strength_reduction stage belong in separate studies")
     assert refusal(RUNOUT.replace("spacing_m = 0.3", REFINED_ZONE)).startswith(
         "geometry.refined: refined zones apply to gravity and strength-reduction studies")
+
+
+def test_collapse_metrics_are_a_kind_of_their_registry():
+    """``[metrics] kind`` names one object of ``COLLAPSE_KINDS``, which checks the domain it measures."""
+    from workflows.collapse.kinds import COLLAPSE_KINDS, CohesiveCollapse, GranularCollapse
+
+    granular = parse_study((STUDIES / "collapse_granular.toml").read_text())
+    assert isinstance(granular.metrics.collapse, GranularCollapse)
+    assert isinstance(parse_study((STUDIES / "collapse_cohesive.toml").read_text()).metrics.collapse, CohesiveCollapse)
+    assert set(COLLAPSE_KINDS) == {"granular_collapse", "cohesive_collapse"}
+    with pytest.raises(StudyError, match="^metrics.kind: granular_collapse compares the deposit"):
+        COLLAPSE_KINDS["granular_collapse"].check_domain((0.3, 0.1), 1e-6)
+    COLLAPSE_KINDS["cohesive_collapse"].check_domain((0.3, 0.1), 1e-6)
