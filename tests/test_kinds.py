@@ -52,3 +52,35 @@ def test_collapse_metrics_are_a_kind_of_their_registry():
     with pytest.raises(StudyError, match="^metrics.kind: granular_collapse compares the deposit"):
         COLLAPSE_KINDS["granular_collapse"].check_domain((0.3, 0.1), 1e-6)
     COLLAPSE_KINDS["cohesive_collapse"].check_domain((0.3, 0.1), 1e-6)
+
+
+QUICKSTART = (STUDIES / "quickstart.toml").read_text()
+BASE = 'name = "base"\ny_max_m = 0.0\nvx_m_s = 0.0\nvy_m_s = 0.0\n'
+
+
+@pytest.mark.parametrize("base, line", [
+    ('name = "base"\ny_max_m = 0.0\nvx_m_s = 0.0\nvy_m_s = 0.1\nslip = "soil"\n',
+     "boundary[0].slip: a slip support holds its prescribed direction at 0 m s-1"),
+    ('name = "base"\ny_max_m = 0.0\nvy_m_s = 0.0\nslip = "welded"\n',
+     "boundary[0].slip: a welded support prescribes both directions: give vx_m_s and vy_m_s"),
+])
+def test_each_kind_of_support_checks_its_own_velocities(base, line):
+    assert refusal(QUICKSTART.replace(BASE, base)) == line
+
+
+def test_each_kind_of_support_answers_the_direction_it_holds():
+    """``slip`` names one object of ``SLIP_KINDS`` (left out: a rough base where it can be one)."""
+    from workflows.study.supports import SLIP_KINDS
+
+    study = parse_study(QUICKSTART.replace(BASE, BASE + 'slip = "soil"\n'))
+    base = study.boundary[0]
+    assert base.slip_kind is SLIP_KINDS["soil"]
+    assert base.slip_kind.held_direction(base, 1) == 1
+    with pytest.raises(StudyError, match="must lie on one horizontal or vertical line"):
+        base.slip_kind.held_direction(base, None)
+    default = parse_study(QUICKSTART).boundary[0]
+    assert default.slip_kind is SLIP_KINDS[None]
+    assert [default.slip_kind.held_direction(default, line) for line in (1, None)] == [1, None]
+    assert [SLIP_KINDS[name].held_direction(default, 1) for name in ("none", "welded")] == [None, None]
+    roller = parse_study(QUICKSTART.replace(BASE, 'name = "base"\ny_max_m = 0.0\nvy_m_s = 0.0\nslip = "soil"\n'))
+    assert roller.boundary[0].slip_kind.held_direction(roller.boundary[0], None) == 1
