@@ -84,3 +84,29 @@ def test_each_kind_of_support_answers_the_direction_it_holds():
     assert [SLIP_KINDS[name].held_direction(default, 1) for name in ("none", "welded")] == [None, None]
     roller = parse_study(QUICKSTART.replace(BASE, 'name = "base"\ny_max_m = 0.0\nvy_m_s = 0.0\nslip = "soil"\n'))
     assert roller.boundary[0].slip_kind.held_direction(roller.boundary[0], None) == 1
+
+
+def test_every_distribution_is_one_object_of_its_registry():
+    """A study's distribution names an object of ``DISTRIBUTIONS``; a random field's point law one of
+    ``FIELD_DISTRIBUTIONS``; each field law's point value and its inverse agree."""
+    from workflows.distributions import DISTRIBUTIONS, FIELD_DISTRIBUTIONS, LOGNORMAL, NORMAL
+
+    assert list(DISTRIBUTIONS) == ["normal", "lognormal", "uniform", "truncated_normal"]
+    assert FIELD_DISTRIBUTIONS == {"normal": NORMAL, "lognormal": LOGNORMAL}
+    for law in FIELD_DISTRIBUTIONS.values():
+        assert law.gaussian_of(10.0, 3.0, law.point_value(10.0, 3.0, 0.7)) == pytest.approx(0.7)
+    with pytest.raises(ValueError, match="no reliability index of a uniform F"):
+        DISTRIBUTIONS["uniform"].reliability_index(1.2, 0.1)
+
+
+@pytest.mark.parametrize("variable, line", [
+    ('distribution = "normal"\nstd = 1.0\nlow = 0.0',
+     "probabilistic.variables[0].low: applies to uniform and truncated_normal, not normal"),
+    ('distribution = "uniform"\nlow = 1.0', "probabilistic.variables[0].high: a uniform variable needs low and high"),
+    ('distribution = "lognormal"\ncov = 0.2\nmean = -1.0',
+     "probabilistic.variables[0].mean: a lognormal variable needs a mean > 0"),
+])
+def test_a_variable_s_distribution_checks_what_it_is_given_by(variable, line):
+    text = QUICKSTART + f'\n[probabilistic]\nrealisations = 4\n\n[[probabilistic.variables]]\npath = ' \
+        f'"materials.soil.cohesion_pa"\n{variable}\n'
+    assert refusal(text) == line

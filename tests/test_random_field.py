@@ -18,7 +18,7 @@ from workflows.random_field.embedding import (
     correlation,
     variance_function,
 )
-from workflows.random_field.table import lognormal_parameters
+from workflows.distributions import lognormal_parameters
 
 DRAWS = 1500  # complex draws: 3,000 fields
 

@@ -16,7 +16,7 @@ from workflows.cases import RunOptions
 from workflows.fos.keys import gravity_key, run_key
 from workflows.probabilistic.study_type import realisation_cases
 from workflows.random_field.embedding import cell_correlation, variance_function
-from workflows.random_field.table import lognormal_parameters
+from workflows.distributions import LOGNORMAL, NORMAL, lognormal_parameters
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
@@ -236,8 +236,8 @@ def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
     g_l = rho * g_u + math.sqrt(1.0 - rho * rho) * rng.standard_normal(g_u.size)
     mu, sigma = lognormal_parameters(10.0, 0.5)
     for lower, upper, x_l, x_u in (
-            (("normal", 10.0, 5.0), ("normal", 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
-            (("lognormal", 10.0, 5.0), ("normal", 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
+            ((NORMAL, 10.0, 5.0), (NORMAL, 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
+            ((LOGNORMAL, 10.0, 5.0), (NORMAL, 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
         expected = float(np.mean(x_l > x_u))
         assert order_broken_probability(lower, upper, rho) == pytest.approx(expected, abs=4e-4)
 

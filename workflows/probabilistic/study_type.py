@@ -134,14 +134,14 @@ class Realisations:
         found = self._resolved(k)
         if found.spec.type != "number":
             raise StudyError(f"{where}.path", f"{variable.path} is not a number field")
-        if variable.distribution == "uniform":
+        if variable.kind.by_bounds:
             low, high = variable.low, variable.high
             for name, bound in (("low", low), ("high", high)):
                 try:
                     check_value(found.spec, bound)
                 except ValueError as error:
                     raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
-            return Marginal("uniform", 0.5 * (low + high), (high - low) / math.sqrt(12.0), low, high)
+            return Marginal(variable.kind, 0.5 * (low + high), (high - low) / math.sqrt(12.0), low, high)
         mean = variable.mean
         if mean is None:
             declared = specs(found.table)
@@ -152,8 +152,8 @@ class Realisations:
                 raise StudyError(f"{where}.mean", f"{variable.path} is not given in the study file: give the mean")
             mean = si_mean / (1.0 if units is None else units.si_per_unit)
         std = variable.std if variable.std is not None else variable.cov * abs(mean)
-        if variable.distribution == "lognormal" and mean <= 0.0:
-            raise StudyError(f"{where}.mean", f"a lognormal variable needs a mean > 0, got {mean:g}")
+        if variable.kind.positive and mean <= 0.0:
+            raise StudyError(f"{where}.mean", f"a {variable.distribution} variable needs a mean > 0, got {mean:g}")
         problem = spread_problem(mean, std, variable.cov is not None)
         if problem is not None:
             raise StudyError(f"{where}.{problem[0]}", f"{variable.path}: {problem[1]}")
@@ -164,7 +164,7 @@ class Realisations:
                     check_value(found.spec, bound)
                 except ValueError as error:
                     raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
-        return Marginal(variable.distribution, float(mean), float(std),
+        return Marginal(variable.kind, float(mean), float(std),
                         -math.inf if variable.low is None else variable.low,
                         math.inf if variable.high is None else variable.high)
 

@@ -38,7 +38,7 @@ from workflows.random_field.embedding import (
     ParticleGrid,
     largest_theta_scale,
 )
-from workflows.random_field.table import ORDERED, lognormal_parameters
+from workflows.random_field.table import ORDERED
 
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
@@ -76,11 +76,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
             g = rho * gaussian[entry.correlated_with] + math.sqrt(1.0 - rho * rho) * g
         gaussian[entry.name] = g
         mean, std = random_field.moments(entry, materials[row])
-        if entry.distribution == "lognormal":
-            mu, sigma = lognormal_parameters(mean, std / mean)
-            values = np.exp(mu + sigma * g)
-        else:
-            values = mean + std * g
+        values = entry.law().field_values(mean, std, g)
         spec = specs(type(materials[row]))[entry.property]
         for op, bound in spec.bounds:  # a normal field's rare values beyond its range (OUTSIDE_RANGE_LIMIT)
             limit = {">": np.nextafter(bound, math.inf), "<": np.nextafter(bound, -math.inf)}.get(op, bound)
