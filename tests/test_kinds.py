@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from workflows.study import StudyError, parse_study
@@ -110,3 +111,15 @@ def test_a_variable_s_distribution_checks_what_it_is_given_by(variable, line):
     text = QUICKSTART + f'\n[probabilistic]\nrealisations = 4\n\n[[probabilistic.variables]]\npath = ' \
         f'"materials.soil.cohesion_pa"\n{variable}\n'
     assert refusal(text) == line
+
+
+def test_every_correlation_model_is_one_object_of_its_registry():
+    """A field's correlation_model names an object of ``CORRELATION_MODELS`` whose rho is 1 at no lag
+    and falls with it; the embedding asks it for rho."""
+    from workflows.random_field.correlation import CORRELATION_MODELS
+    from workflows.random_field.embedding import correlation
+
+    assert list(CORRELATION_MODELS) == ["markov", "gaussian"]
+    for model in CORRELATION_MODELS.values():
+        rho = correlation(model, np.array([0.0, 0.5, 1.0, 2.0]), 0.0, 1.0, 1.0)
+        assert rho[0] == 1.0 and np.all(np.diff(rho) < 0.0)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from workflows.probabilistic.reliability import failure_probability, lognormal_strength_pf, reliability_index
 from workflows.distributions import LOGNORMAL
+from workflows.probabilistic.reliability import failure_probability, lognormal_strength_pf, reliability_index
 from workflows.probabilistic.sampling import Marginal, Sampler
 
 

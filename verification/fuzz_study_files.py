@@ -75,6 +75,7 @@ from typer.testing import CliRunner
 
 from workflows.cli import app
 from workflows.distributions import DISTRIBUTIONS, FIELD_DISTRIBUTIONS
+from workflows.random_field.correlation import CORRELATION_MODELS
 from workflows.study.toml_text import to_toml
 
 BLOCK = """\
@@ -560,7 +561,7 @@ def _random_field(draw, data: dict) -> None:
     if choice == "theta":  # against the 30 m by 8 m domain
         field["theta_x_m"] = draw(st.sampled_from([1e-3, 0.1, 1.0, 10.0, 30.0, 60.0, 100.0, 1e4]))
         field["theta_y_m"] = draw(st.sampled_from([1e-3, 0.5, 2.0, 8.0, 30.0, 1e4]))
-        field["correlation_model"] = draw(st.sampled_from(["markov", "gaussian"]))
+        field["correlation_model"] = draw(st.sampled_from(list(CORRELATION_MODELS)))
     elif choice == "spread":
         for key in ("std", "cov", "mean"):
             field.pop(key, None)

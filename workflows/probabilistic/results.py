@@ -7,8 +7,8 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from workflows.fos.slip_surface import envelope
 from workflows.distributions import LOGNORMAL, NORMAL
+from workflows.fos.slip_surface import envelope
 from workflows.output.stage_file import provenance
 from workflows.output.variables import PROBABILISTIC_FILE
 from workflows.probabilistic.reliability import reliability_index

@@ -77,7 +77,8 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
 
     low, high = achieved(-0.9999), achieved(0.9999)
     if low > 0.0 or high < 0.0:
-        raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution.name} and a {b.distribution.name} "
+        raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution.name} and a "
+                         f"{b.distribution.name} "
                          f"variable (from {low + rho:.3g} to {high + rho:.3g})")
     from scipy import optimize  # scipy.optimize: only where it is used
 

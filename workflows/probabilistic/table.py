@@ -39,7 +39,8 @@ class RandomVariable(Record):
         kind = self.kind
         if kind.by_bounds:
             if self.low is None or self.high is None:
-                raise StudyError("low" if self.low is None else "high", f"a {self.distribution} variable needs low and high")
+                raise StudyError("low" if self.low is None else "high",
+                                 f"a {self.distribution} variable needs low and high")
             for name in ("mean", "std", "cov"):
                 if getattr(self, name) is not None:
                     raise StudyError(name, f"a {self.distribution} variable is given by low and high only")

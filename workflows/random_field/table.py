@@ -1,7 +1,7 @@
 """``[random_field]``: soil properties that vary from point to point, as the study file declares them.
 
 Each entry of ``[[random_field.properties]]`` makes one property of one material a random field
-(Griffiths & Fenton 2004) of a correlation model (:data:`CORRELATION_MODELS`) and scales of
+(Griffiths & Fenton 2004) of a correlation model (``workflows.random_field.correlation``) and scales of
 fluctuation, with a point law
 
     normal:     X = mean + std G
@@ -24,9 +24,8 @@ import numpy as np
 from workflows.distributions import FIELD_DISTRIBUTIONS, NORMAL, Distribution
 from workflows.engineering_units import spellings
 from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.random_field.correlation import CORRELATION_MODELS, CorrelationModel
 
-CORRELATION_MODELS = ("markov", "gaussian")
-"""The correlation models of a field (``workflows.random_field.embedding.correlation``)."""
 SEEPAGE_PROPERTY = "permeability_m_s"
 """The one property of a field that is no property of the core's: the conductivity the steady flow
 takes (``workflows.seepage.flow``), with ``[seepage]``."""
@@ -119,8 +118,10 @@ class FieldProperty(Record):
                               gt=0.0)
     theta_y_m: float | None = number("m", "vertical scale of fluctuation theta_v; default theta_x_m (isotropic)",
                                      default=None, gt=0.0)
-    correlation_model: str = text("`markov` (exp(-2 r)) or `gaussian` (exp(-pi r^2)), with r the lag over theta",
-                                  default="markov", choices=CORRELATION_MODELS)
+    correlation_model: str = text(
+        " or ".join(f"`{name}` ({model.formula})" for name, model in CORRELATION_MODELS.items())
+        + ", with r the lag over theta", default="markov", choices=tuple(CORRELATION_MODELS),
+    )
     correlated_with: str | None = text("the name of another field of this material: the two Gaussian fields "
                                        "correlate by `correlation`", default=None)
     correlation: float | None = number("1", "correlation coefficient with `correlated_with` (of ln X for lognormal)",
@@ -129,6 +130,10 @@ class FieldProperty(Record):
     def law(self) -> Distribution:  # a method, as thetas_m
         """The point law ``distribution`` names (``workflows.distributions``)."""
         return FIELD_DISTRIBUTIONS[self.distribution]
+
+    def model(self) -> CorrelationModel:  # a method, as thetas_m
+        """The correlation model ``correlation_model`` names (``workflows.random_field.correlation``)."""
+        return CORRELATION_MODELS[self.correlation_model]
 
     def thetas_m(self) -> tuple[float, float]:  # a method: the field `property` hides the builtin here
         """(theta_x, theta_y) in m."""
