@@ -123,3 +123,18 @@ def test_every_correlation_model_is_one_object_of_its_registry():
     for model in CORRELATION_MODELS.values():
         rho = correlation(model, np.array([0.0, 0.5, 1.0, 2.0]), 0.0, 1.0, 1.0)
         assert rho[0] == 1.0 and np.all(np.diff(rho) < 0.0)
+
+
+def test_every_protocol_is_one_object_of_its_registry():
+    """``protocol`` names an object of ``PROTOCOLS``; the optional fields are each some protocol's, the
+    stage asks its protocol how a run goes and the verdict how it comes to rest."""
+    from workflows.stages.protocols import PROTOCOLS
+    from workflows.stages.strength_reduction import OPTIONAL_PROTOCOL_FIELDS
+
+    assert list(PROTOCOLS) == ["quasi_static", "ramp", "sudden"]
+    assert {name for protocol in PROTOCOLS.values() for name in protocol.fields} == set(OPTIONAL_PROTOCOL_FIELDS)
+    assert [protocol.rest_by_unbalanced_force for protocol in PROTOCOLS.values()] == [True, False, False]
+    stage = parse_study(QUICKSTART).strength_reduction
+    assert stage.reduction is PROTOCOLS["quasi_static"]
+    assert refusal(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nprotocol = "sudden"\nramp_time_s = 1.0')) \
+        == "stages[1].ramp_time_s: applies to protocol = ramp only, not sudden"
