@@ -138,3 +138,27 @@ def test_every_protocol_is_one_object_of_its_registry():
     assert stage.reduction is PROTOCOLS["quasi_static"]
     assert refusal(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nprotocol = "sudden"\nramp_time_s = 1.0')) \
         == "stages[1].ramp_time_s: applies to protocol = ramp only, not sudden"
+
+
+def test_a_case_s_outcome_is_a_typed_value_a_sweep_reads(tmp_path, monkeypatch):
+    """The case runner gives each case ``Concluded`` or ``Diverged`` (never the exception itself); a
+    sweep records a diverged case by its flag, with the error's message, and goes on."""
+    from spfem_core.divergence import DivergenceError
+    from workflows.cases import Concluded, Diverged
+    from workflows.stages import running
+    from workflows.study_types import run_study
+    from workflows.sweep.results import DIVERGED_CASE
+
+    def diverge(study, out_dir, **kwargs):
+        raise DivergenceError("velocity is not finite", step=7, time_s=0.0007)
+
+    monkeypatch.setattr(running, "run_stages", diverge)
+    beam = (STUDIES / "cantilever_beam.toml").read_text().replace("spacing_m = 0.02", "spacing_m = 0.05")
+    sweep = beam + '\n[sweep]\n[[sweep.axes]]\npath = "materials.beam.youngs_modulus_pa"\nvalues = [80e6, 90e6]\n'
+    outcome = run_study(parse_study(sweep), tmp_path / "out")
+    assert [result.status for result in outcome.results.values()] == [DIVERGED_CASE, DIVERGED_CASE]
+    assert all("step 7" in result.message for result in outcome.results.values())
+    error = DivergenceError("x", step=1, time_s=0.0)
+    assert (Diverged(error).diverged, Diverged(error).error, Diverged(error).result, Diverged(error).runs) \
+        == (True, error, None, ())
+    assert (Concluded(1).diverged, Concluded(1).error, Concluded(1).result) == (False, None, 1)

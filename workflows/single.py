@@ -39,8 +39,9 @@ class SingleStudy(StudyType):
         return [Case(self.study, self.out_dir)]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
-        """The one case's outcome: a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``."""
-        return outcomes[""]
+        """The one case's result: a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun`` (a case
+        that diverges stops a single study: it is never ``Diverged``)."""
+        return outcomes[""].result
 
     def report(self, outcome, quiet: bool, study_file) -> Report:
         if self.study.strength_reduction is not None:

@@ -48,7 +48,6 @@ from pathlib import Path
 
 import numpy as np
 
-from spfem_core.divergence import DivergenceError
 from workflows import engineering_units
 from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
 from workflows.fields import MAX_MAGNITUDE, check_value, specs
@@ -490,24 +489,24 @@ class ProbabilisticStudy(SweepStudy):
         tally = self.tally
         if self.predicted is not None:
             self.n_concluded += 1
-            fos = math.nan if isinstance(outcome, DivergenceError) else outcome.fos
+            fos = outcome.fos
             self.predicted[1].concluded(case_id, fos)
-            slip = getattr(outcome, "slip", None)
+            slip = getattr(outcome.result, "slip", None)
             if getattr(self, "_mechanisms", None) is not None and hasattr(slip, "x_m") and case_id in self.study_of:
                 self._mechanisms.add(self.study_of[case_id], slip.x_m, slip.y_m, fos)
-        result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
+        result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
         verdict = realisation_verdict(result, table.compute, table.factor)
         tally[verdict] += 1
         index = int(case_id[len(CASE_PREFIX):])
         if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
-                and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
+                and index >= table.keep_fields_first and not outcome.diverged):
             from workflows.fos.run_store import run_file_name, without_particle_fields  # dask: only when FOS cases run
 
             for record in outcome.runs:
                 if record.status == FAILED:
-                    without_particle_fields(outcome.out_dir / run_file_name(record.srf))
-        if verdict == FAILED and not isinstance(outcome, DivergenceError):
-            line, edges = self._mechanism(case_id, outcome)
+                    without_particle_fields(outcome.result.out_dir / run_file_name(record.srf))
+        if verdict == FAILED and not outcome.diverged:
+            line, edges = self._mechanism(case_id, outcome.result)
             if line is not None:
                 self.slip_lines[case_id] = line
                 self.edges_reached[case_id] = edges
@@ -559,8 +558,8 @@ class ProbabilisticStudy(SweepStudy):
         results = {}
         for row in rows:
             outcome = outcomes[row.case_id]
-            results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome}", 0)
-                                    if isinstance(outcome, DivergenceError) else case_result(outcome))
+            results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome.error}", 0)
+                                    if outcome.diverged else case_result(outcome.result))
         verdicts = [realisation_verdict(results[row.case_id], table.compute, table.factor) for row in rows]
         n_failed, n_undecided = verdicts.count(FAILED), verdicts.count(UNDECIDED)
         decided = len(verdicts) - n_undecided
@@ -571,16 +570,14 @@ class ProbabilisticStudy(SweepStudy):
                                       pf, low, high)
         if table.compute == "fos" and len(found) >= 2:
             result.fos_mean, result.fos_std = float(found.mean()), float(found.std(ddof=1))
-        runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
-                for record in outcome.runs]
+        runs = [record for outcome in outcomes.values() for record in outcome.runs]
         made = [record for record in runs if record.started_s == record.started_s]  # NaN: reused
         result.runs_made = len(made)
         result.timings_s = {"cases_elapsed": timings.cases_elapsed, "srf_runs_worker": timings.srf_runs_worker,
                             "run_loops": sum(record.wall_time_s for record in made),
                             "remesh": sum(record.remesh_wall_s for record in made),
                             "total": time.perf_counter() - wall_start}
-        case_runs = {row.case_id: ([] if isinstance(outcome := outcomes[row.case_id], DivergenceError)
-                                   else outcome.runs) for row in rows}
+        case_runs = {row.case_id: list(outcomes[row.case_id].runs) for row in rows}
         slip_lines = [self.slip_lines[row.case_id] for row in rows if row.case_id in self.slip_lines]
         result.edge_fractions = self.edge_fractions([row.case_id for row in rows])
         result.n_mechanisms = len(slip_lines)

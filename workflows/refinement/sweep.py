@@ -110,9 +110,10 @@ class RefinedSweepStudy(StudyType):
         for level_id in done:
             case_id = self.pending.pop(level_id)
             outcome = outcomes[level_id]
-            if isinstance(outcome, DivergenceError):
-                progress.message(f"warning: case {case_id.replace('__', ', ')}: the gravity stage diverged: {outcome}")
-                self.diverged[case_id] = outcome
+            if outcome.diverged:
+                progress.message(f"warning: case {case_id.replace('__', ', ')}: the gravity stage diverged: "
+                                 f"{outcome.error}")
+                self.diverged[case_id] = outcome.error
                 continue
             own_id = level_id.split(LEVEL_SEPARATOR, 1)[1]
             self.level_outcomes[case_id][own_id] = outcome
@@ -131,7 +132,7 @@ class RefinedSweepStudy(StudyType):
             refinements[case_id] = refinement.conclude(self.level_outcomes[case_id], CaseTimings(), wall_start)
             finest = self.level_outcomes[case_id][refinement._case_id(max(refinement.found))] \
                 if refinement.found else next(iter(self.level_outcomes[case_id].values()))
-            results[case_id] = case_result(finest)
+            results[case_id] = case_result(finest.result)
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = refined_sweep_dataset(self.study, self.sweep_cases, results, refinements)
         write_dataset(dataset, study_path)
