@@ -162,3 +162,29 @@ def test_a_case_s_outcome_is_a_typed_value_a_sweep_reads(tmp_path, monkeypatch):
     assert (Diverged(error).diverged, Diverged(error).error, Diverged(error).result, Diverged(error).runs) \
         == (True, error, None, ())
     assert (Concluded(1).diverged, Concluded(1).error, Concluded(1).result) == (False, None, 1)
+
+
+def test_a_sweep_composes_with_any_study_type_by_one_rule(tmp_path):
+    """With [sweep], each case is a study of the type the study is without it: single studies make a
+    ``SweepStudy``; any type that makes cases of its own is a ``NestedSweep`` of it, with what a sweep
+    of that type writes (``SWEPT``); every such type has its entry."""
+    from workflows.probabilistic.study_type import ProbabilisticStudy
+    from workflows.refinement.study_type import RefinementStudy
+    from workflows.single import SingleStudy
+    from workflows.study_types import STUDY_TYPES, SWEPT, study_type
+    from workflows.sweep.nested import NestedSweep
+    from workflows.sweep.study_type import SweepStudy
+
+    assert set(SWEPT) == set(STUDY_TYPES) - {SingleStudy}
+    sweep = '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [10e3, 14e3]\n'
+    assert isinstance(study_type(parse_study(QUICKSTART + sweep), tmp_path), SweepStudy)
+    refined = study_type(parse_study(QUICKSTART + "\n[refinement]\nspacings_m = [2.0, 1.68, 1.41, 1.19]\n" + sweep),
+                         tmp_path)
+    probabilistic = study_type(parse_study(
+        QUICKSTART + '\n[probabilistic]\nrealisations = 4\n\n[[probabilistic.variables]]\n'
+        'path = "materials.soil.friction_deg"\ndistribution = "normal"\nstd = 1.0\n' + sweep), tmp_path)
+    for kind, inner in ((refined, RefinementStudy), (probabilistic, ProbabilisticStudy)):
+        assert isinstance(kind, NestedSweep) and kind.summary is SWEPT[inner]
+        assert all(type(each) is inner for each in kind.studies.values()) and len(kind.studies) == 2
+    assert (refined.label, probabilistic.label) == ("a sweep of refinement studies", "a sweep of probabilistic studies")
+    assert refined.placement.rounds and refined.placement.keep_going and not refined.placement.gravity_in_process

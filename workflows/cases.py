@@ -238,6 +238,8 @@ class StudyType:
     ``workflows.study_types`` lists the kinds and runs one; adding one: docs/architecture.md."""
 
     placement: Placement
+    label: ClassVar[str]  # what the study is, for report.html: "a single study", "a sweep", ...
+    base_note: ClassVar[str] = ""  # what the section figure of report.html shows of a study whose cases vary
 
     def __init__(self, study: Study, out_dir: Path):
         self.study = study

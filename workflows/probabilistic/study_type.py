@@ -303,6 +303,9 @@ a larger generation leaves fewer waits for its last realisation, predicted from 
 class ProbabilisticStudy(SweepStudy):
     """A study with ``[probabilistic]`` (module doc)."""
 
+    label = "a probabilistic study"
+    base_note = "; the base study, before its random variables are drawn"
+
     def __init__(self, study: Study, out_dir: Path):
         super().__init__(study, out_dir)
         self.tally = {FAILED: 0, STABLE: 0, UNDECIDED: 0}  # verdicts of the realisations concluded so far

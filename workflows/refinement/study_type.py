@@ -148,6 +148,8 @@ class RefinementStudy(StudyType):
     """A study with ``[refinement]`` (module doc)."""
 
     placement = Placement(gravity_in_process=True, figures=False, quiet_cases=True, keep_going=False, rounds=True)
+    label = "a refinement study"
+    base_note = ""
 
     @staticmethod
     def applies_to(study: Study) -> bool:

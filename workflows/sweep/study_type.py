@@ -89,6 +89,8 @@ class SweepStudy(StudyType):
     """A study with ``[sweep]`` (module doc)."""
 
     placement = Placement(gravity_in_process=False, figures=False, quiet_cases=True, keep_going=True)
+    label = "a sweep"
+    base_note = "; the base study, before the sweep sets its values"
     stale_cases: tuple[list[str], list[str]] = ([], [])  # case folders of an earlier invocation: (removed, kept)
     stale_figures: list[str] = []  # design charts of an earlier invocation removed
 
