@@ -188,3 +188,26 @@ def test_a_sweep_composes_with_any_study_type_by_one_rule(tmp_path):
         assert all(type(each) is inner for each in kind.studies.values()) and len(kind.studies) == 2
     assert (refined.label, probabilistic.label) == ("a sweep of refinement studies", "a sweep of probabilistic studies")
     assert refined.placement.rounds and refined.placement.keep_going and not refined.placement.gravity_in_process
+
+
+def test_every_field_declares_its_kind_as_one_object_that_checks_parses_and_shows_it():
+    """``Spec.kind`` is an object of ``FIELD_KINDS`` (no field's kind is a string to compare); each value
+    kind parses a value, refuses a wrong one with the line it always gave, and names itself in the
+    reference."""
+    from workflows.fields import FIELD_KINDS, NUMBER, POLYLINE, Spec, specs
+    from workflows.study.tables import Study
+
+    def every_spec(cls):
+        for spec in specs(cls).values():
+            yield spec
+            for inner in (spec.variants.values() or [spec.of]) if spec.of is not None else []:
+                yield from every_spec(inner)
+
+    assert all(spec.kind in FIELD_KINDS.values() for spec in every_spec(Study))
+    assert NUMBER.parse(Spec(NUMBER, gt=0.0), 2) == 2.0
+    with pytest.raises(ValueError, match=r"^must be > 0, got -1$"):
+        NUMBER.parse(Spec(NUMBER, gt=0.0), -1)
+    with pytest.raises(ValueError, match="^x must increase from point to point"):
+        POLYLINE.parse(Spec(POLYLINE), [[0.0, 0.0], [0.0, 1.0]])
+    assert (NUMBER.shown, POLYLINE.shown, POLYLINE.allowed(Spec(POLYLINE))) == (
+        "float", "`[[x, y], ...]` or file", ">= 2 points, x increasing")

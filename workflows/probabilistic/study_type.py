@@ -50,7 +50,7 @@ import numpy as np
 
 from workflows import engineering_units
 from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
-from workflows.fields import MAX_MAGNITUDE, check_value, specs
+from workflows.fields import MAX_MAGNITUDE, NUMBER, check_value, specs
 from workflows.fos.discretisation import note
 from workflows.fos.prediction import Generations, WindowPredictor
 from workflows.memory_guard import check_memory
@@ -131,7 +131,7 @@ class Realisations:
         variable = self.study.probabilistic.variables[k]
         where = f"probabilistic.variables[{k}]"
         found = self._resolved(k)
-        if found.spec.type != "number":
+        if found.spec.kind is not NUMBER:
             raise StudyError(f"{where}.path", f"{variable.path} is not a number field")
         if variable.kind.by_bounds:
             low, high = variable.low, variable.high

@@ -23,7 +23,7 @@ import numpy as np
 
 from workflows.distributions import FIELD_DISTRIBUTIONS, NORMAL, Distribution
 from workflows.engineering_units import spellings
-from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.fields import NUMBER, Record, StudyError, integer, name_field, number, specs, tables, text
 from workflows.random_field.correlation import CORRELATION_MODELS, CorrelationModel
 
 SEEPAGE_PROPERTY = "permeability_m_s"
@@ -172,7 +172,7 @@ class RandomField(Record):
             if material is None:
                 raise StudyError(f"{where}.material", f"no material named {entry.material!r} "
                                  f"(known: {', '.join(materials)})")
-            numeric = [name for name, spec in specs(type(material)).items() if spec.type == "number"]
+            numeric = [name for name, spec in specs(type(material)).items() if spec.kind is NUMBER]
             varying = [p for p in numeric if p in material.core_row()] + [SEEPAGE_PROPERTY] * (study.seepage is not None)
             si_name = spellings(entry.property)[0]
             if entry.property not in varying and si_name in varying:
