@@ -36,6 +36,7 @@ class Distribution:
     and ``high`` (``workflows.probabilistic.sampling.Marginal``)."""
 
     name: str
+    given_by = ""  # what it is given by, for the study-file reference (where not a mean and a spread)
     bounded = False  # it takes bounds low and high
     by_bounds = False  # it is given by its bounds alone (no mean, std or cov)
     positive = False  # its values are positive: its mean must be > 0
@@ -168,6 +169,7 @@ class Lognormal(Distribution):
 
 class Uniform(Distribution):
     name = "uniform"
+    given_by = "between low and high"
     bounded = True
     by_bounds = True
 
@@ -184,6 +186,7 @@ class Uniform(Distribution):
 
 class TruncatedNormal(Distribution):
     name = "truncated_normal"
+    given_by = "a normal of mean and std cut to [low, high]"
     bounded = True
 
     def frozen(self, marginal):
@@ -206,5 +209,11 @@ class TruncatedNormal(Distribution):
 NORMAL, LOGNORMAL, UNIFORM, TRUNCATED_NORMAL = Normal(), Lognormal(), Uniform(), TruncatedNormal()
 DISTRIBUTIONS: dict[str, Distribution] = {kind.name: kind for kind in (NORMAL, LOGNORMAL, UNIFORM, TRUNCATED_NORMAL)}
 """Every distribution, by its name in the study file."""
+
+
+def listed(kinds: dict[str, Distribution]) -> str:
+    """The distributions of ``kinds`` as the study-file reference lists them: ```a`, `b` (...) or `c```."""
+    names = [f"`{name}`" + (f" ({kind.given_by})" if kind.given_by else "") for name, kind in kinds.items()]
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
 FIELD_DISTRIBUTIONS: dict[str, Distribution] = {name: kind for name, kind in DISTRIBUTIONS.items() if kind.field_law}
 """Those a random field's point law may follow."""

@@ -5,12 +5,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from workflows.distributions import DISTRIBUTIONS, Distribution
+from workflows.distributions import DISTRIBUTIONS, Distribution, listed
 from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
 from workflows.random_field.table import spread_problem
 
 MAX_REALISATIONS = 100_000
 KEEP_FIELDS = ("failed", "all", "none")
+BOUNDED = ", ".join(name for name, kind in DISTRIBUTIONS.items() if kind.bounded)
+"""The distributions that take bounds low and high."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -18,17 +20,14 @@ class RandomVariable(Record):
     """One study field drawn anew for each realisation."""
 
     path: str = text("the field, by its path as in [sweep]: `materials.soil.cohesion_pa`")
-    distribution: str = text(
-        "`normal`, `lognormal`, `uniform` (between low and high) or `truncated_normal` (a normal of mean and "
-        "std cut to [low, high])", choices=tuple(DISTRIBUTIONS),
-    )
+    distribution: str = text(listed(DISTRIBUTIONS), choices=tuple(DISTRIBUTIONS))
     mean: float | None = number("1", "mean, in the field's unit; default the field's value in the study",
                                 default=None)
     std: float | None = number("1", "standard deviation, in the field's unit (or give cov)", default=None, gt=0.0)
     cov: float | None = number("1", "coefficient of variation std / mean (or give std)", default=None, gt=0.0,
                                le=10.0)
-    low: float | None = number("1", "*uniform, truncated_normal:* lower bound", default=None)
-    high: float | None = number("1", "*uniform, truncated_normal:* upper bound", default=None)
+    low: float | None = number("1", f"*{BOUNDED}:* lower bound", default=None)
+    high: float | None = number("1", f"*{BOUNDED}:* upper bound", default=None)
 
     @property
     def kind(self) -> Distribution:
@@ -48,9 +47,8 @@ class RandomVariable(Record):
             if (self.std is None) == (self.cov is None):
                 raise StudyError("std", "give std or cov (one of them)")
             if not kind.bounded and (self.low is not None or self.high is not None):
-                bounded = " and ".join(name for name, each in DISTRIBUTIONS.items() if each.bounded)
                 raise StudyError("low" if self.low is not None else "high",
-                                 f"applies to {bounded}, not {self.distribution}")
+                                 f"applies to {BOUNDED.replace(', ', ' and ')}, not {self.distribution}")
         if kind.bounded and self.low is not None and self.high is not None and not self.low < self.high:
             raise StudyError("high", f"must be above low ({self.low:g}), got {self.high:g}")
         if kind.positive and self.mean is not None and self.mean <= 0.0:

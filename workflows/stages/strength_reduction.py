@@ -81,6 +81,12 @@ MIN_SPACINGS_PER_HEIGHT = 4
 """A strength-reduction study needs at least this many particle spacings over the slope height."""
 
 
+def _for(field: str) -> str:
+    """The reference's note of a field that applies to some protocols only: ``*protocol = ramp or sudden:*``
+    (the protocols whose ``fields`` name it)."""
+    return f"*protocol = {' or '.join(name for name, each in PROTOCOLS.items() if field in each.fields)}:*"
+
+
 def _or_default(field: str, default: float) -> property:
     """The value of a protocol's optional ``field``, or its ``default`` where the file leaves it out."""
     return property(lambda stage: default if getattr(stage, field) is None else getattr(stage, field),
@@ -105,16 +111,16 @@ class StrengthReductionStage(StageBase):
         + " (docs/verification.md compares them)", default="quasi_static", choices=tuple(PROTOCOLS),
     )
     damping: float | None = number(
-        "1", f"*protocol = quasi_static:* local (Cundall) damping factor; default {DEFAULT_QUASI_STATIC_DAMPING:g}",
+        "1", f"{_for('damping')} local (Cundall) damping factor; default {DEFAULT_QUASI_STATIC_DAMPING:g}",
         default=None, gt=0.0, lt=1.0,
     )
     tolerance: float | None = number(
-        "1", "*protocol = quasi_static:* at rest once the unbalanced-force ratio is below this; default "
+        "1", f"{_for('tolerance')} at rest once the unbalanced-force ratio is below this; default "
         f"{DEFAULT_QUASI_STATIC_TOLERANCE:g}; at most {MAX_TOLERANCE:g} (a looser ratio ends a run before the "
         "slope has responded)", default=None, gt=0.0, le=MAX_TOLERANCE,
     )
     ramp_time_s: float | None = number(
-        "s", "*protocol = ramp:* the strength falls from full to c / F, tan(phi) / F over this time; default "
+        "s", f"{_for('ramp_time_s')} the strength falls from full to c / F, tan(phi) / F over this time; default "
         f"{RAMP_RESPONSE_TIMES:g} response times of the slope, {4 * RAMP_RESPONSE_TIMES:g} H_domain / V_s",
         default=None, gt=0.0,
     )
@@ -149,12 +155,12 @@ class StrengthReductionStage(StageBase):
         f"default: failure_displacement_m / {FLOOR_PER_FAILURE:g}", default=None, gt=0.0,
     )
     rest_window_s: float | None = number(
-        "s", "*protocol = ramp or sudden:* at rest: the largest displacement grew by less than rest_growth of "
+        "s", f"{_for('rest_window_s')} at rest: the largest displacement grew by less than rest_growth of "
         f"itself over the last window, and by less than over the window before; default {DEFAULT_REST_WINDOW_S}",
         default=None, gt=0.0,
     )
     rest_growth: float | None = number(
-        "1", f"*protocol = ramp or sudden:* see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
+        "1", f"{_for('rest_growth')} see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
         lt=1.0,
     )
     scale_stiffness: bool = boolean(
