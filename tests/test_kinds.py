@@ -175,7 +175,7 @@ def test_a_sweep_composes_with_any_study_type_by_one_rule(tmp_path):
     from workflows.sweep.nested import NestedSweep
     from workflows.sweep.study_type import SweepStudy
 
-    assert set(SWEPT) == set(STUDY_TYPES) - {SingleStudy}
+    assert set(SWEPT) == {ProbabilisticStudy, RefinementStudy} and set(SWEPT) <= set(STUDY_TYPES) - {SingleStudy}
     sweep = '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\nvalues = [10e3, 14e3]\n'
     assert isinstance(study_type(parse_study(QUICKSTART + sweep), tmp_path), SweepStudy)
     refined = study_type(parse_study(QUICKSTART + "\n[refinement]\nspacings_m = [2.0, 1.68, 1.41, 1.19]\n" + sweep),

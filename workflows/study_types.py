@@ -36,7 +36,7 @@ from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
 from workflows.refinement.sweep import RefinedSweep
 from workflows.single import SingleStudy
-from workflows.study import Study
+from workflows.study import Study, StudyError
 from workflows.sweep.nested import NestedSweep, SweepSummary
 from workflows.sweep.study_type import SweepStudy
 
@@ -48,12 +48,15 @@ SWEPT: dict[type[StudyType], SweepSummary] = {ProbabilisticStudy: ProbabilisticS
 
 
 def study_type(study: Study, out_dir: str | Path) -> StudyType:
-    """The type of ``study`` (module doc), writing under ``out_dir``."""
+    """The type of ``study`` (module doc), writing under ``out_dir``; StudyError for a sweep of a type
+    without its entry in :data:`SWEPT`."""
     kind = next(kind for kind in STUDY_TYPES if kind.applies_to(study))
     if study.sweep is None:
         return kind(study, Path(out_dir))
     if kind is SingleStudy:  # a sweep's cases are single studies: computed together as its own
         return SweepStudy(study, Path(out_dir))
+    if kind not in SWEPT:  # (a type's table refuses [sweep] until a sweep of it is written)
+        raise StudyError("sweep", f"does not apply to {kind.label} yet")
     return NestedSweep(study, Path(out_dir), kind, SWEPT[kind])
 
 
