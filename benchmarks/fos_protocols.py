@@ -22,6 +22,8 @@ from pathlib import Path
 
 import xarray as xr
 
+from workflows.stages.protocols import PROTOCOLS as PROTOCOL_KINDS
+
 ROOT = Path(__file__).resolve().parents[1]
 
 CASES = {
@@ -32,7 +34,7 @@ CASES = {
     "acads_1c": ("studies/published/acads_1c.toml", 1.375, "Spencer (Morgenstern-Price 1.382, referee 1.39)"),
     "verruijt_slope": ("studies/published/verruijt_slope.toml", 1.534, "Bishop (PLAXIS 1.54, upper bound 1.542)"),
 }
-PROTOCOLS = ("quasi_static", "ramp", "sudden")
+PROTOCOLS = tuple(PROTOCOL_KINDS)
 
 
 def study_text(case: str, protocol: str, flow_rule: str, spacing_scale: float = 1.0) -> str:

@@ -176,6 +176,7 @@ def test_a_random_variable_takes_either_spelling_of_a_field_in_the_unit_it_names
     is the file's value in the path's unit, its draws are in that unit (the sampler's, from that mean
     and COV), and each realisation holds the field in that one spelling, the SI value the draw times
     the unit."""
+    from workflows.distributions import LOGNORMAL
     from workflows.probabilistic.sampling import Marginal, Sampler
     from workflows.probabilistic.study_type import realisation_cases
 
@@ -185,7 +186,7 @@ def test_a_random_variable_takes_either_spelling_of_a_field_in_the_unit_it_names
     cases = realisation_cases(parse_study(to_toml(raw)))
     mean = getattr(parse_study(SI).materials[0], si_field) / si_per_unit
     label = path.split(".")[-1]
-    draws = Sampler([Marginal("lognormal", mean, 0.1 * mean)]).monte_carlo(5, range(3))[:, 0]
+    draws = Sampler([Marginal(LOGNORMAL, mean, 0.1 * mean)]).monte_carlo(5, range(3))[:, 0]
     assert [case.values[label] for case in cases] == pytest.approx(draws, rel=1e-12)
     for case, draw in zip(cases, draws):
         assert getattr(case.study.materials[0], si_field) == pytest.approx(draw * si_per_unit, rel=1e-12)

@@ -38,11 +38,12 @@ ALLOWED_PACKAGE_ARROWS = {
 STUDY_READER = "workflows.study"
 DECLARATIONS = (
     "workflows.fields", "workflows.box", "workflows.engineering_units",  # the kit a table is made of
+    "workflows.distributions", "workflows.random_field.correlation",  # the kinds of random value a table names
     "workflows.study", "workflows.study.*",  # the study's own tables, its reading and reference
     "workflows.materials", "workflows.materials.*", "workflows.loads", "workflows.loads.*",  # a module per kind
     "workflows.stages", "workflows.stages.*",  # a module per stage kind (not its runner: RUNNERS)
     "workflows.*.table",  # a room's declaration beside the code that runs it: water, seepage, random_field, ...
-    "workflows.collapse.experiment",  # the reference column's dimensions
+    "workflows.collapse.experiment", "workflows.collapse.kinds",  # the reference column, the kinds of collapse
     # what a stage kind measures and draws of its own result, imported inside the method that needs it
     # (scipy, matplotlib); they import nothing of the study's
     "workflows.runout.*", "workflows.collapse.metrics", "workflows.output.variables", "workflows.output.figures",

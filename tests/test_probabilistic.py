@@ -10,6 +10,7 @@ import pytest
 import xarray as xr
 
 from workflows.cases import RunOptions
+from workflows.distributions import LOGNORMAL
 from workflows.probabilistic.sampling import Marginal, Sampler
 from workflows.progress import Progress
 from workflows.study import StudyError, parse_study
@@ -67,7 +68,7 @@ def test_realisations_are_judged_at_the_factor_and_an_extended_study_computes_on
     progress = _Tally()
     first = run_study(parse_study(probabilistic(8)), tmp_path, RunOptions(workers=2), progress=progress)
     ds = xr.load_dataset(tmp_path / "probabilistic.nc")
-    expected = Sampler([Marginal("lognormal", 10e3, 3e3)]).monte_carlo(3, range(8))[:, 0]
+    expected = Sampler([Marginal(LOGNORMAL, 10e3, 3e3)]).monte_carlo(3, range(8))[:, 0]
     np.testing.assert_allclose(ds["cohesion_pa"].values, expected, rtol=1e-12)
     verdicts = ds["verdict"].values
     assert set(verdicts) <= {"stable", "failed"}

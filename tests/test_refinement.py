@@ -201,6 +201,7 @@ def _level_outcome(srf_status: list[tuple[float, str]]):
 def test_a_level_whose_fos_lies_at_the_edge_of_its_window_grows_the_window_instead_of_shifting_it(tmp_path):
     """A run failed but no knee (one stable run below the first failure) sends the window down, every run stable
     sends it up: each time it grows by its width, so that it keeps the SRFs it had."""
+    from workflows.cases import Concluded
     from workflows.refinement.study_type import RefinementStudy, _Level
 
     study = RefinementStudy(parse_study(QUICKSTART + UNIFORM), tmp_path)
@@ -209,12 +210,12 @@ def test_a_level_whose_fos_lies_at_the_edge_of_its_window_grows_the_window_inste
     study.pending = {study._case_id(1): (1, False)}
     progress = _Progress()
     edge = _level_outcome([(1.40, "stable"), (1.41, "failed")])
-    [case] = study.next_cases({study._case_id(1): edge}, progress)
+    [case] = study.next_cases({study._case_id(1): Concluded(edge)}, progress)
     stage = study.levels[1].study.strength_reduction
     assert (stage.srf_min, stage.srf_max) == (1.35, 1.45)
     all_stable = _level_outcome([(1.35, "stable"), (1.40, "stable")])
     study.levels[1] = _Level(1.68, study._level_study(1, 1.68, [], (1.35, 1.40, 0.01), 1), seed=1)
-    [case] = study.next_cases({study._case_id(1): all_stable}, progress)
+    [case] = study.next_cases({study._case_id(1): Concluded(all_stable)}, progress)
     stage = study.levels[1].study.strength_reduction
     assert (stage.srf_min, stage.srf_max) == (1.35, 1.45)
 

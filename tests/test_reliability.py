@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from workflows.distributions import LOGNORMAL
 from workflows.probabilistic.reliability import failure_probability, lognormal_strength_pf, reliability_index
 from workflows.probabilistic.sampling import Marginal, Sampler
 
@@ -31,9 +32,9 @@ def test_no_failure_and_all_failed_have_their_one_sided_ends():
 def test_reliability_index_of_normal_and_lognormal_factors():
     fos = stats.norm(1.3, 0.15).rvs(size=200000, random_state=3)
     assert reliability_index(fos) == pytest.approx(2.0, rel=0.01)
-    lognormal = Marginal("lognormal", 1.3, 0.15)
+    lognormal = Marginal(LOGNORMAL, 1.3, 0.15)
     fos = lognormal.from_normal(np.random.default_rng(4).standard_normal(200000))
-    beta = reliability_index(fos, "lognormal")
+    beta = reliability_index(fos, LOGNORMAL)
     assert stats.norm.cdf(-beta) == pytest.approx(float(np.mean(fos < 1.0)), rel=0.05)
 
 
@@ -41,7 +42,7 @@ def test_reliability_index_of_normal_and_lognormal_factors():
 def test_monte_carlo_pf_of_a_strength_proportional_fos_lies_in_its_interval_of_the_closed_form(cov):
     """F = F_det cu / mean(cu): 2,000 sampled cu give a pf whose 95% interval holds the closed form."""
     f_det = 1.3
-    cu = Sampler([Marginal("lognormal", 20e3, cov * 20e3)]).monte_carlo(17, range(2000))[:, 0]
+    cu = Sampler([Marginal(LOGNORMAL, 20e3, cov * 20e3)]).monte_carlo(17, range(2000))[:, 0]
     failed = int(np.sum(f_det * cu / 20e3 < 1.0))
     _, low, high = failure_probability(failed, 2000)
     assert low <= lognormal_strength_pf(20e3, cov, f_det) <= high

@@ -13,10 +13,11 @@ import pytest
 import xarray as xr
 
 from workflows.cases import RunOptions
+from workflows.distributions import LOGNORMAL, NORMAL, lognormal_parameters
 from workflows.fos.keys import gravity_key, run_key
 from workflows.probabilistic.study_type import realisation_cases
+from workflows.random_field.correlation import MARKOV
 from workflows.random_field.embedding import cell_correlation, variance_function
-from workflows.random_field.table import lognormal_parameters
 from workflows.scene import build_scene
 from workflows.study import StudyError, parse_study
 from workflows.study_types import run_study
@@ -44,7 +45,7 @@ def test_a_lognormal_field_has_the_log_mean_and_the_cell_averaged_log_variance_o
     study = parse_study(with_fields(COHESION_FIELD))
     h = study.geometry.spacing_m
     mu, sigma = lognormal_parameters(10e3, 0.5)
-    target_variance = sigma**2 * variance_function("markov", h, h, 4.0, 4.0)
+    target_variance = sigma**2 * variance_function(MARKOV, h, h, 4.0, 4.0)
     assert draws.mean() == pytest.approx(mu, abs=3 * math.sqrt(target_variance / 100))  # realisation means
     assert draws.var(axis=0).mean() == pytest.approx(target_variance, rel=0.05)
     assert target_variance < 0.9 * sigma**2  # the averaging matters at this h / theta
@@ -69,7 +70,7 @@ def test_anisotropic_scales_of_fluctuation_give_the_markov_correlation_along_eac
         a, b = np.array(pairs[axis]).T
         rho = float(np.mean(standard[:, a] * standard[:, b]))
         lag = (2.0 * (axis == 0), 2.0 * (axis == 1))
-        assert rho == pytest.approx(cell_correlation("markov", h, *lag, 20.0, 2.0), abs=0.05)
+        assert rho == pytest.approx(cell_correlation(MARKOV, h, *lag, 20.0, 2.0), abs=0.05)
 
 
 def test_two_fields_of_one_material_correlate_by_their_coefficient():
@@ -165,10 +166,10 @@ def test_the_longest_scale_a_section_holds_is_found_to_within_a_tenth():
 
     scene = build_scene(parse_study(QUICKSTART))
     grid = ParticleGrid.of(scene.node_xy_m[:, 0], scene.node_xy_m[:, 1], 1.0)
-    scale = largest_theta_scale("markov", 100.0, 100.0, grid)
+    scale = largest_theta_scale(MARKOV, 100.0, 100.0, grid)
     for factor, embeds in ((1.0, True), (1.1, False)):
         theta_m = factor * scale * 100.0
-        found = embedding("markov", theta_m, theta_m, grid.nx, grid.ny, grid.step_m, grid.step_m, grid.cell_m)
+        found = embedding(MARKOV, theta_m, theta_m, grid.nx, grid.ny, grid.step_m, grid.step_m, grid.cell_m)
         assert (found is not None) == embeds, theta_m
 
 
@@ -236,8 +237,8 @@ def test_the_order_probability_of_two_correlated_fields_is_their_joint_law():
     g_l = rho * g_u + math.sqrt(1.0 - rho * rho) * rng.standard_normal(g_u.size)
     mu, sigma = lognormal_parameters(10.0, 0.5)
     for lower, upper, x_l, x_u in (
-            (("normal", 10.0, 5.0), ("normal", 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
-            (("lognormal", 10.0, 5.0), ("normal", 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
+            ((NORMAL, 10.0, 5.0), (NORMAL, 18.0, 4.0), 10.0 + 5.0 * g_l, 18.0 + 4.0 * g_u),
+            ((LOGNORMAL, 10.0, 5.0), (NORMAL, 20.0, 4.0), np.exp(mu + sigma * g_l), 20.0 + 4.0 * g_u)):
         expected = float(np.mean(x_l > x_u))
         assert order_broken_probability(lower, upper, rho) == pytest.approx(expected, abs=4e-4)
 

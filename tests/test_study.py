@@ -17,7 +17,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from spfem_core.cloud import MAX_JITTER
-from workflows.fields import specs
+from workflows.fields import TABLE, TABLES, specs
 from workflows.materials import ElasticMaterial
 from workflows.stages import DynamicStage, RelaxationStage
 from workflows.study import StudyError, load_study, parse_study, reference
@@ -280,9 +280,9 @@ def field_paths(cls=Study, prefix=""):
     """Every leaf field as (dotted path, table dataclass, field name)."""
     for name, spec in specs(cls).items():
         path = f"{prefix}.{name}" if prefix else name
-        if spec.type == "table":
+        if spec.kind is TABLE:
             yield from field_paths(spec.of, path)
-        elif spec.type == "tables":
+        elif spec.kind is TABLES:
             if spec.key:
                 yield f"{path}[].{spec.key}", cls, spec.key
             for entry_cls in spec.variants.values() or [spec.of]:

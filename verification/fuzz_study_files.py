@@ -74,6 +74,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from workflows.cli import app
+from workflows.distributions import DISTRIBUTIONS, FIELD_DISTRIBUTIONS
+from workflows.random_field.correlation import CORRELATION_MODELS
 from workflows.study.toml_text import to_toml
 
 BLOCK = """\
@@ -519,7 +521,7 @@ def _probabilistic(draw, data: dict) -> None:
     else:
         variable = draw(st.sampled_from(variables))
         if choice == "distribution":
-            variable["distribution"] = draw(st.sampled_from(["normal", "lognormal", "uniform", "truncated_normal"]))
+            variable["distribution"] = draw(st.sampled_from(list(DISTRIBUTIONS)))
         elif choice == "spread":  # zero, tiny, usual and huge spreads; std and cov both or neither
             for key in ("std", "cov"):
                 variable.pop(key, None)
@@ -559,7 +561,7 @@ def _random_field(draw, data: dict) -> None:
     if choice == "theta":  # against the 30 m by 8 m domain
         field["theta_x_m"] = draw(st.sampled_from([1e-3, 0.1, 1.0, 10.0, 30.0, 60.0, 100.0, 1e4]))
         field["theta_y_m"] = draw(st.sampled_from([1e-3, 0.5, 2.0, 8.0, 30.0, 1e4]))
-        field["correlation_model"] = draw(st.sampled_from(["markov", "gaussian"]))
+        field["correlation_model"] = draw(st.sampled_from(list(CORRELATION_MODELS)))
     elif choice == "spread":
         for key in ("std", "cov", "mean"):
             field.pop(key, None)
@@ -568,7 +570,7 @@ def _random_field(draw, data: dict) -> None:
         if draw(st.booleans()):
             field["mean"] = draw(st.sampled_from([0.0, -10.0, 1e-300, 10.0, 10e3, 1e12]))
     elif choice == "distribution":
-        field["distribution"] = draw(st.sampled_from(["normal", "lognormal"]))
+        field["distribution"] = draw(st.sampled_from(list(FIELD_DISTRIBUTIONS)))
     elif choice == "property":  # dilation against friction, units, properties the material lacks
         field["property"] = draw(st.sampled_from([
             "dilation_deg", "cohesion_kpa", "friction_deg", "youngs_modulus_pa", "density_kg_m3",

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 from spfem_core.divergence import DivergenceError
 from workflows.layers import thin_layer_warnings
@@ -69,7 +69,7 @@ class Placement:
     gravity_in_process: bool  # a case's gravity on this process's cores while the cluster starts
     figures: bool  # each FOS case draws its own figures
     quiet_cases: bool  # a case's messages only when they are warnings
-    keep_going: bool  # a case that diverges is recorded (the DivergenceError as its outcome)
+    keep_going: bool  # a case that diverges is recorded (its outcome: ``Diverged``)
     rounds: bool = False  # it makes cases in rounds (``StudyType.next_cases``): one cluster serves them all
     summaries: bool = True  # each FOS case writes its summary.nc (False: cases of one run each, summed up by the type)
 
@@ -81,6 +81,42 @@ class CaseFeed:
 
     more: Callable[[int], list[Case]]  # up to this many more cases ([] with some left: none until more conclude)
     to_come: Callable[[], int]  # how many are left
+
+
+@dataclass(frozen=True)
+class Concluded:
+    """The outcome of a case that ran to its end: its ``result``, a ``fos.summary.FosOutcome`` (a
+    strength-reduction case) or a ``stages.running.StudyRun``."""
+
+    result: object
+    diverged: ClassVar[bool] = False
+    error: ClassVar[None] = None
+
+    @property
+    def fos(self) -> float:
+        """A strength-reduction case's FOS (NaN where its search found none)."""
+        return self.result.fos
+
+    @property
+    def runs(self) -> list:
+        """A strength-reduction case's SRF runs (their ``RunRecord``)."""
+        return self.result.runs
+
+
+@dataclass(frozen=True)
+class Diverged:
+    """The outcome of a case whose simulation diverged (its gravity stage; a stage of a stage study),
+    recorded where the placement keeps going: ``error``, the core's DivergenceError."""
+
+    error: DivergenceError
+    diverged: ClassVar[bool] = True
+    result: ClassVar[None] = None
+    fos: ClassVar[float] = float("nan")  # no FOS
+    runs: ClassVar[tuple] = ()  # no SRF run
+
+
+CaseOutcome = Concluded | Diverged
+"""What a case came to (:func:`run_cases`): a study type reads ``diverged``, ``result`` and ``error``."""
 
 
 @dataclass
@@ -101,8 +137,8 @@ class CaseTimings:
 def run_cases(cases: list[Case], placement: Placement, options: RunOptions, progress: Progress,
               wall_start: float, session=None, on_case=None, feed: CaseFeed | None = None) -> tuple[dict, CaseTimings]:
     """Compute ``cases`` (module doc), and those of ``feed`` as there is room for them; (outcome by case
-    id, timings).  An outcome is a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``, or the
-    ``DivergenceError`` of a case that diverged when the placement keeps going.  ``session``: a
+    id, timings).  An outcome is :class:`Concluded` (with a ``fos.summary.FosOutcome`` or a
+    ``stages.running.StudyRun``), or :class:`Diverged` where the placement keeps going.  ``session``: a
     ``fos.cluster.DaskSession`` kept open by the caller for later rounds (default: one started and
     closed here); ``on_case``: called with (case id, outcome) as each FOS case concludes."""
     if cases[0].study.strength_reduction is not None:
@@ -150,9 +186,10 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         for search in engine.run():
             if own and engine.all_concluded:
                 session.close(wait=False)  # the workers shut down while the last summary and figures are made
-            outcomes[search.label] = search.error or conclude_case(search, case_progress, wall_start,
-                                                                   figures=placement.figures,
-                                                                   summary_file=placement.summaries)
+            outcomes[search.label] = (Diverged(search.error) if search.error is not None else
+                                      Concluded(conclude_case(search, case_progress, wall_start,
+                                                              figures=placement.figures,
+                                                              summary_file=placement.summaries)))
             timings.gravity_worker += search.gravity_wall_s
             timings.srf_runs_worker += sum(record.wall_time_s for record in search.runs.values()
                                            if record.started_s == record.started_s)  # NaN: reused
@@ -172,8 +209,9 @@ def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Pro
         if case.case_id:
             progress.case_started(index, len(cases), case.case_id)
         try:
-            outcomes[case.case_id] = run_stages(case.study, case.out_dir, progress=progress, case=case.case_id,
-                                                force=options.force, max_memory_bytes=options.max_memory_bytes)
+            outcomes[case.case_id] = Concluded(run_stages(case.study, case.out_dir, progress=progress,
+                                                          case=case.case_id, force=options.force,
+                                                          max_memory_bytes=options.max_memory_bytes))
         except StudyError as error:
             if not case.case_id:
                 raise
@@ -181,7 +219,7 @@ def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Pro
         except DivergenceError as error:
             if not placement.keep_going:
                 raise
-            outcomes[case.case_id] = error
+            outcomes[case.case_id] = Diverged(error)
     timings.cases_elapsed = time.perf_counter() - start
     return outcomes, timings
 
@@ -200,6 +238,8 @@ class StudyType:
     ``workflows.study_types`` lists the kinds and runs one; adding one: docs/architecture.md."""
 
     placement: Placement
+    label: ClassVar[str]  # what the study is, for report.html: "a single study", "a sweep", ...
+    base_note: ClassVar[str] = ""  # what the section figure of report.html shows of a study whose cases vary
 
     def __init__(self, study: Study, out_dir: Path):
         self.study = study

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from workflows.fields import Spec, StudyError, check_value, show
+from workflows.fields import NUMBER, POINT, Spec, StudyError, check_value, show
 
 PRESSURE_SUFFIXES = {"_kpa": 1e3, "_mpa": 1e6}
 """Name ending of a pressure field in kPa or MPa, and its value in Pa per unit."""
@@ -23,7 +23,7 @@ UNIT_WEIGHTS = {"unit_weight_kn_m3": "density_kg_m3", "saturated_unit_weight_kn_
 
 DEFAULT_GRAVITY_M_S2 = (0.0, -9.81)  # workflows.loads.Loads.gravity_m_s2's default
 
-NUMBER, POINT = Spec("number"), Spec("point")
+ANY_NUMBER, ANY_POINT = Spec(NUMBER), Spec(POINT)
 """A value given in other units is checked as a number (a point) of the study is, before it is
 converted: finite and not too large (an integer of 400 digits times 1e3 would overflow)."""
 
@@ -56,7 +56,7 @@ def pressure_field(key: str, declared: dict) -> tuple[str, float] | None:
         if key.endswith(suffix):
             canonical = key[: -len(suffix)] + "_pa"
             spec = declared.get(canonical)
-            if spec is not None and spec.type == "number" and spec.unit == "Pa":
+            if spec is not None and spec.kind is NUMBER and spec.unit == "Pa":
                 return canonical, factor
     return None
 
@@ -138,7 +138,7 @@ def in_pascals(raw: dict, declared: dict, path: str) -> tuple[dict, dict]:
         other = canonical if canonical in raw else given_as.get(canonical)
         if other is not None:
             raise StudyError(_join(path, key), f"give {key} or {other}, not both")
-        table[canonical], given_as[canonical] = _checked(NUMBER, value, _join(path, key)) * factor, key
+        table[canonical], given_as[canonical] = _checked(ANY_NUMBER, value, _join(path, key)) * factor, key
     return table, given_as
 
 
@@ -151,7 +151,7 @@ def with_densities(raw: dict) -> tuple[dict, dict]:
     ):
         return raw, {}
     loads = raw.get("loads") if isinstance(raw.get("loads"), dict) else {}
-    gravity = _checked(POINT, loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2), "loads.gravity_m_s2")
+    gravity = _checked(ANY_POINT, loads.get("gravity_m_s2", DEFAULT_GRAVITY_M_S2), "loads.gravity_m_s2")
     g_m_s2 = math.hypot(*gravity)
     converted, given_as = [], {}
     for i, material in enumerate(materials):
@@ -162,7 +162,7 @@ def with_densities(raw: dict) -> tuple[dict, dict]:
             field, weight = f"materials[{i}].{weight_key}", material.pop(weight_key)
             if density_key in material:
                 raise StudyError(field, f"give {weight_key} or {density_key}, not both")
-            if not _checked(NUMBER, weight, field) > 0.0:
+            if not _checked(ANY_NUMBER, weight, field) > 0.0:
                 raise StudyError(field, f"must be a number > 0, got {show(weight)}")
             if not g_m_s2 > 0.0:
                 raise StudyError(field, f"a unit weight needs gravity, and loads.gravity_m_s2 is "

@@ -51,16 +51,16 @@ class StudyError(ValueError):
 class Spec:
     """How one field of a study file is written, checked and documented.
 
-    ``type`` is one of ``number`` (a float; an integer is accepted, a boolean is not),
-    ``integer``, ``text``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]), ``polyline`` ([[x, y], ...]
-    with x increasing), ``numbers``
-    (a list of numbers), ``values`` (a non-empty list of any TOML values, checked by whoever
-    uses them), ``table`` (one nested table, class ``of``) or ``tables`` (an array of tables:
-    ``of`` is a class, or a dict from the value of the ``key`` field to a class; entries need
-    unique values of the field ``unique``).
+    ``kind`` is one of :data:`FIELD_KINDS` (each with its check and conversion, its JSON schema and
+    its name in the reference): ``number`` (a float; an integer is accepted, a boolean is not),
+    ``integer``, ``text``, ``boolean``, ``names``, ``point`` ([x, y]), ``polygon`` ([[x, y], ...]),
+    ``polyline`` ([[x, y], ...] with x increasing), ``numbers`` (a list of numbers), ``values`` (a
+    non-empty list of any TOML values, checked by whoever uses them), ``table`` (one nested table,
+    class ``of``) or ``tables`` (an array of tables: ``of`` is a class, or a dict from the value of
+    the ``key`` field to a class; entries need unique values of the field ``unique``).
     """
 
-    type: str
+    kind: FieldKind
     unit: str = ""
     doc: str = ""
     gt: float | None = None
@@ -93,27 +93,27 @@ def _declare(spec: Spec, default=REQUIRED, default_factory=REQUIRED):
 
 def number(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
     """A finite float field (``unit`` "1" for a dimensionless number)."""
-    return _declare(Spec("number", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
+    return _declare(Spec(NUMBER, unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
 
 
 def integer(doc, *, default=REQUIRED, ge=None, le=None):
     """An integer field."""
-    return _declare(Spec("integer", "1", doc, ge=ge, le=le), default)
+    return _declare(Spec(INTEGER, "1", doc, ge=ge, le=le), default)
 
 
 def text(doc, *, default=REQUIRED, choices=(), pattern=None):
     """A string field, optionally limited to ``choices`` or a regular expression."""
-    return _declare(Spec("text", "", doc, choices=tuple(choices), pattern=pattern), default)
+    return _declare(Spec(TEXT, "", doc, choices=tuple(choices), pattern=pattern), default)
 
 
 def boolean(doc, *, default=REQUIRED):
     """A true/false field."""
-    return _declare(Spec("boolean", "", doc), default)
+    return _declare(Spec(BOOLEAN, "", doc), default)
 
 
 def names(doc, *, default=REQUIRED):
     """A list of names (of other entries of the study), e.g. ["base", "left"]."""
-    return _declare(Spec("names", "", doc), default)
+    return _declare(Spec(NAMES, "", doc), default)
 
 
 def name_field(doc):
@@ -123,7 +123,7 @@ def name_field(doc):
 
 def numbers(unit, doc, *, default=REQUIRED, gt=None, ge=None, lt=None, le=None):
     """A list of finite numbers, each within the bounds, e.g. [5.0, 10.0]."""
-    return _declare(Spec("numbers", unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
+    return _declare(Spec(NUMBERS, unit, doc, gt=gt, ge=ge, lt=lt, le=le), default)
 
 
 def _frozen(value):
@@ -133,34 +133,34 @@ def _frozen(value):
 
 def any_values(doc, *, default=REQUIRED):
     """A non-empty list of TOML values of any type (their meaning is checked where they are used)."""
-    return _declare(Spec("values", "", doc), default)
+    return _declare(Spec(VALUES, "", doc), default)
 
 
 def point(unit, doc, *, default=REQUIRED):
     """A pair of numbers [x, y]."""
-    return _declare(Spec("point", unit, doc), default)
+    return _declare(Spec(POINT, unit, doc), default)
 
 
 def polygon(unit, doc, *, default=REQUIRED):
     """A simple polygon [[x, y], ...]: at least 3 vertices, non-zero area, no crossing edges."""
-    return _declare(Spec("polygon", unit, doc), default)
+    return _declare(Spec(POLYGON, unit, doc), default)
 
 
 def polyline(unit, doc, *, default=REQUIRED):
     """A line y(x) [[x, y], ...]: at least 2 points, x strictly increasing."""
-    return _declare(Spec("polyline", unit, doc), default)
+    return _declare(Spec(POLYLINE, unit, doc), default)
 
 
 def table(of: type, *, required: bool = True):
     """A nested table ``[name]`` described by the dataclass ``of`` (its docstring documents it);
     not ``required``: an absent table takes every default of ``of``."""
-    spec = Spec("table", doc=_first_line(of.__doc__), of=of)
+    spec = Spec(TABLE, doc=_first_line(of.__doc__), of=of)
     return _declare(spec) if required else _declare(spec, default_factory=of)
 
 
 def optional_table(of: type):
     """A nested table ``[name]`` that is None when absent (what it describes does not happen)."""
-    return _declare(Spec("table", doc=_first_line(of.__doc__), of=of), default=None)
+    return _declare(Spec(TABLE, doc=_first_line(of.__doc__), of=of), default=None)
 
 
 def tables(of, doc, *, key=None, key_doc="", min_items=0, unique="name"):
@@ -169,7 +169,7 @@ def tables(of, doc, *, key=None, key_doc="", min_items=0, unique="name"):
     ``of`` is a dataclass, or with ``key`` a dict from the value of that field to the
     dataclass of that kind of entry.
     """
-    spec = Spec("tables", doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items, unique=unique)
+    spec = Spec(TABLES, doc=doc, of=of, key=key, key_doc=key_doc, min_items=min_items, unique=unique)
     return _declare(spec, default=() if min_items == 0 else REQUIRED)
 
 
@@ -267,31 +267,118 @@ def _as_polyline(value) -> tuple[tuple[float, float], ...]:
 
 
 def check_value(spec: Spec, value):
-    """``value`` converted to its stored form (float, int, str, tuples); ValueError if invalid."""
-    if spec.type == "number":
+    """``value`` converted to its stored form (float, int, str, tuples); ValueError if invalid
+    (its kind's :meth:`FieldKind.parse`)."""
+    return spec.kind.parse(spec, value)
+
+
+PAIR_SCHEMA = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2}
+
+
+class FieldKind:
+    """One kind of study-file field (``Spec.kind``): how a value of it is checked and converted
+    (:meth:`parse`), what the JSON schema says of it (:meth:`schema`) and how the study-file reference
+    names it (``shown``, :meth:`allowed`).  ``workflows.study.reference`` and the study reader ask it."""
+
+    name: str
+    shown: str  # its type in the reference
+    json_type: str = ""  # a scalar's JSON type
+
+    def __repr__(self) -> str:
+        return self.name
+
+    def parse(self, spec: Spec, value):
+        """``value`` in its stored form; ValueError naming the problem."""
+        raise NotImplementedError
+
+    def convert(self, field_name: str, spec: Spec, value):
+        """The value a table stores for its field ``field_name`` (a table's own check: :class:`Record`)."""
+        return self.parse(spec, value)
+
+    def schema(self, spec: Spec) -> dict:
+        """The JSON schema of a value: its type, bounds, choices and pattern."""
+        schema: dict = {"type": self.json_type}
+        for op, bound in spec.bounds:
+            schema[_BOUND_KEYWORDS[op]] = bound
+        if spec.choices:
+            schema["enum"] = list(spec.choices)
+        if spec.pattern:
+            schema["pattern"] = spec.pattern
+        return schema
+
+    def allowed(self, spec: Spec) -> str:
+        """The reference's "Allowed" column: its choices, its name pattern, or its :meth:`limits`."""
+        if spec.choices:
+            return ", ".join(f"`{c}`" for c in spec.choices)
+        if spec.pattern == NAME_PATTERN:
+            return f"letters, digits, `_` `.` `-`, at most {MAX_NAME_LENGTH}"
+        return self.limits(spec)
+
+    def limits(self, spec: Spec) -> str:
+        """What a value must satisfy: its bounds."""
+        return ", ".join(f"{op} {bound:g}" for op, bound in spec.bounds)
+
+    def missing(self, key: str) -> str:
+        """What the message of a missing required field adds (a table's kind)."""
+        return ""
+
+
+_BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
+
+
+class Number(FieldKind):
+    name, shown, json_type = "number", "float", "number"
+
+    def parse(self, spec, value):
         x = _as_number(value)
         for op, bound in spec.bounds:
             ok = {">": x > bound, ">=": x >= bound, "<": x < bound, "<=": x <= bound}[op]
             if not ok:
                 raise ValueError(f"must be {op} {bound:g}, got {show(value)}")
         return x
-    if spec.type == "numbers":
+
+
+class Numbers(FieldKind):
+    name, shown = "numbers", "`[float, ...]`"
+
+    def parse(self, spec, value):
         if not isinstance(value, (list, tuple)):
             raise ValueError(f"must be a list of numbers, got {show(value)}")
-        element = dataclasses.replace(spec, type="number")
-        return tuple(check_value(element, v) for v in value)
-    if spec.type == "values":
+        element = dataclasses.replace(spec, kind=NUMBER)
+        return tuple(NUMBER.parse(element, v) for v in value)
+
+    def schema(self, spec):
+        return {"type": "array", "items": NUMBER.schema(Spec(NUMBER, gt=spec.gt, ge=spec.ge, lt=spec.lt, le=spec.le))}
+
+
+class Values(FieldKind):
+    name, shown = "values", "`[value, ...]`"
+
+    def parse(self, spec, value):
         if not isinstance(value, (list, tuple)) or not value:
             raise ValueError(f"must be a non-empty list of values, got {show(value)}")
         return _frozen(value)
-    if spec.type == "integer":
+
+    def schema(self, spec):
+        return {"type": "array", "minItems": 1}
+
+
+class Integer(FieldKind):
+    name, shown, json_type = "integer", "int", "integer"
+
+    def parse(self, spec, value):
         if isinstance(value, bool) or not isinstance(value, int):
             raise ValueError(f"must be an integer, got {show(value)}")
         for op, bound in spec.bounds:
             if not {">=": value >= bound, "<=": value <= bound}[op]:
                 raise ValueError(f"must be {op} {bound:g}, got {value}")
         return value
-    if spec.type == "text":
+
+
+class Text(FieldKind):
+    name, shown, json_type = "text", "string", "string"
+
+    def parse(self, spec, value):
         if not isinstance(value, str):
             raise ValueError(f"must be a string, got {show(value)}")
         if spec.choices and value not in spec.choices:
@@ -303,25 +390,101 @@ def check_value(spec: Spec, value):
                 f"must be letters, digits, '_', '.' or '-' (not starting with '_', '.' or '-'), got {show(value)}"
             )
         return value
-    if spec.type == "boolean":
+
+
+class Boolean(FieldKind):
+    name, shown, json_type = "boolean", "bool", "boolean"
+
+    def parse(self, spec, value):
         if not isinstance(value, bool):
             raise ValueError(f"must be true or false, got {show(value)}")
         return value
-    if spec.type == "names":
+
+
+class Names(FieldKind):
+    name, shown = "names", "`[name, ...]`"
+
+    def parse(self, spec, value):
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
             raise ValueError(f"must be a list of names, got {show(value)}")
         if len(set(value)) != len(value):
             raise ValueError(f"lists a name twice: {show(value)}")
         return tuple(value)
-    if spec.type == "point":
+
+    def schema(self, spec):
+        return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
+
+
+class Point(FieldKind):
+    name, shown = "point", "`[x, y]`"
+
+    def parse(self, spec, value):
         if not isinstance(value, (list, tuple)) or len(value) != 2:
             raise ValueError(f"must be a pair of numbers [x, y], got {show(value)}")
         return (_as_number(value[0]), _as_number(value[1]))
-    if spec.type == "polygon":
+
+    def schema(self, spec):
+        return dict(PAIR_SCHEMA)
+
+
+class Polygon(FieldKind):
+    name, shown = "polygon", "`[[x, y], ...]`"
+
+    def parse(self, spec, value):
         return _as_polygon(value)
-    if spec.type == "polyline":
+
+    def schema(self, spec):
+        return {"type": "array", "items": PAIR_SCHEMA, "minItems": 3}
+
+    def limits(self, spec):
+        return ">= 3 vertices, simple, area > 0"
+
+
+class Polyline(FieldKind):
+    name, shown = "polyline", "`[[x, y], ...]` or file"
+
+    def parse(self, spec, value):
         return _as_polyline(value)
-    raise AssertionError(f"check_value does not handle {spec.type!r}")
+
+    def schema(self, spec):
+        """Points, or a line file (``workflows.study.line_files``)."""
+        return {"anyOf": [{"type": "array", "items": PAIR_SCHEMA, "minItems": 2}, {"type": "string", "minLength": 1}]}
+
+    def limits(self, spec):
+        return ">= 2 points, x increasing"
+
+
+class Table(FieldKind):
+    """One nested table ``[name]`` of class ``Spec.of`` (built by the study reader)."""
+
+    name, shown = "table", ""
+
+    def convert(self, field_name, spec, value):
+        if not isinstance(value, spec.of):
+            raise ValueError(f"must be a {spec.of.__name__}, got {show(value)}")
+        return value
+
+    def missing(self, key):
+        return f" (a [{key}] table)"
+
+
+class Tables(FieldKind):
+    """An array of tables ``[[name]]`` (built by the study reader)."""
+
+    name, shown = "tables", ""
+
+    def convert(self, field_name, spec, value):
+        return Record._check_entries(field_name, spec, tuple(value))
+
+    def missing(self, key):
+        return f" (at least one [[{key}]] table)"
+
+
+NUMBER, NUMBERS, VALUES, INTEGER, TEXT, BOOLEAN = Number(), Numbers(), Values(), Integer(), Text(), Boolean()
+NAMES, POINT, POLYGON, POLYLINE, TABLE, TABLES = Names(), Point(), Polygon(), Polyline(), Table(), Tables()
+FIELD_KINDS: dict[str, FieldKind] = {kind.name: kind for kind in (NUMBER, NUMBERS, VALUES, INTEGER, TEXT, BOOLEAN,
+                                                                  NAMES, POINT, POLYGON, POLYLINE, TABLE, TABLES)}
+"""Every kind of field, by its name."""
 
 
 # ---------------------------------------------------------------------------------------
@@ -343,13 +506,7 @@ class Record:
             if value is None and field_default(type(self), field_name) is None:
                 continue
             try:
-                if spec.type == "table":
-                    if not isinstance(value, spec.of):
-                        raise ValueError(f"must be a {spec.of.__name__}, got {show(value)}")
-                elif spec.type == "tables":
-                    value = self._check_entries(field_name, spec, tuple(value))
-                else:
-                    value = check_value(spec, value)
+                value = spec.kind.convert(field_name, spec, value)
             except ValueError as error:
                 if isinstance(error, StudyError):
                     raise

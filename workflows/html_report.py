@@ -83,12 +83,14 @@ def write_html_report(kind, outcome, study_file) -> Path:
     """Write ``OUT/report.html`` (module doc) of the study of ``kind`` (a ``workflows.cases.StudyType``)
     with ``outcome`` (what its ``conclude`` gave), read from ``study_file``; its path."""
     report = kind.report(outcome, False, study_file)
-    page = report_page(kind.study, kind.out_dir, report.warnings + report.lines, kind_name=type(kind).__name__)
+    page = report_page(kind.study, kind.out_dir, report.warnings + report.lines, label=kind.label,
+                       base_note=kind.base_note)
     return write_bytes(page.encode("utf-8"), kind.out_dir / REPORT_FILE)
 
 
-def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, kind_name: str) -> str:
-    """The HTML text of the page (module doc)."""
+def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, label: str, base_note: str = "") -> str:
+    """The HTML text of the page (module doc) of a study of the type ``label`` says (``StudyType.label``;
+    its section figure captioned with its ``base_note``)."""
     created = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     esc = html.escape
     parts = [
@@ -99,14 +101,14 @@ def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, kind_n
     ]
     if study.study.description:
         parts.append(f"<p>{esc(study.study.description)}</p>")
-    parts.append(f'<p class="meta">spfem-fos {esc(__version__)}; {esc(_kind_label(kind_name))}; report made '
+    parts.append(f'<p class="meta">spfem-fos {esc(__version__)}; {esc(label)}; report made '
                  f"{created}; results in <code>{esc(str(out_dir))}</code></p>")
     parts.append('<nav><a href="#result">Result</a><a href="#inputs">Inputs</a><a href="#figures">Figures</a>'
                  '<a href="#study-file">Study file</a></nav>')
     parts += ['<section id="result">', "<h2>Result</h2>",
               *(f'<p class="headline">{esc(line)}</p>' for line in printed_lines if line.startswith(HEADLINES)),
               f"<pre>{esc(chr(10).join(printed_lines))}</pre>", "</section>"]
-    parts += ['<section id="inputs">', "<h2>Inputs</h2>", *_section_figure(study, kind_name), *_input_tables(study),
+    parts += ['<section id="inputs">', "<h2>Inputs</h2>", *_section_figure(study, base_note), *_input_tables(study),
               "</section>"]
     figures = _result_figures(out_dir)
     parts += ['<section id="figures">', "<h2>Figures</h2>"]
@@ -118,13 +120,6 @@ def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, kind_n
     return "\n".join(parts)
 
 
-def _kind_label(kind_name: str) -> str:
-    labels = {"SingleStudy": "a single study", "SweepStudy": "a sweep", "RefinementStudy": "a refinement study",
-              "RefinedSweepStudy": "a sweep of refinement studies", "ProbabilisticStudy": "a probabilistic study",
-              "ProbabilisticSweepStudy": "a sweep of probabilistic studies"}
-    return labels.get(kind_name, kind_name)
-
-
 def _figure(png: bytes, caption: str, alt: str) -> str:
     """A ``<figure>`` with ``png`` embedded as a ``data:`` address."""
     data = base64.b64encode(png).decode("ascii")
@@ -132,7 +127,7 @@ def _figure(png: bytes, caption: str, alt: str) -> str:
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
-def _section_figure(study: Study, kind_name: str) -> list[str]:
+def _section_figure(study: Study, base_note: str) -> list[str]:
     """The section drawing (``workflows.section_figure.draw_section``), unless the study draws no figures."""
     if not study.output.figures:
         return []
@@ -140,9 +135,7 @@ def _section_figure(study: Study, kind_name: str) -> list[str]:
     buffer = io.BytesIO()
     scene, flow = scene_and_flow(study)
     draw_section(study, scene, buffer, flow=flow)
-    varied = ("; the base study, before its random variables are drawn" if "Probabilistic" in kind_name else
-              "; the base study, before the sweep sets its values" if "Sweep" in kind_name else "")
-    return [_figure(buffer.getvalue(), SECTION_CAPTION.format(varied), "section")]
+    return [_figure(buffer.getvalue(), SECTION_CAPTION.format(base_note), "section")]
 
 
 def _result_figures(out_dir: Path) -> list[tuple[Path, str]]:

@@ -235,27 +235,12 @@ def supports(study: Study, scene: Scene, active: tuple[str, ...] | None = None) 
 
 
 def slip_normal(node_xy_m: np.ndarray, spacing_m: float, boundary, nodes: np.ndarray) -> int | None:
-    """The direction a slip support holds (0: x, 1: y), or None for a support that is not one.
-
-    ``slip = "soil"`` with one direction prescribed holds that one; with both prescribed at 0 it holds
-    the one across the straight line its particles lie on.  Without ``slip``, a support that holds
-    both velocities at 0 along one horizontal or vertical line is a slip support (a rough rigid base:
-    the soil slides along it at its own strength, docs/method.md section 3); ``welded`` and ``none``
-    are not."""
-    if boundary.slip in ("welded", "none"):
-        return None
-    if boundary.slip == "soil" and [boundary.vx_m_s, boundary.vy_m_s].count(None) == 1:
-        return 0 if boundary.vx_m_s is not None else 1
-    if not boundary.holds_both_at_rest:
-        return None
+    """The direction a slip support holds (0: x, 1: y), or None for a support that is not one: the
+    answer of its kind of slip (``workflows.study.supports.SLIP_KINDS``: ``soil``, ``welded``, ``none``,
+    or left out: a rough rigid base where it holds both velocities at 0 along one horizontal or vertical
+    line, docs/method.md section 3), given the line its particles lie on."""
     on_line = [d for d in (1, 0) if nodes.size >= 2 and np.ptp(node_xy_m[nodes, d]) <= 1e-3 * spacing_m]
-    if on_line:
-        return on_line[0]
-    if boundary.slip == "soil":
-        raise StudyError("boundary", f"the slip support {boundary.name!r} holds both velocities, so its particles "
-                         "must lie on one horizontal or vertical line (the direction it holds is the one across it); "
-                         "they do not: give only the velocity it holds (vx_m_s or vy_m_s = 0), or slip = \"welded\"")
-    return None
+    return boundary.slip_kind.held_direction(boundary, on_line[0] if on_line else None)
 
 
 def _slip_shares(scene: Scene, nodes: np.ndarray, normal: int, name: str) -> tuple[np.ndarray, np.ndarray]:

@@ -16,6 +16,8 @@ from workflows.study import Study
 class SingleStudy(StudyType):
     """A study without ``[sweep]`` (module doc)."""
 
+    label = "a single study"
+
     @property
     def placement(self) -> Placement:
         """Gravity in this process; figures as ``[output] figures`` says (a single FOS study drew them
@@ -25,7 +27,8 @@ class SingleStudy(StudyType):
 
     @staticmethod
     def applies_to(study: Study) -> bool:
-        return study.sweep is None
+        """Any study (the last type asked: ``workflows.study_types``)."""
+        return True
 
     def check(self, options: RunOptions) -> None:
         """A strength-reduction study's resolution; the memory of this process (and of the local workers
@@ -39,8 +42,9 @@ class SingleStudy(StudyType):
         return [Case(self.study, self.out_dir)]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
-        """The one case's outcome: a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun``."""
-        return outcomes[""]
+        """The one case's result: a ``fos.summary.FosOutcome`` or a ``stages.running.StudyRun`` (a case
+        that diverges stops a single study: it is never ``Diverged``)."""
+        return outcomes[""].result
 
     def report(self, outcome, quiet: bool, study_file) -> Report:
         if self.study.strength_reduction is not None:

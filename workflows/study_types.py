@@ -1,21 +1,21 @@
-"""The kinds of study, and the one way to run any of them.
+"""The kinds of study, the rule by which ``[sweep]`` composes with them, and the one way to run any.
 
 A study type (``workflows.cases.StudyType``) makes its cases, says how they run (its
-``Placement``), and brings their outcomes together:
-
-- ``single.SingleStudy``: a study without ``[sweep]``, one case in the output folder;
-- ``sweep.study_type.SweepStudy``: a study with ``[sweep]``, a case per combination of the
-  axes' values, and ``study.nc``;
-- ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
-  spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``;
-- ``refinement.sweep.RefinedSweepStudy``: a study with both, a refinement study per case of the
-  sweep, their levels advancing together round by round, and ``study.nc``.
+``Placement``), and brings their outcomes together.  The type of a study without ``[sweep]`` is
+the first of :data:`STUDY_TYPES` that takes it:
 
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
   realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
-- ``probabilistic.sweep.ProbabilisticSweepStudy``: a study with both ``[sweep]`` and
-  ``[probabilistic]``, a probabilistic study per case, every realisation on one cluster, and
-  ``study.nc`` with pf per case.
+- ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
+  spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``;
+- ``single.SingleStudy``: any other, one case in the output folder.
+
+With ``[sweep]``, each case of the sweep is a study of that type (the rule, :func:`study_type`):
+a sweep of single studies is ``sweep.study_type.SweepStudy`` (a case per combination of the axes'
+values, computed together, and ``study.nc``); a sweep of any type that makes cases of its own is
+``sweep.nested.NestedSweep`` of it: each case a study of that type in its own folder, every case's
+cases computed together, and ``study.nc`` as :data:`SWEPT` says a sweep of that type writes it
+(``refinement.sweep.RefinedSweep``, ``probabilistic.sweep.ProbabilisticSweep``).
 
 :func:`run_study` asks the study for its type once, checks it, makes its cases, computes them
 with the one case runner (``workflows.cases.run_cases``), round after round while the type makes
@@ -31,23 +31,33 @@ from pathlib import Path
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.output.folder_lock import folder_lock, study_digest
 from workflows.probabilistic.study_type import ProbabilisticStudy
-from workflows.probabilistic.sweep import ProbabilisticSweepStudy
+from workflows.probabilistic.sweep import ProbabilisticSweep
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
-from workflows.refinement.sweep import RefinedSweepStudy
+from workflows.refinement.sweep import RefinedSweep
 from workflows.single import SingleStudy
-from workflows.study import Study
+from workflows.study import Study, StudyError
+from workflows.sweep.nested import NestedSweep, SweepSummary
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
-                                              SingleStudy)
-"""Every study type, asked in this order whether a study is of it (the last takes any study)."""
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy, SingleStudy)
+"""Every type of a study without ``[sweep]``, asked in this order whether a study is of it (the last
+takes any study)."""
+SWEPT: dict[type[StudyType], SweepSummary] = {ProbabilisticStudy: ProbabilisticSweep(), RefinementStudy: RefinedSweep()}
+"""What a sweep of each type that makes cases of its own writes (``sweep.nested.SweepSummary``)."""
 
 
 def study_type(study: Study, out_dir: str | Path) -> StudyType:
-    """The type of ``study`` (:data:`STUDY_TYPES`), writing under ``out_dir``."""
+    """The type of ``study`` (module doc), writing under ``out_dir``; StudyError for a sweep of a type
+    without its entry in :data:`SWEPT`."""
     kind = next(kind for kind in STUDY_TYPES if kind.applies_to(study))
-    return kind(study, Path(out_dir))
+    if study.sweep is None:
+        return kind(study, Path(out_dir))
+    if kind is SingleStudy:  # a sweep's cases are single studies: computed together as its own
+        return SweepStudy(study, Path(out_dir))
+    if kind not in SWEPT:  # (a type's table refuses [sweep] until a sweep of it is written)
+        raise StudyError("sweep", f"does not apply to {kind.label} yet")
+    return NestedSweep(study, Path(out_dir), kind, SWEPT[kind])
 
 
 def run_study(study: Study, out_dir: str | Path, options: RunOptions | None = None,

@@ -69,7 +69,8 @@ class Verdict:
     failure_m: float
     slide_stop_m: float
     floor_m: float
-    quasi_static: bool  # at rest = converged unbalanced force; else = displacement stopped growing
+    rest_by_unbalanced_force: bool  # at rest = converged unbalanced force (quasi_static); else = displacement
+    # stopped growing (the protocol's ``rest_by_unbalanced_force``)
     window_s: float
     growth: float
 
@@ -104,7 +105,7 @@ class Verdict:
             if self.past(max_u_m, stop_m):
                 return (f"{'failed' if at_failure else 'slid'}: largest displacement {float(np.max(max_u_m)):.3g} m "
                         f"> {stop_m:g} m")
-            if not self.quasi_static and self.at_rest(time_s, max_u_m):
+            if not self.rest_by_unbalanced_force and self.at_rest(time_s, max_u_m):
                 return f"at rest: largest displacement grew < {self.growth:g} of itself in the last {self.window_s:g} s"
             return None
 
@@ -114,14 +115,14 @@ class Verdict:
         """(status, one-line reason) of a finished run; ``converged``: did a quasi-static run's
         unbalanced force converge (None for undamped runs)."""
         peak = float(np.max(max_u_m))
-        rest = bool(converged) if self.quasi_static else not self.still_moving(time_s, max_u_m)
+        rest = bool(converged) if self.rest_by_unbalanced_force else not self.still_moving(time_s, max_u_m)
         if peak > self.failure_m:
             ended = ("came to rest (an arrested slide)" if rest else
                      "still moving" if peak <= self.slide_stop_m else "stopped there")
             return FAILED, (f"a mechanism formed and moved {peak:.3g} m (> failure_displacement_m {self.failure_m:g} m), "
                             f"{ended}")
         if not rest:
-            if self.quasi_static:
+            if self.rest_by_unbalanced_force:
                 return FAILED, f"no equilibrium within the run: the unbalanced force had not converged at {time_s[-1]:.3g} s"
             _, last, _ = _window_growth(time_s, max_u_m, self.window_s)
             return FAILED, f"still moving at the end: +{last:.3g} m in the last {self.window_s:g} s (not slowing)"
@@ -133,6 +134,6 @@ def verdict_for(study: Study) -> Verdict:
     return Verdict(
         failure_m=failure_displacement_m(study),
         slide_stop_m=max(SLIDE_STOP_FRACTION * study.slope_height_m, 2.0 * failure_displacement_m(study)),
-        floor_m=displacement_floor_m(study), quasi_static=stage.protocol == "quasi_static",
+        floor_m=displacement_floor_m(study), rest_by_unbalanced_force=stage.reduction.rest_by_unbalanced_force,
         window_s=stage.rest_window_s_or_default, growth=stage.rest_growth_or_default,
     )

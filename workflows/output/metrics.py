@@ -9,7 +9,7 @@ one in flight would raise the surface envelope.  (A runout stage's own metrics:
 
 from __future__ import annotations
 
-from workflows.collapse.metrics import cohesive_summary, granular_summary, surface_profile
+from workflows.collapse.metrics import surface_profile
 from workflows.output.variables import COLLAPSE_METRICS
 
 
@@ -20,13 +20,7 @@ def metrics_variables(metrics, final) -> dict[str, tuple]:
     xy = final.xy_m[meshed]
     xy0 = final.initial_xy_m[meshed]
     h = final.spacing_m
-    if metrics.kind == "granular_collapse":
-        summary = granular_summary(xy, xy0, h, moved_threshold_m=metrics.moved_threshold_m)
-    else:
-        summary = cohesive_summary(
-            xy, xy0, h, final.area_m2[meshed], final.plastic_strain[meshed],
-            moved_threshold_m=metrics.moved_threshold_m, plastic_strain_threshold=metrics.plastic_strain_threshold,
-        )
+    summary = metrics.collapse.summary(metrics, xy, xy0, h, final.area_m2[meshed], final.plastic_strain[meshed])
     variables = {key: COLLAPSE_METRICS[key](float(value)) for key, value in summary.items()}
     x_m, height_m = surface_profile(xy, h)
     variables["surface_x"] = COLLAPSE_METRICS["surface_x"](x_m)

@@ -15,6 +15,8 @@ import math
 import numpy as np
 from scipy import stats
 
+from workflows.distributions import NORMAL, Distribution
+
 CONFIDENCE = 0.95
 
 
@@ -28,16 +30,11 @@ def failure_probability(n_failed: int, n: int, confidence: float = CONFIDENCE) -
     return n_failed / n, low, high
 
 
-def reliability_index(fos, distribution: str = "normal") -> float:
-    """beta of the sample of factors of safety ``fos`` (module doc)."""
+def reliability_index(fos, distribution: Distribution = NORMAL) -> float:
+    """beta of the sample of factors of safety ``fos`` taken as of ``distribution`` (module doc;
+    ``Distribution.reliability_index``)."""
     fos = np.asarray(fos, float)
-    mean, std = float(fos.mean()), float(fos.std(ddof=1))
-    if distribution == "normal":
-        return (mean - 1.0) / std
-    if distribution == "lognormal":
-        v2 = (std / mean) ** 2
-        return math.log(mean / math.sqrt(1.0 + v2)) / math.sqrt(math.log1p(v2))
-    raise ValueError(f"unknown distribution {distribution!r} (normal or lognormal)")
+    return distribution.reliability_index(float(fos.mean()), float(fos.std(ddof=1)))
 
 
 def lognormal_strength_pf(mean_strength: float, cov: float, fos_at_mean: float) -> float:

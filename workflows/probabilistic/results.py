@@ -7,6 +7,7 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
+from workflows.distributions import LOGNORMAL, NORMAL
 from workflows.fos.slip_surface import envelope
 from workflows.output.stage_file import provenance
 from workflows.output.variables import PROBABILISTIC_FILE
@@ -61,8 +62,8 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
                                                {"long_name": "random variable"}))
         ranks = [float(stats.spearmanr(ds[label].values[found], fos[found]).statistic) for label in labels]
         ds["fos_rank_correlation"] = var["fos_rank_correlation"](np.array(ranks))
-        attrs = {"reliability_index_normal": reliability_index(fos[found], "normal"),
-                 "reliability_index_lognormal": reliability_index(fos[found], "lognormal")}
+        attrs = {"reliability_index_normal": reliability_index(fos[found], NORMAL),
+                 "reliability_index_lognormal": reliability_index(fos[found], LOGNORMAL)}
     if slip_lines:
         x, lower, upper, count = envelope(slip_lines)
         ds["slip_envelope_x"] = var["slip_envelope_x"](x, n_lines=len(slip_lines))

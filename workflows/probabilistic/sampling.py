@@ -1,11 +1,11 @@
 """Random variables and their samples: Monte Carlo and Latin hypercube, with correlation.
 
-A variable is a marginal distribution (:class:`Marginal`: normal, lognormal, uniform or a
-normal truncated to bounds, by mean and standard deviation); variables are tied by the
+A variable is a marginal distribution (:class:`Marginal`: one of ``workflows.distributions``, normal,
+lognormal, uniform or a normal truncated to bounds, by mean and standard deviation); variables are tied by the
 correlation matrix ``R`` of the variables themselves.  Samples are drawn through a Gaussian
 copula (the Nataf model): standard normals ``z`` with correlation ``R_z``, then
 ``x_j = F_j^-1(Phi(z_j))``.  ``R_z`` is found pair by pair so that the variables' own
-correlation is ``R`` (:func:`normal_correlation`; for two lognormals the closed form
+correlation is ``R`` (:func:`normal_correlation`; a distribution's closed form where it has one, e.g. for two lognormals
 ``rho_z = ln(1 + rho V_1 V_2) / (sigma_ln1 sigma_ln2)``, else by quadrature and a root).
 
 - **Monte Carlo**: realisation ``i`` draws its normals from the stream ``SeedSequence([seed,
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.probabilistic.table import DISTRIBUTIONS
+from workflows.distributions import Distribution
 
 HERMITE_POINTS = 40
 """Gauss-Hermite points per axis of the quadrature of E[x_1 x_2] (:func:`normal_correlation`)."""
@@ -32,11 +32,11 @@ HERMITE_POINTS = 40
 
 @dataclass(frozen=True)
 class Marginal:
-    """One variable's distribution: ``mean`` and ``std`` (of the variable itself); ``low``, ``high``
-    the bounds of a truncated normal (of the untruncated normal's mean and std) or of a uniform
-    (whose mean and std then follow from them)."""
+    """One variable's distribution (``workflows.distributions``): ``mean`` and ``std`` (of the variable
+    itself); ``low``, ``high`` the bounds of a truncated normal (of the untruncated normal's mean and
+    std) or of a uniform (whose mean and std then follow from them)."""
 
-    distribution: str
+    distribution: Distribution
     mean: float
     std: float
     low: float = -math.inf
@@ -44,65 +44,27 @@ class Marginal:
 
     def frozen(self):
         """The scipy.stats distribution."""
-        from scipy import stats  # (0.5 s to import: only where a normal or lognormal's own formula will not do)
-
-        if self.distribution == "normal":
-            return stats.norm(self.mean, self.std)
-        if self.distribution == "lognormal":
-            sigma = math.sqrt(math.log1p((self.std / self.mean) ** 2))
-            return stats.lognorm(sigma, scale=self.mean / math.sqrt(1.0 + (self.std / self.mean) ** 2))
-        if self.distribution == "uniform":
-            return stats.uniform(self.low, self.high - self.low)
-        if self.distribution == "truncated_normal":
-            return stats.truncnorm((self.low - self.mean) / self.std, (self.high - self.mean) / self.std,
-                                   self.mean, self.std)
-        raise ValueError(f"unknown distribution {self.distribution!r} (known: {', '.join(DISTRIBUTIONS)})")
+        return self.distribution.frozen(self)
 
     def from_normal(self, z: np.ndarray) -> np.ndarray:
         """x = F^-1(Phi(z)) (for a lognormal, exp(mu_ln + sigma_ln z) exactly)."""
-        if self.distribution == "lognormal":
-            sigma2 = math.log1p((self.std / self.mean) ** 2)
-            return np.exp(math.log(self.mean) - 0.5 * sigma2 + math.sqrt(sigma2) * np.asarray(z))
-        if self.distribution == "normal":
-            return self.mean + self.std * np.asarray(z)
-        from scipy import stats  # scipy.stats (0.5 s): only where it is used
-
-        return self.frozen().ppf(stats.norm.cdf(z))
+        return self.distribution.from_normal(self, z)
 
     def standardised_from_normal(self, z: np.ndarray) -> np.ndarray:
         """(x - E[x]) / std(x) of x = F^-1(Phi(z)), computed without subtracting nearly equal numbers: a
         spread far below the mean (a lognormal of COV 1e-12) leaves x - E[x] as rounding noise and its
-        std as 0.  A lognormal's is expm1(sigma_ln z - sigma_ln^2 / 2) / V (V = sqrt(expm1(sigma_ln^2)),
-        its COV); a truncated normal's that of the standard normal truncated to its bounds in stds, its
-        upper half from the upper tail (Phi(z) rounds to 1 beyond z = 8.3, whose quantile is the upper
-        bound: infinite, or far off)."""
-        z = np.asarray(z, dtype=float)
-        if self.distribution == "normal":
-            return z
-        if self.distribution == "lognormal":
-            sigma2 = math.log1p((self.std / self.mean) ** 2)
-            return np.expm1(math.sqrt(sigma2) * z - 0.5 * sigma2) / math.sqrt(math.expm1(sigma2))
-        from scipy import stats
-
-        if self.distribution == "uniform":
-            return (stats.norm.cdf(z) - 0.5) * math.sqrt(12.0)
-        standard = stats.truncnorm((self.low - self.mean) / self.std, (self.high - self.mean) / self.std)
-        t = np.where(z > 0.0, standard.isf(stats.norm.sf(z)), standard.ppf(stats.norm.cdf(z)))
-        return (t - standard.mean()) / standard.std()
+        std as 0 (each distribution's own formula, ``Distribution.standardised_from_normal``)."""
+        return self.distribution.standardised_from_normal(self, np.asarray(z, dtype=float))
 
 
 def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
     """rho_z of the copula's normals that gives ``a`` and ``b`` the correlation ``rho`` (module
     doc); ValueError where no rho_z in (-1, 1) reaches it."""
-    if rho == 0.0 or (a.distribution == "normal" and b.distribution == "normal"):
+    if rho == 0.0:
         return rho
-    if a.distribution == "lognormal" and b.distribution == "lognormal":
-        va, vb = a.std / a.mean, b.std / b.mean
-        value = (math.log1p(rho * va * vb) / math.sqrt(math.log1p(va * va) * math.log1p(vb * vb))
-                 if rho * va * vb > -1.0 else -math.inf)
-        if not -1.0 < value < 1.0:
-            raise ValueError(f"a correlation of {rho:g} is out of reach of these two lognormals")
-        return value
+    closed = a.distribution.copula_correlation(a, b, rho)
+    if closed is not None:
+        return closed
     nodes, weights = np.polynomial.hermite_e.hermegauss(HERMITE_POINTS)
     weights = weights / weights.sum()
     u, v = np.meshgrid(nodes, nodes, indexing="ij")
@@ -115,7 +77,8 @@ def normal_correlation(a: Marginal, b: Marginal, rho: float) -> float:
 
     low, high = achieved(-0.9999), achieved(0.9999)
     if low > 0.0 or high < 0.0:
-        raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution} and a {b.distribution} "
+        raise ValueError(f"a correlation of {rho:g} is out of reach of a {a.distribution.name} and a "
+                         f"{b.distribution.name} "
                          f"variable (from {low + rho:.3g} to {high + rho:.3g})")
     from scipy import optimize  # scipy.optimize: only where it is used
 

@@ -48,10 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
-from spfem_core.divergence import DivergenceError
 from workflows import engineering_units
 from workflows.cases import Case, CaseFeed, CaseTimings, Report, RunOptions
-from workflows.fields import MAX_MAGNITUDE, check_value, specs
+from workflows.fields import MAX_MAGNITUDE, NUMBER, check_value, specs
 from workflows.fos.discretisation import note
 from workflows.fos.prediction import Generations, WindowPredictor
 from workflows.memory_guard import check_memory
@@ -132,16 +131,16 @@ class Realisations:
         variable = self.study.probabilistic.variables[k]
         where = f"probabilistic.variables[{k}]"
         found = self._resolved(k)
-        if found.spec.type != "number":
+        if found.spec.kind is not NUMBER:
             raise StudyError(f"{where}.path", f"{variable.path} is not a number field")
-        if variable.distribution == "uniform":
+        if variable.kind.by_bounds:
             low, high = variable.low, variable.high
             for name, bound in (("low", low), ("high", high)):
                 try:
                     check_value(found.spec, bound)
                 except ValueError as error:
                     raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
-            return Marginal("uniform", 0.5 * (low + high), (high - low) / math.sqrt(12.0), low, high)
+            return Marginal(variable.kind, 0.5 * (low + high), (high - low) / math.sqrt(12.0), low, high)
         mean = variable.mean
         if mean is None:
             declared = specs(found.table)
@@ -152,8 +151,8 @@ class Realisations:
                 raise StudyError(f"{where}.mean", f"{variable.path} is not given in the study file: give the mean")
             mean = si_mean / (1.0 if units is None else units.si_per_unit)
         std = variable.std if variable.std is not None else variable.cov * abs(mean)
-        if variable.distribution == "lognormal" and mean <= 0.0:
-            raise StudyError(f"{where}.mean", f"a lognormal variable needs a mean > 0, got {mean:g}")
+        if variable.kind.positive and mean <= 0.0:
+            raise StudyError(f"{where}.mean", f"a {variable.distribution} variable needs a mean > 0, got {mean:g}")
         problem = spread_problem(mean, std, variable.cov is not None)
         if problem is not None:
             raise StudyError(f"{where}.{problem[0]}", f"{variable.path}: {problem[1]}")
@@ -164,7 +163,7 @@ class Realisations:
                     check_value(found.spec, bound)
                 except ValueError as error:
                     raise StudyError(f"{where}.{name}", f"{variable.path} {error}") from None
-        return Marginal(variable.distribution, float(mean), float(std),
+        return Marginal(variable.kind, float(mean), float(std),
                         -math.inf if variable.low is None else variable.low,
                         math.inf if variable.high is None else variable.high)
 
@@ -303,6 +302,9 @@ a larger generation leaves fewer waits for its last realisation, predicted from 
 
 class ProbabilisticStudy(SweepStudy):
     """A study with ``[probabilistic]`` (module doc)."""
+
+    label = "a probabilistic study"
+    base_note = "; the base study, before its random variables are drawn"
 
     def __init__(self, study: Study, out_dir: Path):
         super().__init__(study, out_dir)
@@ -490,24 +492,24 @@ class ProbabilisticStudy(SweepStudy):
         tally = self.tally
         if self.predicted is not None:
             self.n_concluded += 1
-            fos = math.nan if isinstance(outcome, DivergenceError) else outcome.fos
+            fos = outcome.fos
             self.predicted[1].concluded(case_id, fos)
-            slip = getattr(outcome, "slip", None)
+            slip = getattr(outcome.result, "slip", None)
             if getattr(self, "_mechanisms", None) is not None and hasattr(slip, "x_m") and case_id in self.study_of:
                 self._mechanisms.add(self.study_of[case_id], slip.x_m, slip.y_m, fos)
-        result = (diverged_result("", 0) if isinstance(outcome, DivergenceError) else case_result(outcome))
+        result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
         verdict = realisation_verdict(result, table.compute, table.factor)
         tally[verdict] += 1
         index = int(case_id[len(CASE_PREFIX):])
         if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
-                and index >= table.keep_fields_first and not isinstance(outcome, DivergenceError)):
+                and index >= table.keep_fields_first and not outcome.diverged):
             from workflows.fos.run_store import run_file_name, without_particle_fields  # dask: only when FOS cases run
 
             for record in outcome.runs:
                 if record.status == FAILED:
-                    without_particle_fields(outcome.out_dir / run_file_name(record.srf))
-        if verdict == FAILED and not isinstance(outcome, DivergenceError):
-            line, edges = self._mechanism(case_id, outcome)
+                    without_particle_fields(outcome.result.out_dir / run_file_name(record.srf))
+        if verdict == FAILED and not outcome.diverged:
+            line, edges = self._mechanism(case_id, outcome.result)
             if line is not None:
                 self.slip_lines[case_id] = line
                 self.edges_reached[case_id] = edges
@@ -559,8 +561,8 @@ class ProbabilisticStudy(SweepStudy):
         results = {}
         for row in rows:
             outcome = outcomes[row.case_id]
-            results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome}", 0)
-                                    if isinstance(outcome, DivergenceError) else case_result(outcome))
+            results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome.error}", 0)
+                                    if outcome.diverged else case_result(outcome.result))
         verdicts = [realisation_verdict(results[row.case_id], table.compute, table.factor) for row in rows]
         n_failed, n_undecided = verdicts.count(FAILED), verdicts.count(UNDECIDED)
         decided = len(verdicts) - n_undecided
@@ -571,16 +573,14 @@ class ProbabilisticStudy(SweepStudy):
                                       pf, low, high)
         if table.compute == "fos" and len(found) >= 2:
             result.fos_mean, result.fos_std = float(found.mean()), float(found.std(ddof=1))
-        runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
-                for record in outcome.runs]
+        runs = [record for outcome in outcomes.values() for record in outcome.runs]
         made = [record for record in runs if record.started_s == record.started_s]  # NaN: reused
         result.runs_made = len(made)
         result.timings_s = {"cases_elapsed": timings.cases_elapsed, "srf_runs_worker": timings.srf_runs_worker,
                             "run_loops": sum(record.wall_time_s for record in made),
                             "remesh": sum(record.remesh_wall_s for record in made),
                             "total": time.perf_counter() - wall_start}
-        case_runs = {row.case_id: ([] if isinstance(outcome := outcomes[row.case_id], DivergenceError)
-                                   else outcome.runs) for row in rows}
+        case_runs = {row.case_id: list(outcomes[row.case_id].runs) for row in rows}
         slip_lines = [self.slip_lines[row.case_id] for row in rows if row.case_id in self.slip_lines]
         result.edge_fractions = self.edge_fractions([row.case_id for row in rows])
         result.n_mechanisms = len(slip_lines)

@@ -5,12 +5,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from workflows.distributions import DISTRIBUTIONS, Distribution, listed
 from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
 from workflows.random_field.table import spread_problem
 
 MAX_REALISATIONS = 100_000
-DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
 KEEP_FIELDS = ("failed", "all", "none")
+BOUNDED = ", ".join(name for name, kind in DISTRIBUTIONS.items() if kind.bounded)
+"""The distributions that take bounds low and high."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -18,37 +20,40 @@ class RandomVariable(Record):
     """One study field drawn anew for each realisation."""
 
     path: str = text("the field, by its path as in [sweep]: `materials.soil.cohesion_pa`")
-    distribution: str = text(
-        "`normal`, `lognormal`, `uniform` (between low and high) or `truncated_normal` (a normal of mean and "
-        "std cut to [low, high])", choices=DISTRIBUTIONS,
-    )
+    distribution: str = text(listed(DISTRIBUTIONS), choices=tuple(DISTRIBUTIONS))
     mean: float | None = number("1", "mean, in the field's unit; default the field's value in the study",
                                 default=None)
     std: float | None = number("1", "standard deviation, in the field's unit (or give cov)", default=None, gt=0.0)
     cov: float | None = number("1", "coefficient of variation std / mean (or give std)", default=None, gt=0.0,
                                le=10.0)
-    low: float | None = number("1", "*uniform, truncated_normal:* lower bound", default=None)
-    high: float | None = number("1", "*uniform, truncated_normal:* upper bound", default=None)
+    low: float | None = number("1", f"*{BOUNDED}:* lower bound", default=None)
+    high: float | None = number("1", f"*{BOUNDED}:* upper bound", default=None)
+
+    @property
+    def kind(self) -> Distribution:
+        """The distribution ``distribution`` names (``workflows.distributions``)."""
+        return DISTRIBUTIONS[self.distribution]
 
     def check(self):
-        bounded = self.distribution in ("uniform", "truncated_normal")
-        if self.distribution == "uniform":
+        kind = self.kind
+        if kind.by_bounds:
             if self.low is None or self.high is None:
-                raise StudyError("low" if self.low is None else "high", "a uniform variable needs low and high")
+                raise StudyError("low" if self.low is None else "high",
+                                 f"a {self.distribution} variable needs low and high")
             for name in ("mean", "std", "cov"):
                 if getattr(self, name) is not None:
-                    raise StudyError(name, "a uniform variable is given by low and high only")
+                    raise StudyError(name, f"a {self.distribution} variable is given by low and high only")
         else:
             if (self.std is None) == (self.cov is None):
                 raise StudyError("std", "give std or cov (one of them)")
-            if not bounded and (self.low is not None or self.high is not None):
+            if not kind.bounded and (self.low is not None or self.high is not None):
                 raise StudyError("low" if self.low is not None else "high",
-                                 f"applies to uniform and truncated_normal, not {self.distribution}")
-        if bounded and self.low is not None and self.high is not None and not self.low < self.high:
+                                 f"applies to {BOUNDED.replace(', ', ' and ')}, not {self.distribution}")
+        if kind.bounded and self.low is not None and self.high is not None and not self.low < self.high:
             raise StudyError("high", f"must be above low ({self.low:g}), got {self.high:g}")
-        if self.distribution == "lognormal" and self.mean is not None and self.mean <= 0.0:
-            raise StudyError("mean", "a lognormal variable needs a mean > 0")
-        if self.mean is not None and self.distribution != "uniform":
+        if kind.positive and self.mean is not None and self.mean <= 0.0:
+            raise StudyError("mean", f"a {self.distribution} variable needs a mean > 0")
+        if self.mean is not None and not kind.by_bounds:
             problem = spread_problem(self.mean, self.std if self.std is not None else self.cov * abs(self.mean),
                                      self.cov is not None)
             if problem is not None:

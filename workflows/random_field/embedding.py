@@ -16,12 +16,9 @@ no embedding up to :data:`MAX_EMBEDDING` times the grid reaches it with is an er
 (:class:`EmbeddingError`), never a wrong field: a scale of fluctuation much longer than the grid
 (:func:`largest_theta_scale` finds the longest the grid holds).
 
-Correlation models, with the scale of fluctuation ``theta`` (Vanmarcke; Fenton & Griffiths):
-
-    markov:    rho = exp(-2 r),          r = sqrt((tau_x / theta_x)^2 + (tau_y / theta_y)^2)
-    gaussian:  rho = exp(-pi r^2)
-
-(GSTools' exponential model exp(-r / l) is this Markov model with l = theta / 2.)
+The correlation ``rho`` is that of a model of ``workflows.random_field.correlation`` (``markov``,
+``gaussian``), a function of r = sqrt((tau_x / theta_x)^2 + (tau_y / theta_y)^2) with the scales of
+fluctuation ``theta``; every function here takes the model object.
 
 A particle's value is the average of the field over its smoothing cell, taken here as the
 square of side ``h`` (its spacing) about it.  Its variance is the point variance times
@@ -49,7 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from workflows.random_field.table import CORRELATION_MODELS
+from workflows.random_field.correlation import CorrelationModel
 
 NEGATIVE_SHARE = 1e-3
 """Largest share of negative eigenvalues of an embedding (module doc): every covariance of the grid
@@ -66,14 +63,9 @@ CELL_QUADRATURE_POINTS = 12
 C_A(0) within 2e-4 of gamma for the Markov model at theta / h = 1 (tests/test_random_field.py)."""
 
 
-def correlation(model: str, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float):
+def correlation(model: CorrelationModel, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float):
     """rho of the model (module doc) at the lags ``tau_x_m``, ``tau_y_m`` (arrays, m)."""
-    r2 = (np.asarray(tau_x_m) / theta_x_m) ** 2 + (np.asarray(tau_y_m) / theta_y_m) ** 2
-    if model == "markov":
-        return np.exp(-2.0 * np.sqrt(r2))
-    if model == "gaussian":
-        return np.exp(-math.pi * r2)
-    raise ValueError(f"unknown correlation model {model!r} (known: {', '.join(CORRELATION_MODELS)})")
+    return model.of_squared_lag((np.asarray(tau_x_m) / theta_x_m) ** 2 + (np.asarray(tau_y_m) / theta_y_m) ** 2)
 
 
 class EmbeddingError(ValueError):
@@ -81,7 +73,7 @@ class EmbeddingError(ValueError):
     fluctuation too long for the grid: :func:`largest_theta_scale`)."""
 
 
-def embedding(model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float, dy_m: float,
+def embedding(model: CorrelationModel, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float, dy_m: float,
               cell_m: float | None = None) -> np.ndarray | None:
     """sqrt(lambda / N) of the smallest periodic grid, from twice the ``nx`` x ``ny`` grid up to
     :data:`MAX_EMBEDDING` times it, whose negative eigenvalues are at most :data:`NEGATIVE_SHARE` of
@@ -109,7 +101,7 @@ def embedding(model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, 
 class GridField:
     """The circulant embedding of one model on one grid: draws fields of it (module doc)."""
 
-    model: str
+    model: CorrelationModel
     theta_x_m: float
     theta_y_m: float
     nx: int
@@ -121,7 +113,7 @@ class GridField:
 
     @classmethod
     @functools.lru_cache(maxsize=8)  # the realisations of a study on one worker share the embedding
-    def build(cls, model: str, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float,
+    def build(cls, model: CorrelationModel, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float,
               dy_m: float, cell_m: float | None = None) -> "GridField":
         """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m`` for the point field,
         or with ``cell_m`` for the field of its averages over squares of that side (covariance
@@ -146,7 +138,7 @@ class GridField:
         return field.real[: self.nx, : self.ny], field.imag[: self.nx, : self.ny]
 
 
-def variance_function(model: str, length_x_m: float, length_y_m: float, theta_x_m: float, theta_y_m: float,
+def variance_function(model: CorrelationModel, length_x_m: float, length_y_m: float, theta_x_m: float, theta_y_m: float,
                       points: int = 64) -> float:
     """gamma(T_x, T_y): the variance of the average over a T_x x T_y rectangle over the point
     variance, gamma = 4 / (T_x T_y)^2 int_0^T_x int_0^T_y (T_x - a)(T_y - b) rho(a, b) da db
@@ -160,7 +152,7 @@ def variance_function(model: str, length_x_m: float, length_y_m: float, theta_x_
     return float(4.0 * inner.sum() / (length_x_m * length_y_m) ** 2)
 
 
-def cell_covariance(model: str, cell_m: float, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float,
+def cell_covariance(model: CorrelationModel, cell_m: float, tau_x_m, tau_y_m, theta_x_m: float, theta_y_m: float,
                     points: int = 48) -> np.ndarray:
     """The covariance of the averages of a unit-variance field over two ``cell_m`` x ``cell_m`` squares
     whose centres lie (tau_x, tau_y) apart, on the grid of lags ``tau_x_m`` x ``tau_y_m`` (1-D arrays;
@@ -184,7 +176,7 @@ def cell_covariance(model: str, cell_m: float, tau_x_m, tau_y_m, theta_x_m: floa
     return out
 
 
-def cell_correlation(model: str, cell_m: float, tau_x_m: float, tau_y_m: float, theta_x_m: float,
+def cell_correlation(model: CorrelationModel, cell_m: float, tau_x_m: float, tau_y_m: float, theta_x_m: float,
                      theta_y_m: float, points: int = 48) -> float:
     """The correlation of the averages of two ``cell_m`` x ``cell_m`` squares whose centres lie
     (tau_x, tau_y) apart: C_A(tau) / C_A(0) (:func:`cell_covariance`)."""
@@ -237,7 +229,7 @@ BISECTION_STEPS = 12
 """Halvings of the interval (in log scale, from a factor of 2) that bracket the coarse grid's limit."""
 
 
-def largest_theta_scale(model: str, theta_x_m: float, theta_y_m: float, grid: ParticleGrid) -> float:
+def largest_theta_scale(model: CorrelationModel, theta_x_m: float, theta_y_m: float, grid: ParticleGrid) -> float:
     """The largest factor s, s theta_x to two significant digits rounded down, for which the field of
     scales (s theta_x, s theta_y) has an embedding on ``grid`` (:func:`embedding`): first the limit of
     the point field on a coarse grid of the same extent (:data:`COARSE_GRID_POINTS`), by bisection,
@@ -276,7 +268,7 @@ class ParticleField:
     field on a grid of step ``h_min / GRID_PER_CELL``; a particle takes the box average of side its
     own spacing about the grid point nearest it."""
 
-    def __init__(self, model: str, theta_x_m: float, theta_y_m: float, x_m: np.ndarray, y_m: np.ndarray,
+    def __init__(self, model: CorrelationModel, theta_x_m: float, theta_y_m: float, x_m: np.ndarray, y_m: np.ndarray,
                  spacing_m: np.ndarray | float):
         grid = ParticleGrid.of(x_m, y_m, spacing_m)
         self.step_m = grid.step_m

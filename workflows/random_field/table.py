@@ -1,7 +1,7 @@
 """``[random_field]``: soil properties that vary from point to point, as the study file declares them.
 
 Each entry of ``[[random_field.properties]]`` makes one property of one material a random field
-(Griffiths & Fenton 2004) of a correlation model (:data:`CORRELATION_MODELS`) and scales of
+(Griffiths & Fenton 2004) of a correlation model (``workflows.random_field.correlation``) and scales of
 fluctuation, with a point law
 
     normal:     X = mean + std G
@@ -21,12 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from workflows.distributions import FIELD_DISTRIBUTIONS, NORMAL, Distribution
 from workflows.engineering_units import spellings
-from workflows.fields import Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.fields import NUMBER, Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.random_field.correlation import CORRELATION_MODELS, CorrelationModel
 
-CORRELATION_MODELS = ("markov", "gaussian")
-"""The correlation models of a field (``workflows.random_field.embedding.correlation``)."""
-FIELD_DISTRIBUTIONS = ("normal", "lognormal")
 SEEPAGE_PROPERTY = "permeability_m_s"
 """The one property of a field that is no property of the core's: the conductivity the steady flow
 takes (``workflows.seepage.flow``), with ``[seepage]``."""
@@ -40,13 +39,6 @@ ORDERED = (("dilation_deg", "friction_deg"), ("residual_friction_deg", "friction
 psi > phi, and a residual strength above the peak): (lower, upper).  A random field of either is
 refused where a point breaks the order with a probability above :data:`OUTSIDE_RANGE_LIMIT`; below
 it, the lower property is set to the upper at the rare particles that do (psi = phi there)."""
-
-
-def lognormal_parameters(mean: float, cov: float) -> tuple[float, float]:
-    """(mu_ln, sigma_ln) of a lognormal variable of ``mean`` and coefficient of variation ``cov``:
-    sigma_ln^2 = ln(1 + cov^2), mu_ln = ln(mean) - sigma_ln^2 / 2."""
-    sigma2 = math.log1p(cov * cov)
-    return math.log(mean) - 0.5 * sigma2, math.sqrt(sigma2)
 
 
 def spread_problem(mean: float, std: float, cov_given: bool) -> tuple[str, str] | None:
@@ -68,33 +60,25 @@ def _normal_cdf(z: float) -> float:
 
 
 def order_broken_probability(lower: tuple, upper: tuple, rho: float = 0.0) -> float:
-    """P(X_lower > X_upper) at a point, each side ("normal" or "lognormal", mean, std) of a field (its
-    standard Gaussian G, ``rho`` the correlation of the two G's) or ("value", x, 0): for two normals
-    Phi((m_l - m_u) / sqrt(s_l^2 + s_u^2 - 2 rho s_l s_u)); otherwise the integral over G_u of
-    P(G_l > t_l(x_u(G_u)) | G_u), G_l given G_u normal of mean rho G_u and variance 1 - rho^2
-    (quadrature)."""
+    """P(X_lower > X_upper) at a point, each side (its ``workflows.distributions`` point law, mean, std)
+    of a field (its standard Gaussian G, ``rho`` the correlation of the two G's) or (None, x, 0) of a
+    value: for two normals Phi((m_l - m_u) / sqrt(s_l^2 + s_u^2 - 2 rho s_l s_u)); otherwise the
+    integral over G_u of P(G_l > t_l(x_u(G_u)) | G_u), G_l given G_u normal of mean rho G_u and
+    variance 1 - rho^2 (quadrature)."""
 
     def gaussian_of(side, x):  # the G whose value is x (-inf for x <= 0 of a lognormal)
-        kind, mean, std = side
-        if kind == "lognormal":
-            mu, sigma = lognormal_parameters(mean, std / mean)
-            return (math.log(x) - mu) / sigma if x > 0.0 else -math.inf
-        return (x - mean) / std
+        return side[0].gaussian_of(side[1], side[2], x)
 
     def value_of(side, g):
-        kind, mean, std = side
-        if kind == "lognormal":
-            mu, sigma = lognormal_parameters(mean, std / mean)
-            return math.exp(mu + sigma * g)
-        return mean + std * g
+        return side[0].point_value(side[1], side[2], g)
 
-    if lower[0] == "value" and upper[0] == "value":
+    if lower[0] is None and upper[0] is None:
         return float(lower[1] > upper[1])
-    if lower[0] == "value":  # P(X_u < x_l)
+    if lower[0] is None:  # P(X_u < x_l)
         return _normal_cdf(gaussian_of(upper, lower[1]))
-    if upper[0] == "value":  # P(X_l > x_u)
+    if upper[0] is None:  # P(X_l > x_u)
         return _normal_cdf(-gaussian_of(lower, upper[1]))
-    if lower[0] == upper[0] == "normal":
+    if lower[0] is upper[0] is NORMAL:
         spread = math.sqrt(max(lower[2] ** 2 + upper[2] ** 2 - 2.0 * rho * lower[2] * upper[2], 0.0))
         return _normal_cdf((lower[1] - upper[1]) / spread) if spread > 0.0 else float(lower[1] > upper[1])
     from scipy import integrate  # scipy is heavy: imported only for a lognormal pair, never by the reader
@@ -110,7 +94,7 @@ def order_broken_probability(lower: tuple, upper: tuple, rho: float = 0.0) -> fl
 
 def _law_text(side: tuple, prop: str) -> str:
     kind, mean, std = side
-    return f"{prop} {mean:g}" if kind == "value" else f"a {kind} {prop} field of mean {mean:g} and std {std:g}"
+    return f"{prop} {mean:g}" if kind is None else f"a {kind.name} {prop} field of mean {mean:g} and std {std:g}"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -122,7 +106,8 @@ class FieldProperty(Record):
     material: str = name_field("the material, by its name in [[materials]]")
     property: str = text("the material's field that varies: e.g. `cohesion_pa`, `undrained_shear_strength_pa`, "
                          "`friction_deg`, `youngs_modulus_pa`, `density_kg_m3`")
-    distribution: str = text("`normal` or `lognormal` (a strength that must stay positive)", choices=FIELD_DISTRIBUTIONS)
+    distribution: str = text("`normal` or `lognormal` (a strength that must stay positive)",
+                             choices=tuple(FIELD_DISTRIBUTIONS))
     mean: float | None = number("1", "point mean, in the property's unit; default the material's value",
                                 default=None)
     std: float | None = number("1", "point standard deviation, in the property's unit (or give cov)", default=None,
@@ -133,12 +118,22 @@ class FieldProperty(Record):
                               gt=0.0)
     theta_y_m: float | None = number("m", "vertical scale of fluctuation theta_v; default theta_x_m (isotropic)",
                                      default=None, gt=0.0)
-    correlation_model: str = text("`markov` (exp(-2 r)) or `gaussian` (exp(-pi r^2)), with r the lag over theta",
-                                  default="markov", choices=CORRELATION_MODELS)
+    correlation_model: str = text(
+        " or ".join(f"`{name}` ({model.formula})" for name, model in CORRELATION_MODELS.items())
+        + ", with r the lag over theta", default="markov", choices=tuple(CORRELATION_MODELS),
+    )
     correlated_with: str | None = text("the name of another field of this material: the two Gaussian fields "
                                        "correlate by `correlation`", default=None)
     correlation: float | None = number("1", "correlation coefficient with `correlated_with` (of ln X for lognormal)",
                                        default=None, gt=-1.0, lt=1.0)
+
+    def law(self) -> Distribution:  # a method, as thetas_m
+        """The point law ``distribution`` names (``workflows.distributions``)."""
+        return FIELD_DISTRIBUTIONS[self.distribution]
+
+    def model(self) -> CorrelationModel:  # a method, as thetas_m
+        """The correlation model ``correlation_model`` names (``workflows.random_field.correlation``)."""
+        return CORRELATION_MODELS[self.correlation_model]
 
     def thetas_m(self) -> tuple[float, float]:  # a method: the field `property` hides the builtin here
         """(theta_x, theta_y) in m."""
@@ -177,7 +172,7 @@ class RandomField(Record):
             if material is None:
                 raise StudyError(f"{where}.material", f"no material named {entry.material!r} "
                                  f"(known: {', '.join(materials)})")
-            numeric = [name for name, spec in specs(type(material)).items() if spec.type == "number"]
+            numeric = [name for name, spec in specs(type(material)).items() if spec.kind is NUMBER]
             varying = [p for p in numeric if p in material.core_row()] + [SEEPAGE_PROPERTY] * (study.seepage is not None)
             si_name = spellings(entry.property)[0]
             if entry.property not in varying and si_name in varying:
@@ -193,8 +188,8 @@ class RandomField(Record):
                                  "sets saturated densities per particle)")
             mean, std = self.moments(entry, material)
             spec = specs(type(material))[entry.property]
-            if entry.distribution == "lognormal" and not mean > 0.0:
-                raise StudyError(f"{where}.mean", f"a lognormal field needs a mean > 0, got {mean:g}")
+            if entry.law().positive and not mean > 0.0:
+                raise StudyError(f"{where}.mean", f"a {entry.distribution} field needs a mean > 0, got {mean:g}")
             problem = spread_problem(mean, std, entry.cov is not None)
             if problem is not None:
                 raise StudyError(f"{where}.{problem[0]}", f"{entry.material}'s {entry.property}: {problem[1]}")
@@ -240,12 +235,12 @@ class RandomField(Record):
                         f"the field{'s' if None not in ks else ''}, or move {entry.property}'s mean away"))
 
     def _point_law(self, k: int | None, material, prop: str) -> tuple:
-        """("normal" or "lognormal", mean, std) of the point value of field ``k``, or ("value", x, 0) of
-        the material's own value of ``prop`` where no field varies it."""
+        """(point law, mean, std) of the point value of field ``k``, or (None, x, 0) of the material's own
+        value of ``prop`` where no field varies it."""
         if k is None:
-            return "value", float(getattr(material, prop)), 0.0
+            return None, float(getattr(material, prop)), 0.0
         entry = self.properties[k]
-        return (entry.distribution, *self.moments(entry, material))
+        return (entry.law(), *self.moments(entry, material))
 
     def embeddings_key(self, study) -> tuple:
         """What the fields' circulant embeddings depend on (equal keys: one check of them serves both): the
@@ -265,13 +260,9 @@ class RandomField(Record):
     @staticmethod
     def _check_range(where: str, entry: FieldProperty, spec, mean: float, std: float) -> None:
         for op, bound in spec.bounds:
-            if entry.distribution == "lognormal" and op in (">", ">=") and bound <= 0.0:
+            if entry.law().positive and op in (">", ">=") and bound <= 0.0:
                 continue
-            if entry.distribution == "lognormal":
-                mu, sigma = lognormal_parameters(mean, std / mean)
-                z = (math.log(bound) - mu) / sigma if bound > 0.0 else -math.inf
-            else:
-                z = (bound - mean) / std
+            z = entry.law().gaussian_of(mean, std, bound)
             outside = _normal_cdf(z) if op in (">", ">=") else _normal_cdf(-z)
             if outside > OUTSIDE_RANGE_LIMIT:
                 raise StudyError(f"{where}.distribution", f"a {entry.distribution} field of mean {mean:g} and std "

@@ -38,7 +38,7 @@ from workflows.random_field.embedding import (
     ParticleGrid,
     largest_theta_scale,
 )
-from workflows.random_field.table import ORDERED, lognormal_parameters
+from workflows.random_field.table import ORDERED
 
 FIELD_STREAM = 7
 """The first spawn key of a field's random stream (module doc): apart from every other stream."""
@@ -63,7 +63,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
         structure = (row, entry.correlation_model, entry.thetas_m())
         if structure not in fields:
             try:
-                fields[structure] = ParticleField(entry.correlation_model, *entry.thetas_m(), node_xy_m[mine, 0],
+                fields[structure] = ParticleField(entry.model(), *entry.thetas_m(), node_xy_m[mine, 0],
                                                   node_xy_m[mine, 1], node_spacing_m[mine])
             except EmbeddingError:
                 raise _too_long(random_field, k, ParticleGrid.of(node_xy_m[mine, 0], node_xy_m[mine, 1],
@@ -76,11 +76,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
             g = rho * gaussian[entry.correlated_with] + math.sqrt(1.0 - rho * rho) * g
         gaussian[entry.name] = g
         mean, std = random_field.moments(entry, materials[row])
-        if entry.distribution == "lognormal":
-            mu, sigma = lognormal_parameters(mean, std / mean)
-            values = np.exp(mu + sigma * g)
-        else:
-            values = mean + std * g
+        values = entry.law().field_values(mean, std, g)
         spec = specs(type(materials[row]))[entry.property]
         for op, bound in spec.bounds:  # a normal field's rare values beyond its range (OUTSIDE_RANGE_LIMIT)
             limit = {">": np.nextafter(bound, math.inf), "<": np.nextafter(bound, -math.inf)}.get(op, bound)
@@ -116,7 +112,7 @@ def _too_long(random_field, k: int, grid: ParticleGrid) -> StudyError:
     grid of its material's particles: the field named, the longest scales this section holds."""
     entry = random_field.properties[k]
     theta_x_m, theta_y_m = entry.thetas_m()
-    scale = largest_theta_scale(entry.correlation_model, theta_x_m, theta_y_m, grid)
+    scale = largest_theta_scale(entry.model(), theta_x_m, theta_y_m, grid)
     lx, ly = grid.extent_m
     field = "theta_y_m" if entry.theta_y_m is not None and theta_y_m / ly > theta_x_m / lx else "theta_x_m"
     longest = (f"theta_x_m up to {scale * theta_x_m:.2g} m" if entry.theta_y_m is None else

@@ -148,6 +148,8 @@ class RefinementStudy(StudyType):
     """A study with ``[refinement]`` (module doc)."""
 
     placement = Placement(gravity_in_process=True, figures=False, quiet_cases=True, keep_going=False, rounds=True)
+    label = "a refinement study"
+    base_note = ""
 
     @staticmethod
     def applies_to(study: Study) -> bool:
@@ -269,7 +271,7 @@ class RefinementStudy(StudyType):
         self.pending = {case_id: where for case_id, where in self.pending.items() if case_id not in outcomes}
         more: list[Case] = []
         for case_id, (k, repeated) in done.items():
-            outcome = outcomes[case_id]
+            outcome = outcomes[case_id].result  # (a diverged level stops the study: never Diverged)
             if repeated:
                 self.repeat_outcome = outcome
                 continue
@@ -390,9 +392,10 @@ class RefinementStudy(StudyType):
         return self.levels[k - 1].zones + [(outline, spacing_m) for outline in outlines]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> RefinementOutcome:
-        levels = [self._level_result(k, outcomes.get(self._case_id(k))) for k in range(len(self.levels))]
+        results = {case_id: outcome.result for case_id, outcome in outcomes.items()}
+        levels = [self._level_result(k, results.get(self._case_id(k))) for k in range(len(self.levels))]
         levels = [level for level in levels if level is not None]
-        repeat = self._level_result(REPEAT_LEVEL, outcomes.get(self._case_id(REPEAT_LEVEL, True)), repeat=True) \
+        repeat = self._level_result(REPEAT_LEVEL, results.get(self._case_id(REPEAT_LEVEL, True)), repeat=True) \
             if self.repeat is not None else None
         result = RefinementOutcome(self.out_dir, self.out_dir / RESULT_NAME, levels, None, repeat, self.stop_reason)
         found = result.found_levels

@@ -45,6 +45,8 @@ class StageBase(Record):
     duration_field: ClassVar[str]  # the field that bounds how long the stage runs
     animated: ClassVar[bool] = False  # [output] animation_interval_s draws it
     snapshotted: ClassVar[bool] = True  # [output] snapshot_interval_s writes ParaView files of it
+    follows_runout: ClassVar[bool] = False  # it follows a failure to rest and measures its runout (one spacing,
+    # its own metrics in a sweep's study.nc; not beside a strength reduction)
     name: str = name_field("name of the stage; names the result file when a study has several stages")
     record_interval_s: float = number("s", "time between two records of the monitors", gt=0.0)
     elastic: bool = boolean("treat every material as linear elastic in this stage (a gravity stage)", default=False)

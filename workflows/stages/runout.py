@@ -43,6 +43,7 @@ class RunoutStage(StageBase):
     kind: ClassVar[str] = "runout"
     duration_field: ClassVar[str] = "max_duration_s"
     animated: ClassVar[bool] = True
+    follows_runout: ClassVar[bool] = True
     max_duration_s: float = number("s", "stop here if the flow has not come to rest", gt=0.0)
     strength_factor: float = number(
         "1", "the strength at the start of the stage is c / F and tan(phi) / F (dilation min(psi, phi_F)); "

@@ -4,14 +4,14 @@ The last stage of a study: every run starts from the gravity state the stages be
 the original positions, at rest) with the strength divided by F as each material's model says
 (c / F, tan(phi) / F; psi_F by the flow rule), the seismic load acting, and goes on by its
 protocol until the slope is at rest or has slid (``workflows.fos``: the search over F, the verdicts
-and the FOS).  Protocols (:meth:`StrengthReductionStage.run_at`):
+and the FOS).  Protocols (``workflows.stages.protocols``, each with its run and checks):
 
 - ``quasi_static``: the reduced strength at once, then dynamic relaxation with local damping
   (``damping``) at the largest stable step until the unbalanced-force ratio falls below
   ``tolerance`` (the slope is at rest) or ``duration_s`` (Dawson, Roth & Drescher 1999 in a
   large-deformation setting);
 - ``ramp``: undamped dynamics with the strength falling linearly in 1/F from full to c / F over
-  ``ramp_time_s`` (in ``RAMP_STEPS`` steps), then held; F <= 1 (a stronger slope) at once;
+  ``ramp_time_s`` (in ``protocols.RAMP_STEPS`` steps), then held; F <= 1 (a stronger slope) at once;
 - ``sudden``: the reduced strength at once, undamped dynamics.
 
 The scales of a slope (:meth:`StrengthReductionStage.response_time_s`, ``Study.slope_height_m``)
@@ -46,9 +46,11 @@ import numpy as np
 
 from workflows.fields import StudyError, boolean, integer, number, text
 from workflows.stages.base import ORIGINAL_POSITIONS, StageBase
+from workflows.stages.protocols import PROTOCOLS, Protocol
 
-PROTOCOLS = ("quasi_static", "ramp", "sudden")
 FLOW_RULES = ("associated", "as_declared")
+OPTIONAL_PROTOCOL_FIELDS = ("damping", "tolerance", "ramp_time_s", "rest_window_s", "rest_growth")
+"""The fields that apply to some protocols only (each protocol's ``fields``), checked in this order."""
 DEFAULT_QUASI_STATIC_DAMPING = 0.7
 DEFAULT_QUASI_STATIC_TOLERANCE = 1e-5
 DEFAULT_REST_WINDOW_S = 1.0
@@ -64,8 +66,6 @@ stops it) long before it moves half the slope's height, so a run could never be 
 FLOOR_PER_FAILURE = 1000.0
 """Default displacement floor: the failure displacement over this."""
 
-RAMP_STEPS = 20
-"""A strength ramp changes the materials this many times, evenly over ``ramp_time_s``."""
 RAMP_RESPONSE_TIMES = 4.0
 """Default ``ramp_time_s``: this many response times of the slope (at most half of ``duration_s``)."""
 
@@ -79,6 +79,12 @@ responded to its reduced strength (docs/verification.md)."""
 
 MIN_SPACINGS_PER_HEIGHT = 4
 """A strength-reduction study needs at least this many particle spacings over the slope height."""
+
+
+def _for(field: str) -> str:
+    """The reference's note of a field that applies to some protocols only: ``*protocol = ramp or sudden:*``
+    (the protocols whose ``fields`` name it)."""
+    return f"*protocol = {' or '.join(name for name, each in PROTOCOLS.items() if field in each.fields)}:*"
 
 
 def _or_default(field: str, default: float) -> property:
@@ -100,22 +106,21 @@ class StrengthReductionStage(StageBase):
         f"slid {SLIDE_STOP_FRACTION:.0%} of the slope height", gt=0.0,
     )
     protocol: str = text(
-        "how the strength is reduced: `quasi_static`: at once, with local damping, each run until the "
-        "unbalanced force converges (a slope at rest) or the slope slides; `ramp`: gradually over ramp_time_s, "
-        "undamped; `sudden`: at once, undamped (docs/verification.md compares them)",
-        default="quasi_static", choices=PROTOCOLS,
+        "how the strength is reduced: "
+        + "; ".join(f"`{name}`: {protocol.description}" for name, protocol in PROTOCOLS.items())
+        + " (docs/verification.md compares them)", default="quasi_static", choices=tuple(PROTOCOLS),
     )
     damping: float | None = number(
-        "1", f"*protocol = quasi_static:* local (Cundall) damping factor; default {DEFAULT_QUASI_STATIC_DAMPING:g}",
+        "1", f"{_for('damping')} local (Cundall) damping factor; default {DEFAULT_QUASI_STATIC_DAMPING:g}",
         default=None, gt=0.0, lt=1.0,
     )
     tolerance: float | None = number(
-        "1", "*protocol = quasi_static:* at rest once the unbalanced-force ratio is below this; default "
+        "1", f"{_for('tolerance')} at rest once the unbalanced-force ratio is below this; default "
         f"{DEFAULT_QUASI_STATIC_TOLERANCE:g}; at most {MAX_TOLERANCE:g} (a looser ratio ends a run before the "
         "slope has responded)", default=None, gt=0.0, le=MAX_TOLERANCE,
     )
     ramp_time_s: float | None = number(
-        "s", "*protocol = ramp:* the strength falls from full to c / F, tan(phi) / F over this time; default "
+        "s", f"{_for('ramp_time_s')} the strength falls from full to c / F, tan(phi) / F over this time; default "
         f"{RAMP_RESPONSE_TIMES:g} response times of the slope, {4 * RAMP_RESPONSE_TIMES:g} H_domain / V_s",
         default=None, gt=0.0,
     )
@@ -150,12 +155,12 @@ class StrengthReductionStage(StageBase):
         f"default: failure_displacement_m / {FLOOR_PER_FAILURE:g}", default=None, gt=0.0,
     )
     rest_window_s: float | None = number(
-        "s", "*protocol = ramp or sudden:* at rest: the largest displacement grew by less than rest_growth of "
+        "s", f"{_for('rest_window_s')} at rest: the largest displacement grew by less than rest_growth of "
         f"itself over the last window, and by less than over the window before; default {DEFAULT_REST_WINDOW_S}",
         default=None, gt=0.0,
     )
     rest_growth: float | None = number(
-        "1", f"*protocol = ramp or sudden:* see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
+        "1", f"{_for('rest_growth')} see rest_window_s; default {DEFAULT_REST_GROWTH:g}", default=None, gt=0.0,
         lt=1.0,
     )
     scale_stiffness: bool = boolean(
@@ -180,18 +185,16 @@ class StrengthReductionStage(StageBase):
             raise StudyError("elastic", "must be false: a strength-reduction stage needs a plastic material")
         if self.start != ORIGINAL_POSITIONS:
             raise StudyError("start", "must be 'original_positions': every SRF run starts from the gravity state")
-        applies = {"damping": ("quasi_static",), "tolerance": ("quasi_static",), "ramp_time_s": ("ramp",),
-                   "rest_window_s": ("ramp", "sudden"), "rest_growth": ("ramp", "sudden")}
-        for name, protocols in applies.items():
-            if getattr(self, name) is not None and self.protocol not in protocols:
+        for name in OPTIONAL_PROTOCOL_FIELDS:
+            if getattr(self, name) is not None and name not in self.reduction.fields:
+                protocols = [each for each, protocol in PROTOCOLS.items() if name in protocol.fields]
                 raise StudyError(name, f"applies to protocol = {' or '.join(protocols)} only, not {self.protocol}")
-        if self.protocol != "quasi_static" and self.early_stop and 2 * self.rest_window_s_or_default > self.duration_s:
-            raise StudyError(
-                "rest_window_s",
-                f"must be <= duration_s / 2 = {self.duration_s / 2:g}, got {self.rest_window_s_or_default:g}",
-            )
-        if self.protocol == "ramp" and self.ramp_time_s is not None and self.ramp_time_s >= self.duration_s:
-            raise StudyError("ramp_time_s", f"must be < duration_s = {self.duration_s:g}, got {self.ramp_time_s:g}")
+        self.reduction.check(self)
+
+    @property
+    def reduction(self) -> Protocol:
+        """The protocol ``protocol`` names (``workflows.stages.protocols``)."""
+        return PROTOCOLS[self.protocol]
 
     def check_in_study(self, study, index: int) -> None:
         """The last stage, after a stage that makes the gravity state, in a study with a plastic
@@ -205,7 +208,7 @@ class StrengthReductionStage(StageBase):
             )
         if not any(m.plastic for m in study.materials):
             raise StudyError("materials", "a strength_reduction stage needs a material with strength (c, phi)")
-        if any(stage.kind == "runout" for stage in study.stages):
+        if any(stage.follows_runout for stage in study.stages):
             raise StudyError("stages", "runout stages and a strength_reduction stage belong in separate studies")
         if study.metrics is not None:
             raise StudyError("metrics", "collapse metrics do not apply to a strength_reduction study")
@@ -307,21 +310,4 @@ class StrengthReductionStage(StageBase):
         factor = self.stiffness_factor(declared, study)
         if factor != 1.0:
             declared = declared.with_moduli_scaled(factor)
-        if self.protocol == "quasi_static":
-            sim.set_materials(self.reduced(declared, srf))
-            return sim.relax(damping=self.damping_or_default, tolerance=self.tolerance_or_default,
-                             max_duration_s=self.duration_s, **record)
-        if self.protocol == "sudden" or srf <= 1.0:  # (ramp) a stronger slope than built: nothing to ramp
-            sim.set_materials(self.reduced(declared, srf))
-            return sim.run(self.duration_s, damping=0.0, **record)
-        ramp_s = self.ramp_time_s_or_default(study)
-        step_s = ramp_s / RAMP_STEPS
-
-        def ramp(time_s: float) -> None:
-            """Set the strength of the ramp step that starts at ``time_s`` (held constant over it)."""
-            fraction = min((time_s + step_s) / ramp_s, 1.0)
-            if time_s < ramp_s:
-                sim.set_materials(self.reduced(declared, 1.0 / (1.0 - fraction * (1.0 - 1.0 / srf))))
-
-        ramp(0.0)
-        return sim.run(self.duration_s, damping=0.0, periodic=(step_s, ramp), **record)
+        return self.reduction.run(self, sim, declared, srf, study, record)

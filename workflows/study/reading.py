@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from workflows import engineering_units
-from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
+from workflows.fields import REQUIRED, TABLE, TABLES, Spec, StudyError, check_value, field_default, show, specs
 from workflows.study import line_files, section_form, slope_form
 from workflows.study.geometry import SectionForm, SlopeForm
 from workflows.study.tables import Study
@@ -48,13 +48,12 @@ def _build(cls, raw, path: str):
     for key, spec in declared.items():
         if key not in raw:
             if field_default(cls, key) is REQUIRED:
-                kind = {"table": f" (a [{key}] table)", "tables": f" (at least one [[{key}]] table)"}.get(spec.type, "")
-                raise StudyError(_join(path, key), f"required field missing{kind}")
+                raise StudyError(_join(path, key), f"required field missing{spec.kind.missing(key)}")
             continue
         value = raw[key]
-        if spec.type == "table":
+        if spec.kind is TABLE:
             value = _build(spec.of, value, _join(path, key))
-        elif spec.type == "tables":
+        elif spec.kind is TABLES:
             value = _build_entries(spec, value, _join(path, key))
         values[key] = value
     try:
@@ -177,13 +176,13 @@ def resolve_field(raw: dict, path: str) -> FieldAt:
         if part not in declared or (cls is Study and part in ("sweep", "probabilistic")):
             raise _unknown(".".join(parts[:i]), part, [k for k in declared if k not in ("sweep", "probabilistic")])
         spec = declared[part]
-        if spec.type == "table":
+        if spec.kind is TABLE:
             if i == len(parts) - 1:
                 raise StudyError(path, "is a table: name one of its fields")
             node = node.setdefault(part, {})
             cls, i, where = spec.of, i + 1, _join(where, part)
             continue
-        if spec.type == "tables":
+        if spec.kind is TABLES:
             if i + 2 >= len(parts):
                 raise StudyError(path, f"name an entry and a field: {part}.<{spec.unique}>.<field>")
             entries = node.get(part, [])

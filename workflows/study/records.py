@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from workflows.collapse.experiment import GRANULAR_COLUMN_M
+from workflows.collapse.kinds import COLLAPSE_KINDS, CollapseKind
 from workflows.fields import Record, StudyError, boolean, name_field, number, text
 
 
@@ -22,11 +22,8 @@ class Monitor(Record):
 class Metrics(Record):
     """Scalars computed from the final state of the last stage and stored in its result file."""
 
-    kind: str = text(
-        "`granular_collapse`: wall height, runouts, surface RMS error against the Bui et al. (2008) "
-        "experiment, failure-line angle; `cohesive_collapse`: back scarp, crest height, toe, plastic zone",
-        choices=("granular_collapse", "cohesive_collapse"),
-    )
+    kind: str = text("; ".join(f"`{name}`: {kind.description}" for name, kind in COLLAPSE_KINDS.items()),
+                     choices=tuple(COLLAPSE_KINDS))
     moved_threshold_m: float = number(
         "m", "a particle whose displacement exceeds this has moved (failure line, back scarp)", gt=0.0
     )
@@ -46,12 +43,12 @@ class Metrics(Record):
         if abs(min(xs)) > tolerance_m or abs(min(ys)) > tolerance_m:
             raise StudyError("metrics", f"collapse metrics measure from a wall at x = 0 and a base at y = 0; the "
                              f"domain starts at x = {min(xs):g} m, y = {min(ys):g} m")
-        size_m = (max(xs) - min(xs), max(ys) - min(ys))
-        if self.kind == "granular_collapse" and not all(
-                abs(a - b) <= tolerance_m for a, b in zip(size_m, GRANULAR_COLUMN_M)):
-            raise StudyError("metrics.kind", "granular_collapse compares the deposit with the Bui et al. (2008) "
-                             f"experiment, a {GRANULAR_COLUMN_M[0]:g} x {GRANULAR_COLUMN_M[1]:g} m column; this "
-                             f"domain is {size_m[0]:g} x {size_m[1]:g} m")
+        self.collapse.check_domain((max(xs) - min(xs), max(ys) - min(ys)), tolerance_m)
+
+    @property
+    def collapse(self) -> CollapseKind:
+        """The kind of collapse ``kind`` names (``workflows.collapse.kinds``)."""
+        return COLLAPSE_KINDS[self.kind]
 
 
 MAX_SNAPSHOTS = 2000

@@ -13,12 +13,11 @@ import json
 import sys
 
 from workflows import engineering_units
-from workflows.fields import MAX_NAME_LENGTH, NAME_PATTERN, REQUIRED, Spec, field_default, show, specs
+from workflows.fields import NUMBER, REQUIRED, TABLE, TABLES, Spec, field_default, show, specs
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
 
-_JSON_TYPES = {"number": "number", "integer": "integer", "text": "string", "boolean": "boolean"}
 _BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
 
 
@@ -29,30 +28,6 @@ _BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaxi
 
 def _describe(spec: Spec) -> str:
     return f"{spec.doc} [{spec.unit}]" if spec.unit and spec.unit != "1" else spec.doc
-
-
-def _value_schema(spec: Spec) -> dict:
-    pair = {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2}
-    if spec.type == "point":
-        return dict(pair)
-    if spec.type == "polygon":
-        return {"type": "array", "items": pair, "minItems": 3}
-    if spec.type == "polyline":  # or a line file (workflows.study.line_files)
-        return {"anyOf": [{"type": "array", "items": pair, "minItems": 2}, {"type": "string", "minLength": 1}]}
-    if spec.type == "names":
-        return {"type": "array", "items": {"type": "string", "pattern": NAME_PATTERN}}
-    if spec.type == "values":
-        return {"type": "array", "minItems": 1}
-    if spec.type == "numbers":
-        return {"type": "array", "items": _value_schema(Spec("number", gt=spec.gt, ge=spec.ge, lt=spec.lt, le=spec.le))}
-    schema: dict = {"type": _JSON_TYPES[spec.type]}
-    for op, bound in spec.bounds:
-        schema[_BOUND_KEYWORDS[op]] = bound
-    if spec.choices:
-        schema["enum"] = list(spec.choices)
-    if spec.pattern:
-        schema["pattern"] = spec.pattern
-    return schema
 
 
 def _json_default(value):
@@ -68,16 +43,16 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
         required.append(key)
     for field_name, spec in specs(cls).items():
         default = field_default(cls, field_name)
-        if spec.type == "table":
+        if spec.kind is TABLE:
             schema = table_schema(spec.of)
-        elif spec.type == "tables":
+        elif spec.kind is TABLES:
             if spec.variants:
                 items = {"oneOf": [table_schema(c, spec.key, k) for k, c in spec.variants.items()]}
             else:
                 items = table_schema(spec.of)
             schema = {"type": "array", "items": items, "minItems": spec.min_items}
         else:
-            schema = _value_schema(spec)
+            schema = spec.kind.schema(spec)
             if default is not REQUIRED and default is not None:
                 schema["default"] = _json_default(default)
         schema["description"] = _describe(spec)
@@ -86,7 +61,7 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
             required.append(field_name)
     one_of_names = []  # a field that may be given in other units (workflows.engineering_units)
     for field_name, spec in specs(cls).items():
-        others = engineering_units.other_names(field_name) if spec.type == "number" else []
+        others = engineering_units.other_names(field_name) if spec.kind is NUMBER else []
         if spec.unit == "Pa" or field_name in engineering_units.UNIT_WEIGHTS.values():
             for other in others:
                 unit = other.rsplit("_", 1)[-1] if other.endswith("pa") else "kN m-3"
@@ -116,42 +91,15 @@ def json_schema() -> dict:
 # ---------------------------------------------------------------------------------------
 
 
-def _allowed(spec: Spec) -> str:
-    if spec.choices:
-        return ", ".join(f"`{c}`" for c in spec.choices)
-    if spec.pattern == NAME_PATTERN:
-        return f"letters, digits, `_` `.` `-`, at most {MAX_NAME_LENGTH}"
-    if spec.type == "polygon":
-        return ">= 3 vertices, simple, area > 0"
-    if spec.type == "polyline":
-        return ">= 2 points, x increasing"
-    return ", ".join(f"{op} {bound:g}" for op, bound in spec.bounds)
-
-
-def _type_name(spec: Spec) -> str:
-    return {
-        "number": "float",
-        "integer": "int",
-        "text": "string",
-        "boolean": "bool",
-        "names": "`[name, ...]`",
-        "point": "`[x, y]`",
-        "polygon": "`[[x, y], ...]`",
-        "polyline": "`[[x, y], ...]` or file",
-        "numbers": "`[float, ...]`",
-        "values": "`[value, ...]`",
-    }[spec.type]
-
-
 def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str]]:
     """One row per field: path, type, unit, default, allowed values, description."""
     rows = []
     for field_name, spec in specs(cls).items():
         path = f"{prefix}.{field_name}" if prefix else field_name
         default = field_default(cls, field_name)
-        if spec.type == "table":
+        if spec.kind is TABLE:
             rows += reference_rows(spec.of, path)
-        elif spec.type == "tables":
+        elif spec.kind is TABLES:
             entry = f"{path}[]"
             if not spec.variants:
                 rows += reference_rows(spec.of, entry)
@@ -163,7 +111,7 @@ def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str
             shown = "required" if default is REQUIRED else ("" if default is None else f"`{show(default)}`")
             unit = "" if spec.unit == "1" else spec.unit
             doc = f"*{only}:* {spec.doc}" if only else spec.doc
-            rows.append([f"`{path}`", _type_name(spec), unit, shown, _allowed(spec), doc])
+            rows.append([f"`{path}`", spec.kind.shown, unit, shown, spec.kind.allowed(spec), doc])
     return rows
 
 

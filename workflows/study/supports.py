@@ -9,6 +9,65 @@ from workflows.box import Box
 from workflows.fields import Record, StudyError, name_field, number, point, text
 
 
+class Slip:
+    """How the soil moves along a support (``[[boundary]] slip``; the class doc of :class:`Boundary`)."""
+
+    def check(self, boundary) -> None:
+        """StudyError naming ``slip`` where the support's velocities do not fit this kind; none by default."""
+
+    def held_direction(self, boundary, line_normal: int | None) -> int | None:
+        """The direction a slip support holds (0: x, 1: y), or None for a support that is not one;
+        ``line_normal`` is the direction across the straight horizontal or vertical line the support's
+        particles lie on (None: they lie on no such line)."""
+        return None
+
+
+class FreeSlip(Slip):
+    """``slip = "none"``: the directions not prescribed are free (a smooth roller)."""
+
+
+class WeldedSlip(Slip):
+    """``slip = "welded"``: both directions held, no sliding."""
+
+    def check(self, boundary) -> None:
+        if None in (boundary.vx_m_s, boundary.vy_m_s):
+            raise StudyError("slip", "a welded support prescribes both directions: give vx_m_s and vy_m_s")
+
+
+class SoilSlip(Slip):
+    """``slip = "soil"``: held at 0 across the support, sliding along it at the soil's strength."""
+
+    def check(self, boundary) -> None:
+        if boundary.vx_m_s or boundary.vy_m_s:
+            raise StudyError("slip", "a slip support holds its prescribed direction at 0 m s-1")
+
+    def held_direction(self, boundary, line_normal: int | None) -> int | None:
+        """The one direction prescribed; with both prescribed at 0, the one across its line (StudyError
+        where its particles lie on none)."""
+        if [boundary.vx_m_s, boundary.vy_m_s].count(None) == 1:
+            return 0 if boundary.vx_m_s is not None else 1
+        if not boundary.holds_both_at_rest:
+            return None
+        if line_normal is not None:
+            return line_normal
+        raise StudyError("boundary", f"the slip support {boundary.name!r} holds both velocities, so its particles "
+                         "must lie on one horizontal or vertical line (the direction it holds is the one across it); "
+                         "they do not: give only the velocity it holds (vx_m_s or vy_m_s = 0), or slip = \"welded\"")
+
+
+class RoughBaseSlip(Slip):
+    """``slip`` left out: a support that holds both velocities at 0 along one horizontal or vertical
+    line slips as ``soil`` does (a rough rigid base); any other is not a slip support."""
+
+    def held_direction(self, boundary, line_normal: int | None) -> int | None:
+        return line_normal if boundary.holds_both_at_rest else None
+
+
+SLIP_KINDS: dict[str | None, Slip] = {None: RoughBaseSlip(), "none": FreeSlip(), "soil": SoilSlip(),
+                                      "welded": WeldedSlip()}
+"""Every kind of support, by the value of ``slip`` (None: left out)."""
+
+
 @dataclass(frozen=True, kw_only=True)
 class Boundary(Box):
     """Prescribed velocity on the particles initially inside a box (closed, tolerance h/1000).
@@ -29,17 +88,19 @@ class Boundary(Box):
         "support: a firm rough base; `welded`: both directions held, no sliding; `none`: the directions not "
         "prescribed are free (a smooth roller). Default: `soil` for a support that holds both velocities at 0 "
         "along one straight horizontal or vertical line of particles (a rough rigid base), `none` otherwise",
-        default=None, choices=("none", "soil", "welded"),
+        default=None, choices=tuple(name for name in SLIP_KINDS if name is not None),
     )
 
     def check(self):
         if self.vx_m_s is None and self.vy_m_s is None:
             raise StudyError("vx_m_s", "give vx_m_s, vy_m_s or both (a boundary must prescribe something)")
-        if self.slip == "soil" and (self.vx_m_s or self.vy_m_s):
-            raise StudyError("slip", "a slip support holds its prescribed direction at 0 m s-1")
-        if self.slip == "welded" and None in (self.vx_m_s, self.vy_m_s):
-            raise StudyError("slip", "a welded support prescribes both directions: give vx_m_s and vy_m_s")
+        self.slip_kind.check(self)
         super().check()
+
+    @property
+    def slip_kind(self) -> Slip:
+        """How the soil moves along it (:data:`SLIP_KINDS`)."""
+        return SLIP_KINDS[self.slip]
 
     @property
     def holds_both_at_rest(self) -> bool:

@@ -105,7 +105,7 @@ class Study(Record):
         self.output.check_in_study(self)
         if self.metrics is not None:
             self.metrics.check_in_study(self)
-        if self.geometry.refined and (self.metrics is not None or any(s.kind == "runout" for s in self.stages)):
+        if self.geometry.refined and (self.metrics is not None or any(s.follows_runout for s in self.stages)):
             raise StudyError("geometry.refined", "refined zones apply to gravity and strength-reduction studies; "
                              "runout and collapse metrics assume one spacing (not yet)")
         if self.random_field is not None:

@@ -19,7 +19,6 @@ import xarray as xr
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 from workflows.output.stage_file import provenance
 from workflows.output.variables import COLLAPSE_METRICS, RUNOUT_METRICS, STAGE_SWEEP_FILE, SWEEP_FILE
-from workflows.stages.runout import RunoutStage
 from workflows.study import Study
 from workflows.study.reading import SweepCase, axis_labels, resolve_sweep_path
 
@@ -172,7 +171,7 @@ class StageCaseResult:
 
 def runout_stage_names(study: Study) -> list[str]:
     """Names of the study's runout stages, in stage order."""
-    return [stage.name for stage in study.stages if stage.kind == RunoutStage.kind]
+    return [stage.name for stage in study.stages if stage.follows_runout]
 
 
 def stage_sweep_dataset(study: Study, cases: list[SweepCase], results: dict[str, StageCaseResult]) -> xr.Dataset:

@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from spfem_core.divergence import DivergenceError
 from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.fos.discretisation import note
 from workflows.memory_guard import check_memory, estimated_particles
@@ -90,6 +89,8 @@ class SweepStudy(StudyType):
     """A study with ``[sweep]`` (module doc)."""
 
     placement = Placement(gravity_in_process=False, figures=False, quiet_cases=True, keep_going=True)
+    label = "a sweep"
+    base_note = "; the base study, before the sweep sets its values"
     stale_cases: tuple[list[str], list[str]] = ([], [])  # case folders of an earlier invocation: (removed, kept)
     stale_figures: list[str] = []  # design charts of an earlier invocation removed
 
@@ -177,8 +178,7 @@ class SweepStudy(StudyType):
     def case_concluded(self, case_id: str, outcome, progress) -> None:
         """A strength-reduction case's FOS joins the prediction of the cases to come."""
         if self.fos:
-            fos = float("nan") if isinstance(outcome, DivergenceError) else outcome.fos
-            self.predicted.concluded(case_id, fos)
+            self.predicted.concluded(case_id, outcome.fos)
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float):
         """``OUT/study.nc`` and the design charts from the cases' outcomes (module doc, step 3)."""
@@ -189,10 +189,10 @@ class SweepStudy(StudyType):
     def _conclude_fos(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> SweepOutcome:
         results = {}
         for case_id, outcome in outcomes.items():
-            if isinstance(outcome, DivergenceError):
-                results[case_id] = diverged_result(f"the gravity stage diverged: {outcome}", 0)
+            if outcome.diverged:
+                results[case_id] = diverged_result(f"the gravity stage diverged: {outcome.error}", 0)
             else:
-                results[case_id] = case_result(outcome)
+                results[case_id] = case_result(outcome.result)
         by_id = {case_id: results[original] for case_id, original in self.same_as.items()}
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = study_dataset(self.study, self.sweep_cases, by_id, self.same_as, len(outcomes))
@@ -201,11 +201,10 @@ class SweepStudy(StudyType):
         if self.study.output.figures:
             figures = draw_sweep_figures(self.out_dir, dataset)
         self._remove_stale_figures(figures)
-        runs = [record for outcome in outcomes.values() if not isinstance(outcome, DivergenceError)
-                for record in outcome.runs]
+        runs = [record for outcome in outcomes.values() for record in outcome.runs]
         runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
-        gravity_computed = sum(outcome.timings_s["gravity"] > 0.0 for outcome in outcomes.values()
-                               if not isinstance(outcome, DivergenceError))
+        gravity_computed = sum(outcome.result.timings_s["gravity"] > 0.0 for outcome in outcomes.values()
+                               if not outcome.diverged)
         timings_s = {"cases_elapsed": timings.cases_elapsed, "gravity_worker": timings.gravity_worker,
                      "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
         return SweepOutcome(self.out_dir, study_path, self.sweep_cases, by_id, len(outcomes), runs_made,
@@ -215,11 +214,11 @@ class SweepStudy(StudyType):
         results = {}
         for case in self.sweep_cases:
             outcome = outcomes[case.case_id]
-            if isinstance(outcome, DivergenceError):
-                results[case.case_id] = StageCaseResult(DIVERGED_CASE, str(outcome), 0, {}, {}, True)
+            if outcome.diverged:
+                results[case.case_id] = StageCaseResult(DIVERGED_CASE, str(outcome.error), 0, {}, {}, True)
             else:
                 results[case.case_id] = _read_case(case.study, self.out_dir / CASES_FOLDER / case.case_id,
-                                                   ran=not outcome.up_to_date)
+                                                   ran=not outcome.result.up_to_date)
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = stage_sweep_dataset(self.study, self.sweep_cases, results)
         write_dataset(dataset, study_path)
