@@ -48,6 +48,7 @@ from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study
 from workflows.study.reading import sweep_cases
+from workflows.transient.flow import WaterAt
 
 STABLE_RESPONSE_TIMES = 3.0
 """Pseudo-time of a run that comes to rest, in response times (module doc)."""
@@ -203,7 +204,7 @@ class StudyCheck:
                     else f"{e.cases} factors of safety, searched about their predicted values after the first")
             lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
-            lines.append(flow_line(self.flow))
+            lines.append(self.flow.line() if isinstance(self.flow, WaterAt) else flow_line(self.flow))
         if self.critical is not None:
             c = self.critical
             lines.append(f"limit equilibrium (Bishop's circles, {c.water}): F about {c.fos:.3g} on a circle from x = "

@@ -54,6 +54,9 @@ FIGURE_CAPTIONS: tuple[tuple[str, str], ...] = (
     ("slip_envelope.png", "The failed realisations' slip lines and their envelope."),
     ("failed_*.png", "A failed realisation: its random field and the plastic strain of its first failed run."),
     ("seepage.png", "The steady seepage solution: total head and flow."),
+    ("fos_time.png", "The factor of safety against time (each a strength-reduction search on the particles' pore "
+                     "pressure and suction at that time, with its bracket), above the rain or the reservoir's level "
+                     "that drove the transient flow."),
 )
 """Caption of each figure a study draws in its output folder, by file-name pattern, in the order the
 page shows them (the first matching pattern wins); any other picture of ours (a stage's final

@@ -11,6 +11,9 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 - ``refinement.sweep.RefinedSweepStudy``: a study with both, a refinement study per case of the
   sweep, their levels advancing together round by round, and ``study.nc``.
 
+- ``fos_time.study_type.TransientStudy``: a study of the FOS against time (``[transient]`` with
+  ``fos_times_h`` or ``fos_interval_h``), a case per time, one after another, ``fos_time.nc``;
+
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
   realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
 - ``probabilistic.sweep.ProbabilisticSweepStudy``: a study with both ``[sweep]`` and
@@ -29,6 +32,7 @@ from contextlib import nullcontext
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
+from workflows.fos_time.study_type import TransientStudy
 from workflows.output.folder_lock import folder_lock, study_digest
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.sweep import ProbabilisticSweepStudy
@@ -40,7 +44,7 @@ from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
 STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
-                                              SingleStudy)
+                                              TransientStudy, SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 
 

@@ -248,7 +248,9 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         path.unlink(missing_ok=True)
         partial_path(path).unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
-    if flow is not None:  # the flow every stage's pore pressure comes from
+    if flow is not None and study.transient is not None:  # the water at the study's time
+        progress.message(flow.line())
+    elif flow is not None:  # the flow every stage's pore pressure comes from
         write_seepage(study, seepage_dataset(study, flow), out_dir)
         progress.message(flow_line(flow))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):

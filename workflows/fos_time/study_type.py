@@ -1,0 +1,192 @@
+"""The FOS against time: a study with ``[transient]`` and ``fos_times_h`` or ``fos_interval_h``.
+
+1. The flow is solved once on the particles' first mesh (``workflows.transient.flow``) and written to
+   ``OUT/transient.nc`` (heads, saturations, flow and the water balance at each saved time).
+2. A case per time, in order, each in ``OUT/times/t=<t>h/`` as a single study (its ``case.toml``: the
+   study with ``water_at_h = t``), carrying the water of that time (passed on, not solved again): its
+   own gravity state, then its strength-reduction search.  From the second time on the search starts in
+   a window about the FOS predicted from the times before (``fos.prediction.search_window``): the last
+   FOS continued along the last change, its expected error half that change (``ONE_CASE_SIGMA`` of F with
+   one time before, at least ``MIN_SIGMA``).  A window that misses grows: the prediction costs runs,
+   never the answer.
+3. With ``stop_below_fos`` the study stops after the first time whose FOS is below it (the state of that
+   case, its failed runs, is what a runout would start from).
+4. ``OUT/fos_time.nc`` (the FOS, its bracket, the runs and window of each time, with the rain and the
+   reservoir's level) and ``fos_time.png`` (the FOS against time above the rain or the level).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.memory_guard import check_memory
+from workflows.study import Study
+from workflows.study.reading import parse_study
+from workflows.study.toml_text import to_toml
+
+TIMES_FOLDER = "times"
+CASE_TEXT_NAME = "case.toml"
+
+
+def case_id(time_h: float) -> str:
+    """The folder of the case at ``time_h``."""
+    return f"t={time_h:.6g}h"
+
+
+@dataclass
+class TransientOutcome:
+    """What a study of the FOS against time did and found."""
+
+    out_dir: Path
+    times_h: list[float]  # the times searched (up to the stop)
+    outcomes: dict  # case id -> fos.summary.FosOutcome
+    windows: dict  # case id -> (low, high, step) or None
+    transient_path: Path
+    fos_time_path: Path
+    balance_fraction: float  # the flow's closure: |in - out - stored| / max(in, out, stored), worst saved time
+    flow_wall_s: float
+    stopped_at_h: float | None  # the time the study stopped at (stop_below_fos), None: it ran every time
+    time_fos_one_h: float  # when the FOS reaches 1, interpolated between the times either side (NaN: never)
+    timings_s: dict[str, float] = field(default_factory=dict)
+    figures: list[Path] = field(default_factory=list)
+
+
+class TransientStudy(StudyType):
+    """A study of the FOS against time (module doc)."""
+
+    @property
+    def placement(self) -> Placement:
+        """Each time's gravity in this process, its runs on the cluster, one time after another (rounds);
+        figures as ``[output] figures`` says."""
+        return Placement(gravity_in_process=True, figures=self.study.output.figures, quiet_cases=True,
+                         keep_going=False, rounds=True)
+
+    @staticmethod
+    def applies_to(study: Study) -> bool:
+        return study.transient is not None and study.transient.against_time
+
+    def check(self, options: RunOptions) -> None:
+        """The resolution of the strength reduction; the memory of this process and the local workers."""
+        self.study.strength_reduction.check_resolution(self.study)
+        check_memory(self.study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
+
+    def case_study(self, time_h: float) -> Study:
+        """The study of the case at ``time_h``: this one with ``water_at_h = time_h`` (and none of the
+        FOS against time)."""
+        raw = tomllib.loads(self.study.source_text)
+        transient = raw["transient"]
+        for name in ("fos_times_h", "fos_interval_h", "stop_below_fos"):
+            transient.pop(name, None)
+        transient["water_at_h"] = float(time_h)
+        return parse_study(to_toml(raw, header=f"the case at {time_h:g} h of study {self.study.name}"))
+
+    def _case(self, index: int) -> Case:
+        from workflows.output.writing import make_output_folder, write_text_if_changed
+
+        time_h = self.times_h[index]
+        folder = self.out_dir / TIMES_FOLDER / case_id(time_h)
+        study = self.case_study(time_h)
+        make_output_folder(folder)
+        write_text_if_changed(folder / CASE_TEXT_NAME, study.source_text)
+        case = Case(study, folder, case_id(time_h), (index,), {"time_h": time_h}, flow=self.flow.water_at(time_h))
+        window = self._window(index)
+        self.windows[case.case_id] = window
+        return case if window is None else dataclasses.replace(case, window=window)
+
+    def _window(self, index: int) -> tuple[float, float, float] | None:
+        """The window of the case at ``times_h[index]`` (module doc, step 2); None for the first."""
+        from workflows.fos.prediction import MIN_SIGMA, ONE_CASE_SIGMA, Prediction, search_window
+
+        known = [(t, self.fos[case_id(t)]) for t in self.times_h[:index] if math.isfinite(self.fos[case_id(t)])]
+        if not known:
+            return None
+        t_last, f_last = known[-1]
+        if len(known) == 1:
+            prediction = Prediction(f_last, ONE_CASE_SIGMA * f_last, "the FOS of the time before")
+        else:
+            t_before, f_before = known[-2]
+            change = (f_last - f_before) * (self.times_h[index] - t_last) / (t_last - t_before)
+            prediction = Prediction(max(f_last + change, 0.05), max(0.5 * abs(change), MIN_SIGMA * f_last),
+                                    "the FOS of the times before, continued")
+        return search_window(prediction, self.study.strength_reduction.fos_tolerance)
+
+    def cases(self) -> list[Case]:
+        """The flow solved and written (module doc, step 1); the first time's case."""
+        from workflows.output.writing import make_output_folder
+        from workflows.transient.flow import transient_flow
+        from workflows.transient.results import write_transient
+
+        self.times_h = list(self.study.transient.fos_times())
+        self.fos: dict[str, float] = {}
+        self.windows: dict = {}
+        self.flow = transient_flow(self.study)
+        make_output_folder(self.out_dir)
+        self.transient_path = write_transient(self.study, self.flow, self.out_dir)
+        return [self._case(0)]
+
+    def case_concluded(self, case_id: str, outcome, progress) -> None:
+        self.fos[case_id] = outcome.fos
+        low, high = outcome.fos_low, outcome.fos_high
+        progress.message(f"{case_id}: FOS {outcome.fos:.3g} (bracket [{low:.4g}, {high:.4g}], {len(outcome.runs)} "
+                         "runs)")
+
+    def next_cases(self, outcomes: dict, progress) -> list[Case]:
+        """The next time's case, unless the last FOS fell below ``stop_below_fos`` or none is left."""
+        done = len(outcomes)
+        stop = self.study.transient.stop_below_fos
+        last = self.fos[case_id(self.times_h[done - 1])]
+        if done >= len(self.times_h) or (stop is not None and last < stop):
+            return []
+        return [self._case(done)]
+
+    def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> TransientOutcome:
+        """``fos_time.nc`` and ``fos_time.png`` (module doc, step 4)."""
+        from workflows.fos_time.figures import draw_fos_time
+        from workflows.fos_time.results import FILE_NAME, fos_time_dataset, time_fos_reaches
+        from workflows.output.writing import write_dataset
+
+        times = self.times_h[:len(outcomes)]
+        ordered = {case_id(t): outcomes[case_id(t)] for t in times}
+        stop = self.study.transient.stop_below_fos
+        stopped = times[-1] if len(times) < len(self.times_h) else None
+        dataset = fos_time_dataset(self.study, self.flow, times, ordered, self.windows, stop)
+        path = write_dataset(dataset, self.out_dir / FILE_NAME)
+        figures = [draw_fos_time(self.study, dataset, self.flow, self.out_dir)] if self.study.output.figures else []
+        timings_s = {"flow": self.flow.wall_time_s, "cases_elapsed": timings.cases_elapsed,
+                     "gravity": sum(o.timings_s.get("gravity", 0.0) for o in ordered.values()),
+                     "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
+        return TransientOutcome(self.out_dir, times, ordered, dict(self.windows), self.transient_path, path,
+                                float(self.flow.solution.balance_fraction().max()), self.flow.wall_time_s, stopped,
+                                time_fos_reaches(times, [o.fos for o in ordered.values()], 1.0), timings_s, figures)
+
+    def report(self, outcome: TransientOutcome, quiet: bool, study_file) -> Report:
+        from workflows.transient.results import balance_line
+
+        table = [f"{'t (h)':>8}  {'FOS':>6}  {'bracket':>17}  {'runs':>4}  window"]
+        for t, (cid, fos_outcome) in zip(outcome.times_h, outcome.outcomes.items()):
+            window = outcome.windows.get(cid)
+            shown = "-" if window is None else f"[{window[0]:.3g}, {window[1]:.3g}] step {window[2]:.3g}"
+            table.append(f"{t:8.4g}  {fos_outcome.fos:6.3f}  [{fos_outcome.fos_low:.4g}, {fos_outcome.fos_high:.4g}]"
+                         f"  {len(fos_outcome.runs):4d}  {shown}")
+        one = outcome.time_fos_one_h
+        verdict = (f"FOS reaches 1 at about {one:.3g} h (interpolated between the times either side)"
+                   if math.isfinite(one) else
+                   f"FOS stays above 1 to {outcome.times_h[-1]:g} h (lowest {min(o.fos for o in outcome.outcomes.values()):.3g})")
+        if quiet:
+            return Report([verdict])
+        runs = sum(len(o.runs) for o in outcome.outcomes.values())
+        t = outcome.timings_s
+        header = (f"{self.study.name}: FOS at {len(outcome.times_h)} times, {runs} SRF runs "
+                  f"({runs / max(len(outcome.times_h), 1):.1f} per FOS), wall time {t['total']:.1f} s "
+                  f"(the flow {t['flow']:.1f} s, {t['flow'] / max(t['total'], 1e-9):.1%})")
+        stopped = ([f"stopped after {outcome.stopped_at_h:g} h: FOS below stop_below_fos = "
+                    f"{self.study.transient.stop_below_fos:g}"] if outcome.stopped_at_h is not None else [])
+        wrote = (f"wrote {outcome.transient_path}, {outcome.fos_time_path.name}, {TIMES_FOLDER}/"
+                 + "".join(f", {path.name}" for path in outcome.figures))
+        return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote])
