@@ -159,10 +159,12 @@ def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: floa
 
 
 def case_count(study: Study) -> int | None:
-    """The factors of safety a study computes: one, a sweep's cases, the realisations; None for a
-    refinement study (a factor at each of its levels)."""
+    """The factors of safety a study computes: one, a sweep's cases, the realisations, the times of the FOS
+    against time (at most: it may stop early); None for a refinement study (a factor at each of its levels)."""
     if study.refinement is not None:
         return None
+    if study.transient is not None and study.transient.against_time:
+        return len(study.transient.fos_times())
     if study.probabilistic is not None:
         return study.probabilistic.realisations
     if study.sweep is not None:

@@ -25,10 +25,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
+from workflows.fos_time.figures import draw_fos_time
+from workflows.fos_time.results import FILE_NAME, below, bracket, fos_time_dataset, time_fos_reaches, upper_values
 from workflows.memory_guard import check_memory
+from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study
 from workflows.study.reading import parse_study
 from workflows.study.toml_text import to_toml
+from workflows.transient.results import balance_line, write_transient
 
 TIMES_FOLDER = "times"
 CASE_TEXT_NAME = "case.toml"
@@ -87,8 +91,6 @@ class TransientStudy(StudyType):
         return parse_study(to_toml(raw, header=f"the case at {time_h:g} h of study {self.study.name}"))
 
     def _case(self, index: int) -> Case:
-        from workflows.output.writing import make_output_folder, write_text_if_changed
-
         time_h = self.times_h[index]
         folder = self.out_dir / TIMES_FOLDER / case_id(time_h)
         study = self.case_study(time_h)
@@ -101,9 +103,9 @@ class TransientStudy(StudyType):
 
     def _window(self, index: int) -> tuple[float, float, float] | None:
         """The window of the case at ``times_h[index]`` (module doc, step 2); None for the first."""
-        from workflows.fos.prediction import MIN_SIGMA, ONE_CASE_SIGMA, Prediction, search_window
+        from workflows.fos.prediction import MIN_SIGMA, ONE_CASE_SIGMA, Prediction, search_window  # (scipy: on use)
 
-        known = [(t, self.fos[case_id(t)]) for t in self.times_h[:index] if math.isfinite(self.fos[case_id(t)])]
+        known = [(t, self.fos[case_id(t)]) for t in self.times_h[:index] if math.isfinite(self.fos[case_id(t)])][-2:]
         if not known:
             return None
         t_last, f_last = known[-1]
@@ -118,12 +120,11 @@ class TransientStudy(StudyType):
 
     def cases(self) -> list[Case]:
         """The flow solved and written (module doc, step 1); the first time's case."""
-        from workflows.output.writing import make_output_folder
-        from workflows.transient.flow import transient_flow
-        from workflows.transient.results import write_transient
+        from workflows.transient.flow import transient_flow  # the core's mesh (numba): once the study is valid
 
         self.times_h = list(self.study.transient.fos_times())
         self.fos: dict[str, float] = {}
+        self.outcomes: dict = {}
         self.windows: dict = {}
         self.flow = transient_flow(self.study)
         make_output_folder(self.out_dir)
@@ -132,24 +133,21 @@ class TransientStudy(StudyType):
 
     def case_concluded(self, case_id: str, outcome, progress) -> None:
         self.fos[case_id] = outcome.fos
-        low, high = outcome.fos_low, outcome.fos_high
-        progress.message(f"{case_id}: FOS {outcome.fos:.3g} (bracket [{low:.4g}, {high:.4g}], {len(outcome.runs)} "
-                         "runs)")
+        self.outcomes[case_id] = outcome
+        progress.message(f"{case_id}: {outcome.verdict} ({len(outcome.runs)} runs)")
 
     def next_cases(self, outcomes: dict, progress) -> list[Case]:
         """The next time's case, unless the last FOS fell below ``stop_below_fos`` or none is left."""
+
         done = len(outcomes)
         stop = self.study.transient.stop_below_fos
-        last = self.fos[case_id(self.times_h[done - 1])]
-        if done >= len(self.times_h) or (stop is not None and last < stop):
+        last = self.outcomes[case_id(self.times_h[done - 1])]
+        if done >= len(self.times_h) or (stop is not None and below(last, stop)):
             return []
         return [self._case(done)]
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> TransientOutcome:
         """``fos_time.nc`` and ``fos_time.png`` (module doc, step 4)."""
-        from workflows.fos_time.figures import draw_fos_time
-        from workflows.fos_time.results import FILE_NAME, fos_time_dataset, time_fos_reaches
-        from workflows.output.writing import write_dataset
 
         times = self.times_h[:len(outcomes)]
         ordered = {case_id(t): outcomes[case_id(t)] for t in times}
@@ -163,21 +161,22 @@ class TransientStudy(StudyType):
                      "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
         return TransientOutcome(self.out_dir, times, ordered, dict(self.windows), self.transient_path, path,
                                 float(self.flow.solution.balance_fraction().max()), self.flow.wall_time_s, stopped,
-                                time_fos_reaches(times, [o.fos for o in ordered.values()], 1.0), timings_s, figures)
+                                time_fos_reaches(times, upper_values(ordered.values()), 1.0), timings_s, figures)
 
     def report(self, outcome: TransientOutcome, quiet: bool, study_file) -> Report:
-        from workflows.transient.results import balance_line
 
         table = [f"{'t (h)':>8}  {'FOS':>6}  {'bracket':>17}  {'runs':>4}  window"]
         for t, (cid, fos_outcome) in zip(outcome.times_h, outcome.outcomes.items()):
             window = outcome.windows.get(cid)
             shown = "-" if window is None else f"[{window[0]:.3g}, {window[1]:.3g}] step {window[2]:.3g}"
-            table.append(f"{t:8.4g}  {fos_outcome.fos:6.3f}  [{fos_outcome.fos_low:.4g}, {fos_outcome.fos_high:.4g}]"
-                         f"  {len(fos_outcome.runs):4d}  {shown}")
+            fos, low, high = bracket(fos_outcome)
+            value = f"{fos:6.3f}" if math.isfinite(fos) else (f"<{high:5.3g}" if math.isfinite(high) else f">{low:5.3g}")
+            table.append(f"{t:8.4g}  {value:>6}  [{low:.4g}, {high:.4g}]  {len(fos_outcome.runs):4d}  {shown}")
         one = outcome.time_fos_one_h
+        found = [f for f in (bracket(o)[0] for o in outcome.outcomes.values()) if math.isfinite(f)]
         verdict = (f"FOS reaches 1 at about {one:.3g} h (interpolated between the times either side)"
-                   if math.isfinite(one) else
-                   f"FOS stays above 1 to {outcome.times_h[-1]:g} h (lowest {min(o.fos for o in outcome.outcomes.values()):.3g})")
+                   if math.isfinite(one) else f"FOS stays above 1 to {outcome.times_h[-1]:g} h"
+                   + (f" (lowest {min(found):.3g})" if found else ""))
         if quiet:
             return Report([verdict])
         runs = sum(len(o.runs) for o in outcome.outcomes.values())

@@ -1,0 +1,166 @@
+"""Rain and drawdown in a study (``[transient]``): the table's refusals, the water at a time the
+particles carry (with its suction), the rain's history, and the FOS against time."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from spfem_core.soil_water import VanGenuchten
+from workflows.cli import app, check_app
+from workflows.fos_time.results import bracket, time_fos_reaches
+from workflows.scene import build_scene, water_flow
+from workflows.study import StudyError, parse_study
+from workflows.transient.flow import rain_history, transient_flow
+from workflows.transient.table import MM_H_TO_M_S
+
+REPO = Path(__file__).resolve().parents[1]
+RAIN = (REPO / "studies" / "rain.toml").read_text()
+SMALL = RAIN.replace("spacing_m = 1.0", "spacing_m = 2.0")
+"""The shipped rain study at a 2 m spacing (a few hundred particles)."""
+
+
+def _replace(text: str, old: str, new: str) -> str:
+    assert old in text, old
+    return text.replace(old, new)
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ("n = 2.0\n", "", "transient.curves[0].n"),
+    ('model = "van_genuchten"\n', 'model = "gardner"\n', "transient.curves[0].n"),
+    ("residual_water_content = 0.05", "residual_water_content = 0.5", "transient.curves[0].residual_water_content"),
+    ('material = "silty_sand"\n', 'material = "clay"\n', "transient.curves"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]\n", "", "transient.boundary[0].rain_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]\n",
+     "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0]]\nrain_mm_h = 5.0\n", "transient.boundary[0].rain_history_h_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "rain_history_h_mm_h = [[0.0, 10.0], [12.0, -5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "rain_history_h_mm_h = [[0.0, 10.0], [0.0, 5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
+    ("total_head_m = 3.0\n", "total_head_m = 3.0\nrain_mm_h = 1.0\n", "transient.boundary[1].rain_mm_h"),
+    ('condition = "total_head"\n', 'condition = "reservoir"\n', "transient.boundary[1].total_head_m"),
+    ("initial_water_table_m = 3.0\n", "", "transient.initial_water_table_m"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 60.0\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nwater_at_h = 2.0\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nfos_times_h = [1.0, 2.0]\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_times_h = [2.0, 1.0]\n", "transient.fos_times_h"),
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "", "transient.water_at_h"),
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 2.0\nstop_below_fos = 1.0\n",
+     "transient.stop_below_fos"),
+    ("permeability_m_s = 1e-5\n", "", "materials[0].permeability_m_s"),
+    ("[transient]\n", "[water]\nphreatic_level_m = 3.0\n\n[transient]\n", "water.phreatic_level_m"),
+    ('initial_water_table_m = 3.0\n', 'initial_water_table_m = 3.0\ninitial_state = "steady"\n',
+     "transient.initial_water_table_m"),
+    ("end_time_h = 48.0\n", "end_time_h = 48.0\nmax_step_h = 100.0\n", "transient.max_step_h"),
+])
+def test_bad_transient_input_names_its_field(old, new, field):
+    """Each refusal names the field, as every table of the study file does."""
+    text = _replace(SMALL, old, new)
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == field
+
+
+def test_bad_transient_input_exits_2_with_one_line_and_check_refuses_it_too(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(_replace(SMALL, "n = 2.0\n", "n = 0.5\n"))
+    for command, args in ((app, [str(study), "--out", str(tmp_path / "out")]),
+                          (check_app, [str(study), "--out", str(tmp_path / "c")])):
+        result = CliRunner().invoke(command, args)
+        assert result.exit_code == 2
+        assert result.stderr == f"error: {study}: transient.curves[0].n: must be > 1, got 0.5\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_a_rain_box_on_no_boundary_edge_is_refused_naming_the_entry():
+    text = _replace(SMALL, 'condition = "rain"\ny_min_m = 5.0\n', 'condition = "rain"\ny_min_m = 40.0\n')
+    with pytest.raises(StudyError) as error:
+        build_scene(parse_study(text.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 1.0\n")))
+    assert error.value.field == "transient.boundary[0]"
+
+
+def test_a_rain_history_holds_each_intensity_until_the_next_time():
+    """[[0, 10], [12, 50], [42, 0]] mm/h: 10 mm/h to 12 h, 50 to 42 h, none after; its volume exact."""
+    entry = parse_study(SMALL).transient.boundary[0]
+    history = rain_history(entry)
+    hour = 3600.0
+    assert history.at(6 * hour) == pytest.approx(10 * MM_H_TO_M_S)
+    assert history.at(20 * hour) == pytest.approx(50 * MM_H_TO_M_S)
+    assert history.at(44 * hour) == 0.0
+    fallen_mm = history.mean(0.0, 48 * hour) * 48 * hour * 1e3
+    assert fallen_mm == pytest.approx(10 * 12 + 50 * 30)
+
+
+def test_the_particles_carry_the_suction_stress_of_their_water_and_terzaghis_pressure_below_it():
+    """u = S_e gamma_w psi above the water table (the suction stress, < 0), gamma_w psi below; without
+    suction_in_strength gamma_w max(psi, 0) as a steady flow's; saturated density where psi >= 0."""
+    text = SMALL.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 24.0\n")
+    study = parse_study(text)
+    water = water_flow(study)
+    scene = build_scene(study, water)
+    psi = water.pressure_head_m
+    curve = VanGenuchten(0.05, 0.40, 0.5, 2.0, 1e-4)
+    above = psi < 0.0
+    assert above.any() and (~above).any()
+    expected = 9810.0 * np.where(above, curve.effective_saturation(psi) * psi, psi)
+    # S_e is the lumped mean of the node's triangles' material: one material here, the curve's own
+    np.testing.assert_allclose(scene.node_pore_pressure_pa, expected, rtol=1e-9, atol=1e-9)
+    assert scene.node_pore_pressure_pa[above].max() < 0.0
+    np.testing.assert_array_equal(scene.node_properties["density_kg_m3"] == 2000.0, psi >= 0.0)
+    dry = build_scene(parse_study(text.replace("stop_below_fos", "x").replace(
+        "water_at_h = 24.0\n", "water_at_h = 24.0\nsuction_in_strength = false\n")))
+    np.testing.assert_allclose(dry.node_pore_pressure_pa, 9810.0 * np.maximum(psi, 0.0))
+
+
+def test_the_flow_of_a_study_closes_its_mass_balance_and_takes_the_rain_it_is_given():
+    study = parse_study(SMALL)
+    flow = transient_flow(study)
+    solution = flow.solution
+    assert solution.times_s[-1] == 48 * 3600.0
+    assert solution.balance_fraction().max() < 1e-6
+    assert solution.water_in_m2[-1] > 0.0 and solution.stored_water_m2[-1] > solution.stored_water_m2[0]
+    # no more rain enters than falls on the 60 m of horizontal length
+    fallen_m2 = (10 * 12 + 50 * 30) * 1e-3 * 60.0
+    rain_in = solution.boundary_cumulative_inflow_m2[-1, solution.boundary_names.index("rain")]
+    assert 0.0 < rain_in <= fallen_m2 * (1 + 1e-9)
+
+
+def test_water_at_a_time_needs_the_flow_only_as_far_as_that_time():
+    study = parse_study(SMALL)
+    early = transient_flow(study, until_h=6.0)
+    assert early.solution.times_s[-1] == 6 * 3600.0
+    np.testing.assert_allclose(early.water_at(6.0).pressure_head_m, transient_flow(study).water_at(6.0).pressure_head_m,
+                               atol=1e-9)
+
+
+def test_the_time_the_fos_reaches_one_is_interpolated_between_the_times_either_side():
+    assert time_fos_reaches([0.0, 6.0, 12.0], [1.4, 1.2, 0.8], 1.0) == pytest.approx(9.0)
+    assert math.isnan(time_fos_reaches([0.0, 6.0], [1.4, 1.2], 1.0))
+    assert time_fos_reaches([0.0, 6.0], [0.9, 0.8], 1.0) == 0.0
+
+
+@pytest.mark.slow
+def test_the_fos_against_time_of_the_shipped_rain_study(tmp_path):
+    """The shipped study at a 2 m spacing: the FOS falls with the rain, each time's case carries that
+    time's water (its gravity file's pore pressures are the flow's), the searches after the first start
+    in a window, and transient.nc closes its balance."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study
+
+    outcome = run_study(parse_study(SMALL), tmp_path, RunOptions(workers=2))
+    fos = [bracket(o)[0] for o in outcome.outcomes.values()]
+    assert fos[0] > fos[3]  # the rain lowers it
+    assert all(outcome.windows[cid] is not None for cid in list(outcome.outcomes)[1:])
+    with xr.open_dataset(tmp_path / "transient.nc") as flow, xr.open_dataset(tmp_path / "fos_time.nc") as curve:
+        assert flow.attrs["largest_balance_fraction"] < 1e-6
+        np.testing.assert_allclose(curve["fos"].values, fos)
+        k = int(np.argmin(np.abs(flow["time"].values - 24.0)))
+        with xr.open_dataset(tmp_path / "times" / "t=24h" / "gravity.nc") as gravity:
+            np.testing.assert_allclose(gravity["particle_pore_pressure"].values, flow["pore_pressure"].values[k],
+                                       rtol=1e-6, atol=1e-6)
+    assert (tmp_path / "fos_time.png").is_file()
