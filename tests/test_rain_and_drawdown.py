@@ -164,3 +164,22 @@ def test_the_fos_against_time_of_the_shipped_rain_study(tmp_path):
             np.testing.assert_allclose(gravity["particle_pore_pressure"].values, flow["pore_pressure"].values[k],
                                        rtol=1e-6, atol=1e-6)
     assert (tmp_path / "fos_time.png").is_file()
+
+
+def test_every_stage_loads_the_surface_with_the_reservoir_at_the_studys_time():
+    """The drawdown study's reservoir, 10 m at 0 h to 0 m at 48 h: the pond every stage applies
+    (``water.pressure.study_water``, which ``stages.running.stage_setup`` gives each stage) is its level at
+    water_at_h, as the flow's held heads are (a stage without it would take the reservoir's support away)."""
+    from workflows.water.pressure import study_water
+
+    text = (REPO / "studies" / "drawdown_time.toml").read_text().replace("spacing_m = 0.5", "spacing_m = 2.0")
+    for time_h, level_m in ((0.0, 10.0), (24.0, 5.0), (96.0, 0.0)):
+        study = parse_study(_replace(text, "fos_times_h = [0.0, 24.0, 36.0, 48.0, 72.0, 96.0, 144.0, 192.0]",
+                                     f"water_at_h = {time_h}"))
+        scene = build_scene(study)
+        assert study_water(study, scene.node_material)[2] == pytest.approx(level_m)
+        assert scene.pond_level_m == pytest.approx(level_m)
+        water = water_flow(study)
+        face = water.node_xy_m[:, 0] > 12.0 + 1e-9
+        wet = face & (water.node_xy_m[:, 1] <= level_m) & (water.pressure_head_m > -1e-9)
+        assert wet.any() or level_m == 0.0

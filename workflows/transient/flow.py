@@ -262,9 +262,7 @@ def _initial_head_m(study, node_xy_m: np.ndarray) -> np.ndarray:
 def water_at_time(study, time_h: float | None = None) -> WaterAt:
     """The water the stages of ``study`` see: its flow solved to ``time_h`` and taken there (default
     ``water_at_h``; for the FOS against time, its first time: what its section shows)."""
-    transient = study.transient
-    if time_h is None:
-        time_h = transient.water_at_h if transient.water_at_h is not None else transient.fos_times()[0]
+    time_h = study.transient.water_time_h if time_h is None else time_h
     return transient_flow(study, until_h=time_h).water_at(time_h)
 
 

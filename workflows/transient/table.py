@@ -203,6 +203,26 @@ class Transient(Record):
         times = [round(k * self.fos_interval_h, 9) for k in range(count + 1)]
         return tuple(times if times[-1] >= self.end_time_h - 1e-9 else [*times, self.end_time_h])
 
+    @property
+    def water_time_h(self) -> float:
+        """The time of the water the stages see: water_at_h, or the first time of the FOS against time."""
+        return self.water_at_h if self.water_at_h is not None else self.fos_times()[0]
+
+    def reservoir_level_m(self, time_h: float | None = None) -> float | None:
+        """The reservoir's level at ``time_h`` (default :attr:`water_time_h`): linear between the points of its
+        history, constant beyond them; None without a reservoir."""
+        entry = next((b for b in self.boundary if b.condition == "reservoir"), None)
+        if entry is None:
+            return None
+        t = self.water_time_h if time_h is None else time_h
+        times, levels = [p[0] for p in entry.level_history_h_m], [p[1] for p in entry.level_history_h_m]
+        if t <= times[0]:
+            return levels[0]
+        for k in range(1, len(times)):
+            if t <= times[k]:
+                return levels[k - 1] + (levels[k] - levels[k - 1]) * (t - times[k - 1]) / (times[k] - times[k - 1])
+        return levels[-1]
+
     def check_in_study(self, study) -> None:
         """[transient] computes the water: no line or ru beside it; every material has a permeability and a
         curve, every curve a material; the initial state's table; no probabilistic study, and no sweep of
