@@ -183,3 +183,23 @@ def test_every_stage_loads_the_surface_with_the_reservoir_at_the_studys_time():
         face = water.node_xy_m[:, 0] > 12.0 + 1e-9
         wet = face & (water.node_xy_m[:, 1] <= level_m) & (water.pressure_head_m > -1e-9)
         assert wet.any() or level_m == 0.0
+
+
+def test_the_threshold_is_the_duration_at_which_the_fos_falls_to_one_for_each_intensity():
+    """A study.nc of FOS over (rain_mm_h, water_at_h) made by hand: 1.5, 1.2, 0.9 at 12, 24, 36 h gives 32 h;
+    a row that stays above 1 none; a case without a FOS (every run failed at SRF 0.8) counts as below 1."""
+    from workflows.fos_time.threshold import applies, threshold_dataset
+
+    text = (REPO / "studies" / "rain_threshold.toml").read_text()
+    study = parse_study(text)
+    assert applies(study) and not applies(parse_study(RAIN))
+    fos = np.array([[1.5, 1.2, 0.9, 0.8], [1.6, 1.5, 1.4, 1.3], [1.1, np.nan, 0.7, 0.6]])
+    high = np.where(np.isnan(fos), 0.8, fos + 0.01)
+    dims = ("rain_mm_h", "water_at_h")
+    sweep = xr.Dataset({"fos": (dims, fos), "fos_high": (dims, high)},
+                       coords={"rain_mm_h": [15.0, 25.0, 40.0], "water_at_h": [12.0, 24.0, 36.0, 48.0]})
+    ds = threshold_dataset(study, sweep)
+    np.testing.assert_allclose(ds["duration_to_fos_1"].values[[0, 2]], [12 + 12 * (1.2 - 1.0) / 0.3 + 12,
+                                                                         12 + 12 * 0.1 / 0.3])
+    assert math.isnan(ds["duration_to_fos_1"].values[1])
+    np.testing.assert_allclose(ds["lowest_fos"].values, [0.8, 1.3, 0.6])

@@ -57,6 +57,8 @@ FIGURE_CAPTIONS: tuple[tuple[str, str], ...] = (
     ("fos_time.png", "The factor of safety against time (each a strength-reduction search on the particles' pore "
                      "pressure and suction at that time, with its bracket), above the rain or the reservoir's level "
                      "that drove the transient flow."),
+    ("threshold.png", "The threshold: for each value of the swept axis (a rain intensity), the time of the water at "
+                      "which the FOS falls to 1, interpolated between the swept times."),
 )
 """Caption of each figure a study draws in its output folder, by file-name pattern, in the order the
 page shows them (the first matching pattern wins); any other picture of ours (a stage's final

@@ -284,8 +284,8 @@ class Engine:
         result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label,
                              flow=case.flow)
         write_gravity(study, out_dir, result)
-        if result.flow is not None and study.transient is None:
-            self.progress.message(case.say(flow_line(result.flow)))
+        if result.flow is not None:  # a transient study's water at its time, or the steady flow
+            self.progress.message(case.say(result.flow.line() if study.transient is not None else flow_line(result.flow)))
         self._gravity_done(case, result, computed=True, written=True)
 
     def _start(self, case: CaseSearch) -> None:

@@ -31,6 +31,7 @@ from workflows.output.variables import (
     SWEEP_AXIS_ATTRIBUTES,
     SWEEP_FILE,
     SWEEP_FILE_ATTRIBUTES,
+    THRESHOLD_FILE,
     TRANSIENT_FILE,
     TRANSIENT_FILE_ATTRIBUTES,
     Attribute,
@@ -142,6 +143,11 @@ def page() -> str:
               "and the FOS at each time (each time's own files under `OUT/times/t=<t>h/`, as a single study's) in "
               "`fos_time.nc`:", "", *_variables(FOS_TIME_FILE), "",
               "Global attributes:", "", *_attributes(FOS_TIME_FILE_ATTRIBUTES), ""]
+    parts += ["## `threshold.nc` of a sweep over the time of the water", "",
+              "A grid `[sweep]` of a `[transient]` study over `transient.water_at_h` and one other axis (a rain "
+              "intensity: the slope's intensity-duration threshold; `workflows/fos_time/threshold.py`), beside its "
+              "`study.nc`, over the other axis:", "", *_variables(THRESHOLD_FILE), "",
+              "Global attributes: `time_axis`, `other_axis` (the two axis labels) and those of every result file.", ""]
     return "\n".join(parts)
 
 

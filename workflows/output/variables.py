@@ -521,3 +521,12 @@ FOS_TIME_FILE_ATTRIBUTES = (
     Attribute("stop_below_fos, stopped_at_h", "the study's stop rule and the time it stopped at (NaN: it ran every "
               "time)"),
 )
+
+THRESHOLD_FILE = _table(
+    Variable("duration_to_fos_1", ("<other axis>",), "h",
+             "the water_at_h at which the FOS falls to 1 for each value of the sweep's other axis (a rain intensity: "
+             "the slope's intensity-duration threshold), linear between the swept times either side; the first "
+             "time if it is below 1 there, NaN if it stays above 1 at every swept time"),
+    Variable("lowest_fos", ("<other axis>",), "1", "the lowest FOS along the swept times"),
+)
+"""``threshold.nc`` of a sweep of a ``[transient]`` study over ``transient.water_at_h`` and one other axis."""

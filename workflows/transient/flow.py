@@ -80,7 +80,8 @@ class TransientFlow:
         psi = self.solution.head_m[k] - self.node_xy_m[:, 1]
         levels = [(history.at(time_h * HOUR_S), span) for history, span in self.reservoirs]
         return WaterAt(time_h, self.node_xy_m, self.elem_nodes, psi, self.solution.effective_saturation[k],
-                       self.water_unit_weight_n_m3, self.suction_in_strength, tuple(levels))
+                       self.water_unit_weight_n_m3, self.suction_in_strength, tuple(levels),
+                       float(self.solution.balance_fraction()[:k + 1].max()), self.wall_time_s)
 
 
 @dataclass
@@ -95,6 +96,8 @@ class WaterAt:
     water_unit_weight_n_m3: float
     suction_in_strength: bool
     reservoir_levels: tuple  # (level_m, (x_min, x_max)) of each reservoir at this time
+    balance_fraction: float = 0.0  # the flow's mass balance to this time: the worst closure of its saved times
+    flow_wall_time_s: float = 0.0  # to build and solve the flow
 
     def pore_pressure_pa(self) -> np.ndarray:
         """u = S_e gamma_w psi with suction (negative above the water table), else gamma_w max(psi, 0)."""
@@ -112,7 +115,8 @@ class WaterAt:
         psi = self.pressure_head_m
         wet = f"{np.mean(psi >= 0.0):.0%} of the particles saturated"
         return (f"transient water at {self.time_h:g} h: {wet}, pressure head {psi.min():.3g} to {psi.max():.3g} m"
-                + ("" if self.suction_in_strength else " (suction left out of the strength)"))
+                + ("" if self.suction_in_strength else " (suction left out of the strength)")
+                + f"; the flow's mass balance closed to {self.balance_fraction:.1e} ({self.flow_wall_time_s:.1f} s)")
 
 
 def curve_of(entry):
