@@ -46,7 +46,7 @@ def main(argv=None) -> None:
         print(f"{'t (h)':>7}  {'FOS (windows)':>13}  {'runs':>4}  {'FOS (full search)':>17}  {'runs':>4}")
         full_runs = []
         single = re.sub(r"fos_interval_h = [0-9.]+\n|fos_times_h = \[[^\]]*\]\n", "", text)
-        single = single.replace("stop_below_fos = 1.0\n", "")
+        single = single.replace("stop_below_fos = 1.0\n", "").replace("runout_duration_s = 5.0\n", "")
         for t, f, r in zip(times, fos, runs):
             out_t, _ = run_study_command(single.replace("[transient]\n", f"[transient]\nwater_at_h = {t}\n"),
                                          Path(scratch) / f"t{t:g}")

@@ -49,14 +49,15 @@ def _replace(text: str, old: str, new: str) -> str:
     ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nwater_at_h = 2.0\n", "transient.fos_interval_h"),
     ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nfos_times_h = [1.0, 2.0]\n", "transient.fos_interval_h"),
     ("fos_interval_h = 6.0\n", "fos_times_h = [2.0, 1.0]\n", "transient.fos_times_h"),
-    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "", "transient.water_at_h"),
-    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 2.0\nstop_below_fos = 1.0\n",
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "", "transient.water_at_h"),
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "water_at_h = 2.0\nstop_below_fos = 1.0\n",
      "transient.stop_below_fos"),
     ("permeability_m_s = 1e-5\n", "", "materials[0].permeability_m_s"),
     ("[transient]\n", "[water]\nphreatic_level_m = 3.0\n\n[transient]\n", "water.phreatic_level_m"),
     ('initial_water_table_m = 3.0\n', 'initial_water_table_m = 3.0\ninitial_state = "steady"\n',
      "transient.initial_water_table_m"),
     ("end_time_h = 48.0\n", "end_time_h = 48.0\nmax_step_h = 100.0\n", "transient.max_step_h"),
+    ("stop_below_fos = 1.0\n", "", "transient.runout_duration_s"),
 ])
 def test_bad_transient_input_names_its_field(old, new, field):
     """Each refusal names the field, as every table of the study file does."""
@@ -80,7 +81,8 @@ def test_bad_transient_input_exits_2_with_one_line_and_check_refuses_it_too(tmp_
 def test_a_rain_box_on_no_boundary_edge_is_refused_naming_the_entry():
     text = _replace(SMALL, 'condition = "rain"\ny_min_m = 5.0\n', 'condition = "rain"\ny_min_m = 40.0\n')
     with pytest.raises(StudyError) as error:
-        build_scene(parse_study(text.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 1.0\n")))
+        build_scene(parse_study(text.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n",
+                                             "water_at_h = 1.0\n")))
     assert error.value.field == "transient.boundary[0]"
 
 
@@ -99,7 +101,7 @@ def test_a_rain_history_holds_each_intensity_until_the_next_time():
 def test_the_particles_carry_the_suction_stress_of_their_water_and_terzaghis_pressure_below_it():
     """u = S_e gamma_w psi above the water table (the suction stress, < 0), gamma_w psi below; without
     suction_in_strength gamma_w max(psi, 0) as a steady flow's; saturated density where psi >= 0."""
-    text = SMALL.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\n", "water_at_h = 24.0\n")
+    text = SMALL.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "water_at_h = 24.0\n")
     study = parse_study(text)
     water = water_flow(study)
     scene = build_scene(study, water)
@@ -112,8 +114,7 @@ def test_the_particles_carry_the_suction_stress_of_their_water_and_terzaghis_pre
     np.testing.assert_allclose(scene.node_pore_pressure_pa, expected, rtol=1e-9, atol=1e-9)
     assert scene.node_pore_pressure_pa[above].max() < 0.0
     np.testing.assert_array_equal(scene.node_properties["density_kg_m3"] == 2000.0, psi >= 0.0)
-    dry = build_scene(parse_study(text.replace("stop_below_fos", "x").replace(
-        "water_at_h = 24.0\n", "water_at_h = 24.0\nsuction_in_strength = false\n")))
+    dry = build_scene(parse_study(text.replace("water_at_h = 24.0\n", "water_at_h = 24.0\nsuction_in_strength = false\n")))
     np.testing.assert_allclose(dry.node_pore_pressure_pa, 9810.0 * np.maximum(psi, 0.0))
 
 
@@ -203,3 +204,21 @@ def test_the_threshold_is_the_duration_at_which_the_fos_falls_to_one_for_each_in
                                                                          12 + 12 * 0.1 / 0.3])
     assert math.isnan(ds["duration_to_fos_1"].values[1])
     np.testing.assert_allclose(ds["lowest_fos"].values, [0.8, 1.3, 0.6])
+
+
+@pytest.mark.slow
+def test_the_slope_that_fails_is_followed_after_failure_at_the_water_of_that_time(tmp_path):
+    """The shipped rain study at 2 m, searched at 30 and 42 h (below 1 at 42 h; runout_duration_s 5 s): the
+    runout stage runs from the gravity state of 42 h at the slope's own strength, carrying that time's
+    pore pressures, and moves."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study
+
+    text = _replace(SMALL, "fos_interval_h = 6.0\n", "fos_times_h = [30.0, 42.0]\n")
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert outcome.runout is not None and outcome.times_h == [30.0, 42.0]
+    with xr.open_dataset(tmp_path / "runout" / "runout.nc") as runout, \
+            xr.open_dataset(tmp_path / "times" / "t=42h" / "gravity.nc") as gravity:
+        assert float(runout["sliding_mass_area_m2"]) > 0.0
+        np.testing.assert_allclose(runout["particle_pore_pressure"].values.min(),
+                                   gravity["particle_pore_pressure"].values.min(), rtol=1e-6)

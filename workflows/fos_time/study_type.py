@@ -13,6 +13,9 @@
    case, its failed runs, is what a runout would start from).
 4. ``OUT/fos_time.nc`` (the FOS, its bracket, the runs and window of each time, with the rain and the
    reservoir's level) and ``fos_time.png`` (the FOS against time above the rain or the level).
+5. With ``runout_duration_s``, the slope that failed is followed after failure (``OUT/runout/``): the
+   study of that time with a runout stage (its own strength, strength_factor 1) in place of the strength
+   reduction, from its gravity state, the water of that time carried as through the searches.
 """
 
 from __future__ import annotations
@@ -36,6 +39,8 @@ from workflows.transient.results import balance_line, write_transient
 
 TIMES_FOLDER = "times"
 CASE_TEXT_NAME = "case.toml"
+RUNOUT_FOLDER = "runout"
+RUNOUT_RECORD_INTERVAL_S = 0.01
 
 
 def case_id(time_h: float) -> str:
@@ -57,6 +62,7 @@ class TransientOutcome:
     flow_wall_s: float
     stopped_at_h: float | None  # the time the study stopped at (stop_below_fos), None: it ran every time
     time_fos_one_h: float  # when the FOS reaches 1, interpolated between the times either side (NaN: never)
+    runout: object = None  # the runout of the failing state (``stages.running.StudyRun``), if one was asked for
     timings_s: dict[str, float] = field(default_factory=dict)
     figures: list[Path] = field(default_factory=list)
 
@@ -85,10 +91,21 @@ class TransientStudy(StudyType):
         FOS against time)."""
         raw = tomllib.loads(self.study.source_text)
         transient = raw["transient"]
-        for name in ("fos_times_h", "fos_interval_h", "stop_below_fos"):
+        for name in ("fos_times_h", "fos_interval_h", "stop_below_fos", "runout_duration_s"):
             transient.pop(name, None)
         transient["water_at_h"] = float(time_h)
         return parse_study(to_toml(raw, header=f"the case at {time_h:g} h of study {self.study.name}"))
+
+    def runout_study(self, time_h: float) -> Study:
+        """The study that follows the slope after failure at ``time_h``: the case of that time with its
+        strength-reduction stage replaced by a runout stage at the slope's own strength (module doc, step 3)."""
+        raw = tomllib.loads(self.case_study(time_h).source_text)
+        stage = raw["stages"][-1]
+        raw["stages"][-1] = {"name": "runout", "kind": "runout", "strength_factor": 1.0,
+                             "max_duration_s": self.study.transient.runout_duration_s,
+                             "record_interval_s": RUNOUT_RECORD_INTERVAL_S,
+                             **({"boundary": stage["boundary"]} if "boundary" in stage else {})}
+        return parse_study(to_toml(raw, header=f"the runout after failure at {time_h:g} h of study {self.study.name}"))
 
     def _case(self, index: int) -> Case:
         time_h = self.times_h[index]
@@ -156,12 +173,28 @@ class TransientStudy(StudyType):
         dataset = fos_time_dataset(self.study, self.flow, times, ordered, self.windows, stop)
         path = write_dataset(dataset, self.out_dir / FILE_NAME)
         figures = [draw_fos_time(self.study, dataset, self.flow, self.out_dir)] if self.study.output.figures else []
+        runout = None
+        if self.study.transient.runout_duration_s is not None and below(ordered[case_id(times[-1])],
+                                                                         self.study.transient.stop_below_fos):
+            runout = self._run_out(times[-1])
         timings_s = {"flow": self.flow.wall_time_s, "cases_elapsed": timings.cases_elapsed,
                      "gravity": sum(o.timings_s.get("gravity", 0.0) for o in ordered.values()),
                      "srf_runs_worker": timings.srf_runs_worker, "total": time.perf_counter() - wall_start}
         return TransientOutcome(self.out_dir, times, ordered, dict(self.windows), self.transient_path, path,
                                 float(self.flow.solution.balance_fraction().max()), self.flow.wall_time_s, stopped,
-                                time_fos_reaches(times, upper_values(ordered.values()), 1.0), timings_s, figures)
+                                time_fos_reaches(times, upper_values(ordered.values()), 1.0), runout, timings_s,
+                                figures)
+
+    def _run_out(self, time_h: float):
+        """The runout of the slope that failed at ``time_h`` (:meth:`runout_study`), its stages in this process,
+        carrying the water of that time (passed on, not solved again)."""
+        from workflows.stages.running import run_stages  # the core (numba): once the study is valid
+
+        folder = self.out_dir / RUNOUT_FOLDER
+        study = self.runout_study(time_h)
+        make_output_folder(folder)
+        write_text_if_changed(folder / CASE_TEXT_NAME, study.source_text)
+        return run_stages(study, folder, flow=self.flow.water_at(time_h))
 
     def report(self, outcome: TransientOutcome, quiet: bool, study_file) -> Report:
 
@@ -186,6 +219,10 @@ class TransientStudy(StudyType):
                   f"(the flow {t['flow']:.1f} s, {t['flow'] / max(t['total'], 1e-9):.1%})")
         stopped = ([f"stopped after {outcome.stopped_at_h:g} h: FOS below stop_below_fos = "
                     f"{self.study.transient.stop_below_fos:g}"] if outcome.stopped_at_h is not None else [])
+        if outcome.runout is not None:
+            stopped.append(f"the runout after failure at {outcome.times_h[-1]:g} h: "
+                           + ", ".join(str(path) for path in outcome.runout.paths)
+                           + "".join(f"; {warning}" for warning in outcome.runout.warnings))
         wrote = (f"wrote {outcome.transient_path}, {outcome.fos_time_path.name}, {TIMES_FOLDER}/"
                  + "".join(f", {path.name}" for path in outcome.figures))
         return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote])

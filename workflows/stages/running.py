@@ -224,9 +224,10 @@ def partial_path(path: Path) -> Path:
 
 
 def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None = None, case: str = "",
-               force=False, max_memory_bytes: float | None = None) -> StudyRun:
+               force=False, max_memory_bytes: float | None = None, flow=None) -> StudyRun:
     """Run every stage of ``study`` in this process and write its results under ``out_dir``
-    (``progress.stage`` hears of each, with the ``case`` label).
+    (``progress.stage`` hears of each, with the ``case`` label); ``flow``: the flow its water comes from
+    when the caller has it (``scene.water_flow``; else solved here).
 
     Raises StudyError (nothing written) for a study the core refuses or the memory cannot hold
     (``memory_guard``, limit ``max_memory_bytes``), and lets the core's DivergenceError through
@@ -239,7 +240,7 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         return StudyRun(paths=paths, up_to_date=True)
 
     check_memory(study, processes=1, limit_bytes=max_memory_bytes)
-    scene, flow = scene_and_flow(study)
+    scene, flow = scene_and_flow(study, flow)
     monitor_nodes = monitor_particles(study, scene)
     sim = new_simulation(study, scene)
 

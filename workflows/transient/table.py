@@ -140,6 +140,10 @@ class Transient(Record):
                                           "to end_time_h", default=None, gt=0.0)
     stop_below_fos: float | None = number("1", "the FOS against time stops at the first time its FOS is below "
                                           "this (e.g. 1.0: at failure)", default=None, gt=0.0)
+    runout_duration_s: float | None = number(
+        "s", "with stop_below_fos: the slope that fails is followed after failure, at the water of the time it "
+        "failed, its own strength (a runout stage, strength_factor 1) for at most this long, from its gravity state; "
+        "its files in runout/", default=None, gt=0.0)
     suction_in_strength: bool = boolean("the suction above the water table adds to the effective stress "
                                            "(u = S_e gamma_w psi); false: u = gamma_w max(psi, 0)", default=True)
     max_step_h: float = number("h", "the longest time step of the flow", default=1.0, gt=0.0)
@@ -181,6 +185,9 @@ class Transient(Record):
                              f"{MAX_FOS_TIMES}")
         if self.stop_below_fos is not None and not against_time:
             raise StudyError("stop_below_fos", "applies to the FOS against time (fos_times_h or fos_interval_h)")
+        if self.runout_duration_s is not None and self.stop_below_fos is None:
+            raise StudyError("runout_duration_s", "follows the slope once its FOS falls below stop_below_fos: give "
+                             "stop_below_fos")
         reservoirs = [i for i, entry in enumerate(self.boundary) if entry.condition == "reservoir"]
         if len(reservoirs) > 1:
             raise StudyError(f"boundary[{reservoirs[1]}].condition", "one reservoir per study (its water loads the "
