@@ -222,3 +222,19 @@ def test_the_slope_that_fails_is_followed_after_failure_at_the_water_of_that_tim
         assert float(runout["sliding_mass_area_m2"]) > 0.0
         np.testing.assert_allclose(runout["particle_pore_pressure"].values.min(),
                                    gravity["particle_pore_pressure"].values.min(), rtol=1e-6)
+
+
+def test_report_html_captions_the_fos_against_time_as_such_and_shows_the_transient_table(tmp_path):
+    """fos_time.png is not a sweep's design chart (fos_*.png), and [transient] is among the input tables."""
+    from workflows.html_report import _input_tables, _result_figures
+    from workflows.output.figures import pyplot, save_figure
+
+    plt = pyplot()
+    for name in ("fos_time.png", "threshold.png"):
+        fig, _ = plt.subplots()
+        save_figure(fig, tmp_path / name)
+        plt.close(fig)
+    captions = dict((path.name, caption) for path, caption in _result_figures(tmp_path))
+    assert captions["fos_time.png"].startswith("The factor of safety against time")
+    assert captions["threshold.png"].startswith("The threshold")
+    assert "<h3>Transient water</h3>" in _input_tables(parse_study(SMALL))
