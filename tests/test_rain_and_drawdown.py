@@ -238,3 +238,26 @@ def test_report_html_captions_the_fos_against_time_as_such_and_shows_the_transie
     assert captions["fos_time.png"].startswith("The factor of safety against time")
     assert captions["threshold.png"].startswith("The threshold")
     assert "<h3>Transient water</h3>" in _input_tables(parse_study(SMALL))
+
+
+def test_a_rain_history_and_a_reservoir_level_may_come_from_csv_files_beside_the_study(tmp_path):
+    """(time, intensity) and (time, level) files: read in when the study is loaded, written out in its text;
+    a file that is not there names the field."""
+    from workflows.study import load_study
+
+    (tmp_path / "storm.csv").write_text("t_h,mm_h\n0,10\n12,50\n42,0\n")
+    text = _replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                    'rain_history_h_mm_h = "storm.csv"')
+    (tmp_path / "study.toml").write_text(text)
+    study = load_study(tmp_path / "study.toml")
+    assert study.transient.boundary[0].rain_history_h_mm_h == ((0.0, 10.0), (12.0, 50.0), (42.0, 0.0))
+    assert "storm.csv" not in parse_study(study.source_text).source_text.split("\n", 1)[1]
+    (tmp_path / "levels.csv").write_text("0;10\n48;0\n")
+    drawdown = (REPO / "studies" / "drawdown_time.toml").read_text()
+    (tmp_path / "drawdown.toml").write_text(_replace(drawdown, "level_history_h_m = [[0.0, 10.0], [48.0, 0.0]]",
+                                                     'level_history_h_m = "levels.csv"'))
+    assert load_study(tmp_path / "drawdown.toml").transient.boundary[0].level_history_h_m == ((0.0, 10.0), (48.0, 0.0))
+    (tmp_path / "study.toml").write_text(text.replace("storm.csv", "missing.csv"))
+    with pytest.raises(StudyError) as error:
+        load_study(tmp_path / "study.toml")
+    assert error.value.field == "transient.boundary[0].rain_history_h_mm_h"
