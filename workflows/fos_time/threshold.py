@@ -77,14 +77,19 @@ def draw_threshold(ds: xr.Dataset, path: Path) -> Path:
     other = ds.attrs["other_axis"]
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     durations = ds["duration_to_fos_1"].values
-    values = ds[other].values.astype(float)
+    try:  # a rain intensity; a value that is no number (a drawdown's hydrograph) at its position, labelled
+        values, labels = ds[other].values.astype(float), None
+    except (TypeError, ValueError):
+        values, labels = np.arange(ds[other].size, dtype=float), [str(v) for v in ds[other].values]
     found = np.isfinite(durations)
     ax.plot(durations[found], values[found], "o-", color="tab:red", label="FOS = 1")
     for value in values[~found]:
         ax.annotate("stays above 1", (0.98, value), xycoords=("axes fraction", "data"), ha="right", fontsize=8)
-    ax.set_xlabel("duration (h): water_at_h at which the FOS falls to 1")
+    if labels is not None:
+        ax.set_yticks(values, labels, fontsize=7)
+    ax.set_xlabel("time of the water (h) at which the FOS falls to 1")
     ax.set_ylabel(other)
-    ax.set_title("threshold: above and to the right of the line the slope fails")
+    ax.set_title("the time at which the FOS falls to 1 (for rain: longer rain at that intensity fails the slope)", fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
