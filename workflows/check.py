@@ -48,6 +48,7 @@ from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study
 from workflows.study.reading import sweep_cases
+from workflows.transient.flow import WaterAt
 
 STABLE_RESPONSE_TIMES = 3.0
 """Pseudo-time of a run that comes to rest, in response times (module doc)."""
@@ -158,10 +159,12 @@ def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: floa
 
 
 def case_count(study: Study) -> int | None:
-    """The factors of safety a study computes: one, a sweep's cases, the realisations; None for a
-    refinement study (a factor at each of its levels)."""
+    """The factors of safety a study computes: one, a sweep's cases, the realisations, the times of the FOS
+    against time (at most: it may stop early); None for a refinement study (a factor at each of its levels)."""
     if study.refinement is not None:
         return None
+    if study.transient is not None and study.transient.against_time:
+        return len(study.transient.fos_times())
     if study.probabilistic is not None:
         return study.probabilistic.realisations
     if study.sweep is not None:
@@ -203,7 +206,7 @@ class StudyCheck:
                     else f"{e.cases} factors of safety, searched about their predicted values after the first")
             lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
-            lines.append(flow_line(self.flow))
+            lines.append(self.flow.line() if isinstance(self.flow, WaterAt) else flow_line(self.flow))
         if self.critical is not None:
             c = self.critical
             lines.append(f"limit equilibrium (Bishop's circles, {c.water}): F about {c.fos:.3g} on a circle from x = "

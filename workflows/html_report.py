@@ -42,6 +42,9 @@ FIGURE_CAPTIONS: tuple[tuple[str, str], ...] = (
     ("particle_spacing.png", "The particle spacing of a locally refined cloud."),
     ("convergence.png", "The FOS against the particle spacing h, with its band at each level and the Richardson "
                         "extrapolation to h = 0."),
+    ("fos_time.png", "The factor of safety against time (each a strength-reduction search on the particles' pore "
+                     "pressures and suction at that time, with its bracket), above the rain or the reservoir's level "
+                     "that drove the transient flow."),
     ("fos_map.png", "The FOS over the two swept fields."),
     ("fos_*.png", "The FOS with its bracket against a swept field (a design chart)."),
     ("runout_*.png", "The runout against a swept field."),
@@ -54,6 +57,8 @@ FIGURE_CAPTIONS: tuple[tuple[str, str], ...] = (
     ("slip_envelope.png", "The failed realisations' slip lines and their envelope."),
     ("failed_*.png", "A failed realisation: its random field and the plastic strain of its first failed run."),
     ("seepage.png", "The steady seepage solution: total head and flow."),
+    ("threshold.png", "The threshold: for each value of the swept axis (a rain intensity), the time of the water at "
+                      "which the FOS falls to 1, interpolated between the swept times."),
 )
 """Caption of each figure a study draws in its output folder, by file-name pattern, in the order the
 page shows them (the first matching pattern wins); any other picture of ours (a stage's final
@@ -157,6 +162,7 @@ def _result_figures(out_dir: Path) -> list[tuple[Path, str]]:
 
 INPUT_TABLES = (("materials", "Materials"), ("probabilistic", "Probabilistic"), ("random_field", "Random field"),
                 ("sweep", "Sweep"), ("refinement", "Refinement"), ("water", "Water"), ("seepage", "Seepage"),
+                ("transient", "Transient water"),
                 ("loads", "Loads"), ("boundary", "Supports"), ("walls", "Walls"), ("stages", "Stages"),
                 ("solver", "Solver"), ("geometry", "Geometry"), ("monitors", "Monitors"))
 """The tables of :class:`Study` the page shows, in order, with their headings."""

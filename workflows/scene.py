@@ -27,6 +27,8 @@ from workflows.random_field.table import SEEPAGE_PROPERTY
 from workflows.random_field.values import node_properties
 from workflows.seepage.flow import StudyFlow, study_flow
 from workflows.study import Study, StudyError
+from workflows.transient.flow import WaterAt, water_at_time
+from workflows.transient.flow import scene_fields as transient_scene_fields
 from workflows.water.pressure import scene_fields
 
 
@@ -64,19 +66,29 @@ def build_scene(study: Study, flow=None) -> Scene:
     return scene_and_flow(study, flow)[0]
 
 
-def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | None]:
-    """(the scene of :func:`build_scene`, the steady flow its water comes from, or None without
-    ``[seepage]``).  ``flow``: the study's flow (``workflows.seepage.flow.study_flow``) when the caller
-    has it; else it is solved here, once the particles have their materials."""
+def water_flow(study: Study) -> StudyFlow | WaterAt | None:
+    """The flow a study's water comes from: with ``[transient]`` its water at the study's time
+    (``workflows.transient.flow``), with ``[seepage]`` its steady flow; None without either."""
+    if study.transient is not None:
+        return water_at_time(study)
+    return study_flow(study) if study.seepage is not None else None
+
+
+def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | WaterAt | None]:
+    """(the scene of :func:`build_scene`, the flow its water comes from, or None without ``[seepage]``
+    or ``[transient]``: :func:`water_flow`).  ``flow``: the study's flow when the caller has it; else it
+    is solved here, once the particles have their materials."""
     geometry = study.geometry
     node_xy_m, node_spacing_m = cloud(study)
     if node_xy_m.shape[0] < 3:
         raise StudyError("geometry.spacing_m", f"gives {node_xy_m.shape[0]} particles; make it smaller")
     node_material = assign_materials(study, node_xy_m)
-    if study.seepage is not None and flow is None:
-        flow = study_flow(study)
-    water_fields = scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points),
-                                      flow)
+    if flow is None:
+        flow = water_flow(study)
+    if study.transient is not None:
+        water_fields = transient_scene_fields(study, node_xy_m, node_material, flow)
+    else:
+        water_fields = scene_fields(study, node_xy_m, node_material, lambda points: material_rows(study, points), flow)
     if study.random_field is not None:  # spatially variable soil (workflows.random_field.values)
         varying = field_values(study, node_xy_m, node_spacing_m, node_material)
         varying.pop(SEEPAGE_PROPERTY, None)  # the flow's (workflows.seepage.flow), not the core's

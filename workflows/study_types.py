@@ -4,6 +4,9 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 ``Placement``), and brings their outcomes together.  The type of a study without ``[sweep]`` is
 the first of :data:`STUDY_TYPES` that takes it:
 
+- ``fos_time.study_type.TransientStudy``: a study of the FOS against time (``[transient]`` with
+  ``fos_times_h`` or ``fos_interval_h``), a case per time, one after another, ``fos_time.nc``;
+
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
   realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
 - ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
@@ -29,6 +32,7 @@ from contextlib import nullcontext
 from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
+from workflows.fos_time.study_type import TransientStudy
 from workflows.output.folder_lock import folder_lock, study_digest
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.sweep import ProbabilisticSweep
@@ -40,7 +44,8 @@ from workflows.study import Study, StudyError
 from workflows.sweep.nested import NestedSweep, SweepSummary
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy, SingleStudy)
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy, TransientStudy,
+                                              SingleStudy)
 """Every type of a study without ``[sweep]``, asked in this order whether a study is of it (the last
 takes any study)."""
 SWEPT: dict[type[StudyType], SweepSummary] = {ProbabilisticStudy: ProbabilisticSweep(), RefinementStudy: RefinedSweep()}

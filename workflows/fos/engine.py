@@ -73,8 +73,8 @@ from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, held, run_srf
 from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
-from workflows.scene import scene_and_flow
-from workflows.seepage.flow import flow_inputs, study_flow
+from workflows.scene import scene_and_flow, water_flow
+from workflows.seepage.flow import flow_inputs
 from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study, StudyError
@@ -134,6 +134,11 @@ class CaseSearch:
 
     def say(self, text: str) -> str:
         return f"{self.label}: {text}" if self.label else text
+
+
+def has_flow(study: Study) -> bool:
+    """Whether the study's water comes from a flow (``[seepage]`` or ``[transient]``) its runs share."""
+    return study.seepage is not None or study.transient is not None
 
 
 CASES_PER_WORKER = 4
@@ -210,10 +215,10 @@ class Engine:
             if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
                 self.scattered[case.gkey] = self._on_every_worker(case.gravity, f"gravity-state-{case.gkey}")
             flow = None
-            if case.study.seepage is not None:  # the client's flow: the workers do not solve it again
+            if has_flow(case.study):  # the client's flow: the workers do not solve it again
                 inputs = flow_inputs(case.study)
                 if inputs not in self.flows:
-                    case.flow = study_flow(case.study) if case.flow is None else case.flow
+                    case.flow = water_flow(case.study) if case.flow is None else case.flow
                     self.flows[inputs] = self._on_every_worker(case.flow, f"steady-flow-{case.gkey}-{len(self.flows)}")
                 flow = self.flows[inputs]
             case.shared = (case.study, self.scattered[case.gkey], flow)
@@ -266,7 +271,7 @@ class Engine:
         stored = None if self.force else stored_gravity(study, out_dir)
         path = gravity_paths(study, out_dir)[-1]
         if stored is not None:
-            scene, flow = scene_and_flow(study)
+            scene, flow = scene_and_flow(study, case.flow)
             new_simulation(study, scene)  # the study's checks, as when the state is computed
             if stored.n_particles == scene.n_particles:
                 case.gravity, case.gravity_reused, case.n_particles = stored, True, stored.n_particles
@@ -276,10 +281,11 @@ class Engine:
         if not self.force and path.is_file():
             reason = why_not_reused(study, out_dir) if stored is None else f"{path.name} has another particle count"
             self.progress.message(case.say(f"gravity state relaxed again: {reason}"))
-        result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label)
+        result = run_gravity(study.source_text, threads=0, out_dir=out_dir, progress=self.progress, case=case.label,
+                             flow=case.flow)
         write_gravity(study, out_dir, result)
-        if result.flow is not None:
-            self.progress.message(case.say(flow_line(result.flow)))
+        if result.flow is not None:  # a transient study's water at its time, or the steady flow
+            self.progress.message(case.say(result.flow.line() if study.transient is not None else flow_line(result.flow)))
         self._gravity_done(case, result, computed=True, written=True)
 
     def _start(self, case: CaseSearch) -> None:
@@ -310,7 +316,7 @@ class Engine:
             if waiting is not None:  # the same gravity state is on its way for an earlier case
                 waiting.append(case)
                 return
-            future = self._submit(run_gravity, case.study.source_text, priority=1_000_000 - case.index,
+            future = self._submit(run_gravity, case.study.source_text, flow=case.flow, priority=1_000_000 - case.index,
                                   key=f"gravity-{case.gkey}-{self.token}-{case.index}")
             self.tasks[future] = _Task(case, TaskKind.GRAVITY)
             self.gravity_waiting[case.gkey] = [case]
@@ -670,7 +676,7 @@ class Engine:
             self.replayed_of.setdefault(case.gkey, case)
         elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
             self.scattered.pop(case.gkey, None)
-        if case.study.seepage is not None:
+        if has_flow(case.study):
             inputs = flow_inputs(case.study)
             if all(flow_inputs(other.study) != inputs for other in self.cases):
                 self.flows.pop(inputs, None)

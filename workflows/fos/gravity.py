@@ -84,15 +84,16 @@ def why_not_reused(study: Study, out_dir: Path) -> str:
 
 
 def run_gravity(study_text: str, threads: int = 1, out_dir: Path | None = None,
-                progress: Progress | None = None, case: str = "") -> GravityResult:
+                progress: Progress | None = None, case: str = "", flow=None) -> GravityResult:
     """Run the stages before the strength reduction of the study ``study_text`` on ``threads`` threads
     (1: a dask worker's one core; 0: all cores).  With ``out_dir`` (made once the study's checks
     have passed), the study's snapshots and animations go there and ``progress.stage`` hears of each
-    stage (of case ``case``).  No result file is written (:func:`write_gravity`)."""
+    stage (of case ``case``).  No result file is written (:func:`write_gravity`).  ``flow``: the study's flow
+    when the caller has it (``workflows.scene.water_flow``; else solved here)."""
     start = time.perf_counter()
     study = parse_study(study_text)
     key = gravity_key(study)
-    scene, flow = scene_and_flow(study)  # the client writes the flow, the runs reuse it
+    scene, flow = scene_and_flow(study, flow)  # the client writes the flow, the runs reuse it
     monitors = monitor_particles(study, scene)
     sim = new_simulation(study, scene, threads=threads)
     if out_dir is not None:
@@ -119,7 +120,7 @@ def write_gravity(study: Study, out_dir: Path, result: GravityResult) -> None:
     make_output_folder(out_dir)
     for dataset, path in zip(result.datasets, gravity_paths(study, out_dir)):
         write_dataset(dataset.assign_attrs(provenance(study)), path)
-    if result.flow is not None:
+    if result.flow is not None and study.transient is None:  # a transient study writes its own (transient.nc)
         write_seepage(study, seepage_dataset(study, result.flow), out_dir)
 
 

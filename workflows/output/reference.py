@@ -12,6 +12,8 @@ import sys
 from workflows.output.variables import (
     COLLAPSE_METRICS,
     FOS_ATTRIBUTES,
+    FOS_TIME_FILE,
+    FOS_TIME_FILE_ATTRIBUTES,
     PROBABILISTIC_FILE,
     PROBABILISTIC_FILE_ATTRIBUTES,
     PROBABILISTIC_SWEEP_FILE,
@@ -29,6 +31,9 @@ from workflows.output.variables import (
     SWEEP_AXIS_ATTRIBUTES,
     SWEEP_FILE,
     SWEEP_FILE_ATTRIBUTES,
+    THRESHOLD_FILE,
+    TRANSIENT_FILE,
+    TRANSIENT_FILE_ATTRIBUTES,
     Attribute,
     Variable,
 )
@@ -130,6 +135,19 @@ def page() -> str:
               "heads and pore pressure at the particles, Darcy velocities in the triangles, the water through "
               "each boundary condition and the phreatic surface.", "", *_variables(SEEPAGE_FILE), "",
               "Global attributes:", "", *_attributes(SEEPAGE_FILE_ATTRIBUTES), ""]
+    parts += ["## `transient.nc` and `fos_time.nc` of the FOS against time", "",
+              "A study with `[transient]` and `fos_times_h` or `fos_interval_h` (`workflows/transient/`, docs/method.md "
+              "section 17): the transient flow on the particles' first mesh at each saved time, with its water "
+              "balance, in `transient.nc`:", "", *_variables(TRANSIENT_FILE), "",
+              "Global attributes:", "", *_attributes(TRANSIENT_FILE_ATTRIBUTES), "",
+              "and the FOS at each time (each time's own files under `OUT/times/t=<t>h/`, as a single study's) in "
+              "`fos_time.nc`:", "", *_variables(FOS_TIME_FILE), "",
+              "Global attributes:", "", *_attributes(FOS_TIME_FILE_ATTRIBUTES), ""]
+    parts += ["## `threshold.nc` of a sweep over the time of the water", "",
+              "A grid `[sweep]` of a `[transient]` study over `transient.water_at_h` and one other axis (a rain "
+              "intensity: the slope's intensity-duration threshold; `workflows/fos_time/threshold.py`), beside its "
+              "`study.nc`, over the other axis:", "", *_variables(THRESHOLD_FILE), "",
+              "Global attributes: `time_axis`, `other_axis` (the two axis labels) and those of every result file.", ""]
     return "\n".join(parts)
 
 

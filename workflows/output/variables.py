@@ -448,3 +448,85 @@ SEEPAGE_FILE_ATTRIBUTES = (
               "ground is saturated to its surface), per metre of thickness"),
     Attribute("wall_time_s", "time to build and solve the flow"),
 )
+
+TRANSIENT_FILE = _table(
+    Variable("time", ("time",), "h", "the saved time (0: the initial state)"),
+    Variable("particle_x", ("particle",), "m", "x of the particle (its initial position: the flow is solved there)"),
+    Variable("particle_y", ("particle",), "m", "y of the particle"),
+    Variable("mesh2d", (), "1", "the particles' first triangle mesh, on which the flow is solved (UGRID)"),
+    Variable("mesh2d_face_nodes", ("face", "three"), "1", "the three particles of each triangle, counter-clockwise"),
+    Variable("total_head", ("time", "particle"), "m", "total head h: elevation plus pressure head"),
+    Variable("pressure_head", ("time", "particle"), "m", "pressure head psi = h - y (negative: suction)"),
+    Variable("water_content", ("time", "particle"), "1",
+             "volumetric water content theta (the lumped mean where materials meet)"),
+    Variable("effective_saturation", ("time", "particle"), "1", "effective saturation S_e"),
+    Variable("pore_pressure", ("time", "particle"), "Pa",
+             "the pore pressure a particle carries at that time: S_e gamma_w psi (negative above the water table: "
+             "suction) with suction_in_strength, else gamma_w max(psi, 0)"),
+    Variable("held", ("time", "particle"), "1",
+             "1 where a condition holds the particle at atmospheric pressure (ponding rain, a seepage face, a "
+             "reservoir's face above its level)"),
+    Variable("darcy_vx", ("time", "face"), "m s-1", "x Darcy velocity -k_r K grad h in the triangle"),
+    Variable("darcy_vy", ("time", "face"), "m s-1", "y Darcy velocity in the triangle"),
+    Variable("condition", ("condition",), "1", "name of each [[transient.boundary]] condition that holds particles"),
+    Variable("condition_inflow", ("time", "condition"), "m2 s-1",
+             "water entering the ground through each condition over the step before the time, per metre "
+             "(negative: leaving)"),
+    Variable("condition_cumulative_inflow", ("time", "condition"), "m2",
+             "water that entered through each condition since t = 0, per metre (negative: left)"),
+    Variable("water_in", ("time",), "m2", "all the water that entered the ground since t = 0, per metre"),
+    Variable("water_out", ("time",), "m2", "all the water that left the ground since t = 0, per metre"),
+    Variable("stored_water", ("time",), "m2", "the water the ground holds (with the saturated storage), per metre"),
+    Variable("balance_error", ("time",), "m2", "water in less water out less the change of the stored water"),
+    Variable("balance_fraction", ("time",), "1",
+             "|balance_error| over the largest of water_in, water_out and the change of the stored water"),
+    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time"),
+    Variable("reservoir_level", ("time",), "m", "the reservoir's level at that time (NaN: no reservoir)"),
+    Variable("step_end_time", ("step",), "s", "the end of each accepted time step of the flow"),
+    Variable("step_length", ("step",), "s", "the length of each accepted step"),
+    Variable("step_iterations", ("step",), "1", "modified Picard iterations of each accepted step"),
+)
+"""``transient.nc`` of a study with ``[transient]`` (the FOS against time): the flow at each saved time."""
+
+TRANSIENT_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the study's text)"),
+    Attribute("largest_balance_fraction", "the worst balance_fraction of the saved times (the mass balance's "
+              "closure)"),
+    Attribute("largest_step_balance_fraction", "the worst closure of one step (its error over the magnitude of its "
+              "balance)"),
+    Attribute("steps, rejected_steps, solves, factorizations", "accepted and rejected time steps, linear solves and "
+              "LU factorizations of the flow"),
+    Attribute("wall_time_s", "time to build and solve the flow"),
+)
+
+FOS_TIME_FILE = _table(
+    Variable("time", ("time",), "h", "the time of the water each FOS is searched with"),
+    Variable("fos", ("time",), "1", "the factor of safety at that time (the case's summary.nc)"),
+    Variable("fos_low", ("time",), "1", "the lower end of its bracket"),
+    Variable("fos_high", ("time",), "1", "the upper end of its bracket"),
+    Variable("runs", ("time",), "1", "the strength-reduction runs its search made"),
+    Variable("window_low", ("time",), "1", "the lower end of the window its search started in (NaN: none, the "
+             "first time)"),
+    Variable("window_high", ("time",), "1", "the upper end of that window"),
+    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time"),
+    Variable("cumulative_rain", ("time",), "mm", "the rain of the first rain condition fallen since t = 0"),
+    Variable("reservoir_level", ("time",), "m", "the reservoir's level at that time (NaN: no reservoir)"),
+    Variable("water_in", ("time",), "m2", "all the water that entered the ground since t = 0, per metre"),
+)
+"""``fos_time.nc`` of a study of the FOS against time."""
+
+FOS_TIME_FILE_ATTRIBUTES = (
+    Attribute("study, spfem_fos_version, created_utc, study_name", "as in a stage file (the study's text)"),
+    Attribute("time_fos_one_h", "when the FOS reaches 1, linear between the times either side (NaN: it does not)"),
+    Attribute("stop_below_fos, stopped_at_h", "the study's stop rule and the time it stopped at (NaN: it ran every "
+              "time)"),
+)
+
+THRESHOLD_FILE = _table(
+    Variable("duration_to_fos_1", ("<other axis>",), "h",
+             "the water_at_h at which the FOS falls to 1 for each value of the sweep's other axis (a rain intensity: "
+             "the slope's intensity-duration threshold), linear between the swept times either side; the first "
+             "time if it is below 1 there, NaN if it stays above 1 at every swept time"),
+    Variable("lowest_fos", ("<other axis>",), "1", "the lowest FOS along the swept times"),
+)
+"""``threshold.nc`` of a sweep of a ``[transient]`` study over ``transient.water_at_h`` and one other axis."""

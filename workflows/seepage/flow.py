@@ -88,20 +88,22 @@ class StudyFlow:
 
 def flow_inputs(study) -> tuple:
     """What a study's flow depends on (equal inputs, equal flow): its geometry, materials, [seepage],
-    ponded water, the alpha of its mesh, and a [random_field] of permeability."""
+    ponded water, the alpha of its mesh, a [random_field] of permeability, and [transient] (with the time
+    of its water)."""
     water = study.water
     field = study.random_field
     if field is not None and not any(entry.property == SEEPAGE_PROPERTY for entry in field.properties):
         field = None  # the flow does not depend on it: shared by every realisation
     return (study.geometry, study.materials, study.seepage, None if water is None else water.pond_level_m,
             None if water is None else (water.pond_x_min_m, water.pond_x_max_m),
-            DEFAULT_WATER_UNIT_WEIGHT_N_M3 if water is None else water.unit_weight_n_m3, study.solver.alpha, field)
+            DEFAULT_WATER_UNIT_WEIGHT_N_M3 if water is None else water.unit_weight_n_m3, study.solver.alpha, field,
+            study.transient)
 
 
 def study_flow(study) -> StudyFlow:
     """The flow of ``study`` (module doc), solved from its :func:`flow_inputs`; StudyError naming the
     field for a problem that has no solution, or whose iteration does not converge."""
-    return _flow(*flow_inputs(study))
+    return _flow(*flow_inputs(study)[:-1])
 
 
 def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit_weight_n_m3, alpha,

@@ -224,9 +224,10 @@ def partial_path(path: Path) -> Path:
 
 
 def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None = None, case: str = "",
-               force=False, max_memory_bytes: float | None = None) -> StudyRun:
+               force=False, max_memory_bytes: float | None = None, flow=None) -> StudyRun:
     """Run every stage of ``study`` in this process and write its results under ``out_dir``
-    (``progress.stage`` hears of each, with the ``case`` label).
+    (``progress.stage`` hears of each, with the ``case`` label); ``flow``: the flow its water comes from
+    when the caller has it (``scene.water_flow``; else solved here).
 
     Raises StudyError (nothing written) for a study the core refuses or the memory cannot hold
     (``memory_guard``, limit ``max_memory_bytes``), and lets the core's DivergenceError through
@@ -239,7 +240,7 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         return StudyRun(paths=paths, up_to_date=True)
 
     check_memory(study, processes=1, limit_bytes=max_memory_bytes)
-    scene, flow = scene_and_flow(study)
+    scene, flow = scene_and_flow(study, flow)
     monitor_nodes = monitor_particles(study, scene)
     sim = new_simulation(study, scene)
 
@@ -248,7 +249,9 @@ def run_stages(study: Study, out_dir: str | Path, *, progress: Progress | None =
         path.unlink(missing_ok=True)
         partial_path(path).unlink(missing_ok=True)
     outcome = StudyRun(paths=paths, n_particles=int(sim.n_particles), dt_s=float(sim.dt_s))
-    if flow is not None:  # the flow every stage's pore pressure comes from
+    if flow is not None and study.transient is not None:  # the water at the study's time
+        progress.message(flow.line())
+    elif flow is not None:  # the flow every stage's pore pressure comes from
         write_seepage(study, seepage_dataset(study, flow), out_dir)
         progress.message(flow_line(flow))
     for index, (stage, path) in enumerate(zip(study.stages, paths)):

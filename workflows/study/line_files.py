@@ -5,7 +5,8 @@
 
 The lines that may come from files are the section's (``geometry.section.ground_m``, its layers'
 ``above_m`` and ``below_m``) and the water's (``water.phreatic_line_m``, a material's
-``phreatic_line_m``).  A name is relative to the study file's folder.  The points are read in
+``phreatic_line_m``), and the histories of ``[transient]`` (a rain's (t_h, mm_h), a reservoir's
+(t_h, level_m)).  A name is relative to the study file's folder.  The points are read in
 when the study is loaded, and the study stored with the results is the one with its lines
 written out (``study.toml_text.to_toml``): the results do not depend on files beside them, and the
 workers never read them.  A line drawn from right to left in a DXF file is turned round; the
@@ -41,6 +42,11 @@ def line_fields(raw: dict):
     for i, material in enumerate(raw.get("materials", []) if isinstance(raw.get("materials"), list) else []):
         if isinstance(material, dict):
             yield f"materials[{i}].phreatic_line_m", material, "phreatic_line_m"
+    transient = raw.get("transient") if isinstance(raw.get("transient"), dict) else {}
+    for i, entry in enumerate(transient.get("boundary", []) if isinstance(transient.get("boundary"), list) else []):
+        for key in ("rain_history_h_mm_h", "level_history_h_m"):  # (time, value) histories
+            if isinstance(entry, dict):
+                yield f"transient.boundary[{i}].{key}", entry, key
 
 
 def read_line_files(raw: dict, folder: Path) -> list[str]:

@@ -27,6 +27,7 @@ from workflows.study.records import Metrics, Monitor, Output
 from workflows.study.solver import Solver
 from workflows.study.supports import Boundary, Wall
 from workflows.study.sweep import Sweep
+from workflows.transient.table import Transient
 from workflows.water.table import Water, check_water_in_study
 
 
@@ -65,6 +66,7 @@ class Study(Record):
     probabilistic: Probabilistic | None = optional_table(Probabilistic)
     random_field: RandomField | None = optional_table(RandomField)
     seepage: Seepage | None = optional_table(Seepage)
+    transient: Transient | None = optional_table(Transient)
     source_text: str = dataclasses.field(default="", repr=False, compare=False)
     """The TOML text the study was read from (stored with every result)."""
 
@@ -114,6 +116,8 @@ class Study(Record):
             self.probabilistic.check_in_study(self)
         if self.refinement is not None:
             self.refinement.check_in_study(self)
+        if self.transient is not None:
+            self.transient.check_in_study(self)
         for i, monitor in enumerate(self.monitors):
             if not points_in_polygon([(monitor.x_m, monitor.y_m)], self.geometry.polygon_m)[0]:
                 raise StudyError(

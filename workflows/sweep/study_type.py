@@ -29,6 +29,8 @@ import xarray as xr
 
 from workflows.cases import Case, CaseFeed, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.fos.discretisation import note
+from workflows.fos_time.threshold import applies as threshold_applies
+from workflows.fos_time.threshold import write_threshold
 from workflows.memory_guard import check_memory, estimated_particles
 from workflows.output.figures import remove_stale_figures
 from workflows.output.stage_file import result_paths
@@ -200,6 +202,8 @@ class SweepStudy(StudyType):
         figures = []
         if self.study.output.figures:
             figures = draw_sweep_figures(self.out_dir, dataset)
+        if threshold_applies(self.study):  # rain or drawdown over time: the duration at which the FOS reaches 1
+            figures += [path for path in write_threshold(self.study, dataset, self.out_dir) if path.suffix == ".png"]
         self._remove_stale_figures(figures)
         runs = [record for outcome in outcomes.values() for record in outcome.runs]
         runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused

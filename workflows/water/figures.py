@@ -10,9 +10,18 @@ from workflows.seepage.flow import study_flow
 
 def draw_water(ax, study, x_m: np.ndarray, ground_m: np.ndarray, flow=None) -> None:
     """The piezometric lines (dashed, below the ground), or the phreatic surface of the study's steady
-    ``flow`` (solved here when not given), and ponded water (solid) in blue over a figure of the
+    ``flow`` (solved here when not given) or of its transient water at its time (``flow``, when given),
+    and ponded water (solid) in blue over a figure of the
     domain, on the abscissae ``x_m`` where the ground is at ``ground_m``."""
     water = study.water
+    if study.transient is not None:  # the water table of the transient flow at the study's time, if given
+        if flow is not None:
+            for segment in phreatic_segments(flow.node_xy_m, flow.elem_nodes, flow.pressure_head_m):
+                ax.plot(segment[:, 0], segment[:, 1], "--", color="tab:blue", lw=1.2)
+            for level_m, (x_min, x_max) in flow.reservoir_levels:
+                wet = (ground_m < level_m) & (x_m >= x_min) & (x_m <= x_max)
+                ax.plot(x_m, np.where(wet, level_m, np.nan), "-", color="tab:blue", lw=1.5)
+        return
     if study.seepage is not None:
         flow = study_flow(study) if flow is None else flow
         psi = flow.solution.pressure_head_m(flow.node_xy_m)

@@ -42,8 +42,10 @@ def phreatic_lines(study, node_material: np.ndarray) -> tuple[tuple, np.ndarray]
 
 def study_water(study, node_material: np.ndarray):
     """(piezometric lines, line of each particle, pond level or None) of the study: what a stage
-    has unless it changes the water."""
+    has unless it changes the water.  With ``[transient]`` the pond is its reservoir at the study's time."""
     lines, node_line = phreatic_lines(study, node_material)
+    if study.transient is not None:
+        return lines, node_line, study.transient.reservoir_level_m()
     return lines, node_line, None if study.water is None else study.water.pond_level_m
 
 

@@ -92,13 +92,14 @@ def check_water_in_study(study) -> None:
             raise StudyError(field, f"must span the domain's x-range [{x_min:g}, {x_max:g}] m; "
                              f"it covers [{line[0][0]:g}, {line[-1][0]:g}]")
     study_line = water is not None and water.phreatic_line is not None
+    computed = study.seepage is not None or study.transient is not None  # a flow computes the water
     if study.seepage is not None:
         study.seepage.check_in_study(study)
-    elif water is not None and not study_line and water.ru is None and water.pond_level_m is None:
+    elif water is not None and not computed and not study_line and water.ru is None and water.pond_level_m is None:
         raise StudyError("water.phreatic_line_m", "give phreatic_line_m, phreatic_level_m, ru or pond_level_m "
                          "(or [seepage] to compute the water)")
     for i, material in enumerate(study.materials):
-        if study.seepage is not None:
+        if computed:
             continue
         if material.saturated_density_kg_m3 is not None and not study_line and material.phreatic_line_m is None:
             raise StudyError(f"materials[{i}].saturated_density_kg_m3", "applies below a piezometric line: give "
@@ -107,7 +108,7 @@ def check_water_in_study(study) -> None:
             raise StudyError(f"materials[{i}].phreatic_line_m", "give a piezometric line or [water] ru, not both")
     g = math.hypot(*study.loads.gravity_m_s2)
     gamma_w = water.unit_weight_n_m3 if water is not None else 9810.0
-    if (water is not None or study.seepage is not None) and g > 0.0:
+    if (water is not None or computed) and g > 0.0:
         for i, material in enumerate(study.materials):
             wet = material.saturated_density_kg_m3 or material.density_kg_m3
             field = "saturated_density_kg_m3" if material.saturated_density_kg_m3 else "density_kg_m3"

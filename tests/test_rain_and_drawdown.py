@@ -1,0 +1,263 @@
+"""Rain and drawdown in a study (``[transient]``): the table's refusals, the water at a time the
+particles carry (with its suction), the rain's history, and the FOS against time."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from spfem_core.soil_water import VanGenuchten
+from workflows.cli import app, check_app
+from workflows.fos_time.results import bracket, time_fos_reaches
+from workflows.scene import build_scene, water_flow
+from workflows.study import StudyError, parse_study
+from workflows.transient.flow import rain_history, transient_flow
+from workflows.transient.table import MM_H_TO_M_S
+
+REPO = Path(__file__).resolve().parents[1]
+RAIN = (REPO / "studies" / "rain.toml").read_text()
+SMALL = RAIN.replace("spacing_m = 1.0", "spacing_m = 2.0")
+"""The shipped rain study at a 2 m spacing (a few hundred particles)."""
+
+
+def _replace(text: str, old: str, new: str) -> str:
+    assert old in text, old
+    return text.replace(old, new)
+
+
+@pytest.mark.parametrize("old, new, field", [
+    ("n = 2.0\n", "", "transient.curves[0].n"),
+    ('model = "van_genuchten"\n', 'model = "gardner"\n', "transient.curves[0].n"),
+    ("residual_water_content = 0.05", "residual_water_content = 0.5", "transient.curves[0].residual_water_content"),
+    ('material = "silty_sand"\n', 'material = "clay"\n', "transient.curves"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]\n", "", "transient.boundary[0].rain_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]\n",
+     "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0]]\nrain_mm_h = 5.0\n", "transient.boundary[0].rain_history_h_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "rain_history_h_mm_h = [[0.0, 10.0], [12.0, -5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "rain_history_h_mm_h = [[0.0, 10.0], [0.0, 5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
+    ("total_head_m = 3.0\n", "total_head_m = 3.0\nrain_mm_h = 1.0\n", "transient.boundary[1].rain_mm_h"),
+    ('condition = "total_head"\n', 'condition = "reservoir"\n', "transient.boundary[1].total_head_m"),
+    ("initial_water_table_m = 3.0\n", "", "transient.initial_water_table_m"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 60.0\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nwater_at_h = 2.0\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_interval_h = 6.0\nfos_times_h = [1.0, 2.0]\n", "transient.fos_interval_h"),
+    ("fos_interval_h = 6.0\n", "fos_times_h = [2.0, 1.0]\n", "transient.fos_times_h"),
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "", "transient.water_at_h"),
+    ("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "water_at_h = 2.0\nstop_below_fos = 1.0\n",
+     "transient.stop_below_fos"),
+    ("permeability_m_s = 1e-5\n", "", "materials[0].permeability_m_s"),
+    ("[transient]\n", "[water]\nphreatic_level_m = 3.0\n\n[transient]\n", "water.phreatic_level_m"),
+    ('initial_water_table_m = 3.0\n', 'initial_water_table_m = 3.0\ninitial_state = "steady"\n',
+     "transient.initial_water_table_m"),
+    ("end_time_h = 48.0\n", "end_time_h = 48.0\nmax_step_h = 100.0\n", "transient.max_step_h"),
+    ("stop_below_fos = 1.0\n", "", "transient.runout_duration_s"),
+])
+def test_bad_transient_input_names_its_field(old, new, field):
+    """Each refusal names the field, as every table of the study file does."""
+    text = _replace(SMALL, old, new)
+    with pytest.raises(StudyError) as error:
+        parse_study(text)
+    assert error.value.field == field
+
+
+def test_bad_transient_input_exits_2_with_one_line_and_check_refuses_it_too(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text(_replace(SMALL, "n = 2.0\n", "n = 0.5\n"))
+    for command, args in ((app, [str(study), "--out", str(tmp_path / "out")]),
+                          (check_app, [str(study), "--out", str(tmp_path / "c")])):
+        result = CliRunner().invoke(command, args)
+        assert result.exit_code == 2
+        assert result.stderr == f"error: {study}: transient.curves[0].n: must be > 1, got 0.5\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_a_rain_box_on_no_boundary_edge_is_refused_naming_the_entry():
+    text = _replace(SMALL, 'condition = "rain"\ny_min_m = 5.0\n', 'condition = "rain"\ny_min_m = 40.0\n')
+    with pytest.raises(StudyError) as error:
+        build_scene(parse_study(text.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n",
+                                             "water_at_h = 1.0\n")))
+    assert error.value.field == "transient.boundary[0]"
+
+
+def test_a_rain_history_holds_each_intensity_until_the_next_time():
+    """[[0, 10], [12, 50], [42, 0]] mm/h: 10 mm/h to 12 h, 50 to 42 h, none after; its volume exact."""
+    entry = parse_study(SMALL).transient.boundary[0]
+    history = rain_history(entry)
+    hour = 3600.0
+    assert history.at(6 * hour) == pytest.approx(10 * MM_H_TO_M_S)
+    assert history.at(20 * hour) == pytest.approx(50 * MM_H_TO_M_S)
+    assert history.at(44 * hour) == 0.0
+    fallen_mm = history.mean(0.0, 48 * hour) * 48 * hour * 1e3
+    assert fallen_mm == pytest.approx(10 * 12 + 50 * 30)
+
+
+def test_the_particles_carry_the_suction_stress_of_their_water_and_terzaghis_pressure_below_it():
+    """u = S_e gamma_w psi above the water table (the suction stress, < 0), gamma_w psi below; without
+    suction_in_strength gamma_w max(psi, 0) as a steady flow's; saturated density where psi >= 0."""
+    text = SMALL.replace("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0\n", "water_at_h = 24.0\n")
+    study = parse_study(text)
+    water = water_flow(study)
+    scene = build_scene(study, water)
+    psi = water.pressure_head_m
+    curve = VanGenuchten(0.05, 0.40, 0.5, 2.0, 1e-4)
+    above = psi < 0.0
+    assert above.any() and (~above).any()
+    expected = 9810.0 * np.where(above, curve.effective_saturation(psi) * psi, psi)
+    # S_e is the lumped mean of the node's triangles' material: one material here, the curve's own
+    np.testing.assert_allclose(scene.node_pore_pressure_pa, expected, rtol=1e-9, atol=1e-9)
+    assert scene.node_pore_pressure_pa[above].max() < 0.0
+    np.testing.assert_array_equal(scene.node_properties["density_kg_m3"] == 2000.0, psi >= 0.0)
+    dry = build_scene(parse_study(text.replace("water_at_h = 24.0\n", "water_at_h = 24.0\nsuction_in_strength = false\n")))
+    np.testing.assert_allclose(dry.node_pore_pressure_pa, 9810.0 * np.maximum(psi, 0.0))
+
+
+def test_the_flow_of_a_study_closes_its_mass_balance_and_takes_the_rain_it_is_given():
+    study = parse_study(SMALL)
+    flow = transient_flow(study)
+    solution = flow.solution
+    assert solution.times_s[-1] == 48 * 3600.0
+    assert solution.balance_fraction().max() < 1e-6
+    assert solution.water_in_m2[-1] > 0.0 and solution.stored_water_m2[-1] > solution.stored_water_m2[0]
+    # no more rain enters than falls on the 60 m of horizontal length
+    fallen_m2 = (10 * 12 + 50 * 30) * 1e-3 * 60.0
+    rain_in = solution.boundary_cumulative_inflow_m2[-1, solution.boundary_names.index("rain")]
+    assert 0.0 < rain_in <= fallen_m2 * (1 + 1e-9)
+
+
+def test_water_at_a_time_needs_the_flow_only_as_far_as_that_time():
+    study = parse_study(SMALL)
+    early = transient_flow(study, until_h=6.0)
+    assert early.solution.times_s[-1] == 6 * 3600.0
+    np.testing.assert_allclose(early.water_at(6.0).pressure_head_m, transient_flow(study).water_at(6.0).pressure_head_m,
+                               atol=1e-9)
+
+
+def test_the_time_the_fos_reaches_one_is_interpolated_between_the_times_either_side():
+    assert time_fos_reaches([0.0, 6.0, 12.0], [1.4, 1.2, 0.8], 1.0) == pytest.approx(9.0)
+    assert math.isnan(time_fos_reaches([0.0, 6.0], [1.4, 1.2], 1.0))
+    assert time_fos_reaches([0.0, 6.0], [0.9, 0.8], 1.0) == 0.0
+
+
+@pytest.mark.slow
+def test_the_fos_against_time_of_the_shipped_rain_study(tmp_path):
+    """The shipped study at a 2 m spacing: the FOS falls with the rain, each time's case carries that
+    time's water (its gravity file's pore pressures are the flow's), the searches after the first start
+    in a window, and transient.nc closes its balance."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study
+
+    outcome = run_study(parse_study(SMALL), tmp_path, RunOptions(workers=2))
+    fos = [bracket(o)[0] for o in outcome.outcomes.values()]
+    assert fos[0] > fos[3]  # the rain lowers it
+    assert all(outcome.windows[cid] is not None for cid in list(outcome.outcomes)[1:])
+    with xr.open_dataset(tmp_path / "transient.nc") as flow, xr.open_dataset(tmp_path / "fos_time.nc") as curve:
+        assert flow.attrs["largest_balance_fraction"] < 1e-6
+        np.testing.assert_allclose(curve["fos"].values, fos)
+        k = int(np.argmin(np.abs(flow["time"].values - 24.0)))
+        with xr.open_dataset(tmp_path / "times" / "t=24h" / "gravity.nc") as gravity:
+            np.testing.assert_allclose(gravity["particle_pore_pressure"].values, flow["pore_pressure"].values[k],
+                                       rtol=1e-6, atol=1e-6)
+    assert (tmp_path / "fos_time.png").is_file()
+
+
+def test_every_stage_loads_the_surface_with_the_reservoir_at_the_studys_time():
+    """The drawdown study's reservoir, 10 m at 0 h to 0 m at 48 h: the pond every stage applies
+    (``water.pressure.study_water``, which ``stages.running.stage_setup`` gives each stage) is its level at
+    water_at_h, as the flow's held heads are (a stage without it would take the reservoir's support away)."""
+    from workflows.water.pressure import study_water
+
+    text = (REPO / "studies" / "drawdown_time.toml").read_text().replace("spacing_m = 0.5", "spacing_m = 2.0")
+    for time_h, level_m in ((0.0, 10.0), (24.0, 5.0), (96.0, 0.0)):
+        study = parse_study(_replace(text, "fos_times_h = [0.0, 24.0, 36.0, 48.0, 72.0, 96.0, 144.0, 192.0]",
+                                     f"water_at_h = {time_h}"))
+        scene = build_scene(study)
+        assert study_water(study, scene.node_material)[2] == pytest.approx(level_m)
+        assert scene.pond_level_m == pytest.approx(level_m)
+        water = water_flow(study)
+        face = water.node_xy_m[:, 0] > 12.0 + 1e-9
+        wet = face & (water.node_xy_m[:, 1] <= level_m) & (water.pressure_head_m > -1e-9)
+        assert wet.any() or level_m == 0.0
+
+
+def test_the_threshold_is_the_duration_at_which_the_fos_falls_to_one_for_each_intensity():
+    """A study.nc of FOS over (rain_mm_h, water_at_h) made by hand: 1.5, 1.2, 0.9 at 12, 24, 36 h gives 32 h;
+    a row that stays above 1 none; a case without a FOS (every run failed at SRF 0.8) counts as below 1."""
+    from workflows.fos_time.threshold import applies, threshold_dataset
+
+    text = (REPO / "studies" / "rain_threshold.toml").read_text()
+    study = parse_study(text)
+    assert applies(study) and not applies(parse_study(RAIN))
+    fos = np.array([[1.5, 1.2, 0.9, 0.8], [1.6, 1.5, 1.4, 1.3], [1.1, np.nan, 0.7, 0.6]])
+    high = np.where(np.isnan(fos), 0.8, fos + 0.01)
+    dims = ("rain_mm_h", "water_at_h")
+    sweep = xr.Dataset({"fos": (dims, fos), "fos_high": (dims, high)},
+                       coords={"rain_mm_h": [15.0, 25.0, 40.0], "water_at_h": [12.0, 24.0, 36.0, 48.0]})
+    ds = threshold_dataset(study, sweep)
+    np.testing.assert_allclose(ds["duration_to_fos_1"].values[[0, 2]], [12 + 12 * (1.2 - 1.0) / 0.3 + 12,
+                                                                         12 + 12 * 0.1 / 0.3])
+    assert math.isnan(ds["duration_to_fos_1"].values[1])
+    np.testing.assert_allclose(ds["lowest_fos"].values, [0.8, 1.3, 0.6])
+
+
+@pytest.mark.slow
+def test_the_slope_that_fails_is_followed_after_failure_at_the_water_of_that_time(tmp_path):
+    """The shipped rain study at 2 m, searched at 30 and 42 h (below 1 at 42 h; runout_duration_s 5 s): the
+    runout stage runs from the gravity state of 42 h at the slope's own strength, carrying that time's
+    pore pressures, and moves."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study
+
+    text = _replace(SMALL, "fos_interval_h = 6.0\n", "fos_times_h = [30.0, 42.0]\n")
+    outcome = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert outcome.runout is not None and outcome.times_h == [30.0, 42.0]
+    with xr.open_dataset(tmp_path / "runout" / "runout.nc") as runout, \
+            xr.open_dataset(tmp_path / "times" / "t=42h" / "gravity.nc") as gravity:
+        assert float(runout["sliding_mass_area_m2"]) > 0.0
+        np.testing.assert_allclose(runout["particle_pore_pressure"].values.min(),
+                                   gravity["particle_pore_pressure"].values.min(), rtol=1e-6)
+
+
+def test_report_html_captions_the_fos_against_time_as_such_and_shows_the_transient_table(tmp_path):
+    """fos_time.png is not a sweep's design chart (fos_*.png), and [transient] is among the input tables."""
+    from workflows.html_report import _input_tables, _result_figures
+    from workflows.output.figures import pyplot, save_figure
+
+    plt = pyplot()
+    for name in ("fos_time.png", "threshold.png"):
+        fig, _ = plt.subplots()
+        save_figure(fig, tmp_path / name)
+        plt.close(fig)
+    captions = dict((path.name, caption) for path, caption in _result_figures(tmp_path))
+    assert captions["fos_time.png"].startswith("The factor of safety against time")
+    assert captions["threshold.png"].startswith("The threshold")
+    assert "<h3>Transient water</h3>" in _input_tables(parse_study(SMALL))
+
+
+def test_a_rain_history_and_a_reservoir_level_may_come_from_csv_files_beside_the_study(tmp_path):
+    """(time, intensity) and (time, level) files: read in when the study is loaded, written out in its text;
+    a file that is not there names the field."""
+    from workflows.study import load_study
+
+    (tmp_path / "storm.csv").write_text("t_h,mm_h\n0,10\n12,50\n42,0\n")
+    text = _replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                    'rain_history_h_mm_h = "storm.csv"')
+    (tmp_path / "study.toml").write_text(text)
+    study = load_study(tmp_path / "study.toml")
+    assert study.transient.boundary[0].rain_history_h_mm_h == ((0.0, 10.0), (12.0, 50.0), (42.0, 0.0))
+    assert "storm.csv" not in parse_study(study.source_text).source_text.split("\n", 1)[1]
+    (tmp_path / "levels.csv").write_text("0;10\n48;0\n")
+    drawdown = (REPO / "studies" / "drawdown_time.toml").read_text()
+    (tmp_path / "drawdown.toml").write_text(_replace(drawdown, "level_history_h_m = [[0.0, 10.0], [48.0, 0.0]]",
+                                                     'level_history_h_m = "levels.csv"'))
+    assert load_study(tmp_path / "drawdown.toml").transient.boundary[0].level_history_h_m == ((0.0, 10.0), (48.0, 0.0))
+    (tmp_path / "study.toml").write_text(text.replace("storm.csv", "missing.csv"))
+    with pytest.raises(StudyError) as error:
+        load_study(tmp_path / "study.toml")
+    assert error.value.field == "transient.boundary[0].rain_history_h_mm_h"
