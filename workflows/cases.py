@@ -91,7 +91,7 @@ class CaseTimings:
     gravity_worker: float = 0.0  # summed over the cases that computed it
     srf_runs_worker: float = 0.0  # summed over the runs made now
 
-    def add(self, other: "CaseTimings") -> None:
+    def add(self, other: CaseTimings) -> None:
         """Add the timings of another round of cases."""
         self.cases_elapsed += other.cases_elapsed
         self.gravity_worker += other.gravity_worker
