@@ -107,7 +107,7 @@ def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | None]:
     scene.node_fixed, scene.node_fixed_velocity_m_s = held.fixed, held.velocity_m_s
     scene.node_slip_length_m, scene.node_slip_side = held.slip_length_m, held.slip_side
     counts = np.bincount(node_material, minlength=len(study.materials))
-    for i, material in enumerate(study.materials):
+    for i in range(len(study.materials)):
         if counts[i] == 0:
             raise _no_particle(study, i)
     for i, stage in enumerate(study.stages):
