@@ -137,7 +137,7 @@ def test_a_back_scarp_at_a_side_reaches_it_however_few_particles_lie_between():
     from spfem_core.geometry import distance_to_edges_m
     from workflows.fos.domain_edges import MIN_CONTACT, SIDE, edge_contacts, mechanism_particles
     from workflows.fos.slip_surface import slip_surface
-    from workflows.scene import cloud_of_geometry
+    from workflows.particles import cloud_of_geometry
 
     study = parse_study(NARROW_SLOPE)
     xy0, spacing = cloud_of_geometry(study.geometry)
