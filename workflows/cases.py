@@ -166,7 +166,8 @@ def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Pro
     """Every case's stages in this process, one case after another."""
     from workflows.stages.running import run_stages  # the core: once the study is known to be valid
 
-    outcomes, timings = {}, CaseTimings()
+    outcomes: dict[str, object] = {}  # a StudyRun, or the DivergenceError of a case that diverged
+    timings = CaseTimings()
     start = time.perf_counter()
     for index, case in enumerate(cases):
         if case.case_id:
@@ -199,7 +200,10 @@ class StudyType:
     :class:`Placement`), and how their outcomes come together into its own result and report.
     ``workflows.study_types`` lists the kinds and runs one; adding one: docs/architecture.md."""
 
-    placement: Placement
+    @property
+    def placement(self) -> Placement:
+        """How its cases run: a class attribute of most kinds."""
+        raise NotImplementedError
 
     def __init__(self, study: Study, out_dir: Path):
         self.study = study

@@ -35,6 +35,7 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 
 from spfem_core import __version__  # imports no numba
 from spfem_core.divergence import DivergenceError  # imports no numba
+from workflows.progress import Progress as StudyProgress
 from workflows.study import StudyError, load_study
 
 EXIT_DIVERGED = 1
@@ -84,7 +85,7 @@ class SignalsInCallbacks:
             self.previous(unraisable)
 
 
-class BarsProgress:
+class BarsProgress(StudyProgress):
     """The study's ``workflows.progress.Progress`` as rich progress bars on stderr: one per stage run
     in this process, one for the SRF runs (with the cases of a sweep), and the messages.  The
     display starts with its first bar, so that an error before any work stays one line."""
@@ -316,10 +317,10 @@ def main(
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         how = "terminated (SIGTERM)" if terminated else "interrupted"
         kept = "the finished SRF runs are kept" if study.strength_reduction is not None else "finished stages are kept"
-        error = _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
-                      EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
+        failure = _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
+                        EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
         signal.signal(signal.SIGINT, previous_sigint)
-        raise error from None
+        raise failure from None
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
         sys.unraisablehook = signals_in_callbacks.previous

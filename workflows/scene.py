@@ -99,7 +99,8 @@ def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | None]:
             raise StudyError(f"walls[{i}]", f"{behind.size} particles lie behind {wall.name!r} (the first at "
                              f"({x_m:g}, {y_m:g}) m): the material must lie on the wall's left going from start_m "
                              "to end_m, so a wall may run along the soil, not through it (or swap start_m and end_m)")
-        scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)
+        (x1_m, y1_m), (x2_m, y2_m) = wall.start_m, wall.end_m
+        scene.add_wall(x1_m, y1_m, x2_m, y2_m, friction=wall.friction)
     for i, boundary in enumerate(study.boundary):
         if _boundary_nodes(scene, boundary).size == 0:
             raise StudyError(f"boundary[{i}]", f"the box of {boundary.name!r} holds no particle")

@@ -106,7 +106,7 @@ class ProbabilisticSweepStudy(StudyType):
         feeds = [(sweep_id, study.feed()) for sweep_id, study in self.studies.items()]
 
         def more(count: int) -> list[Case]:
-            made = []
+            made: list[Case] = []
             for sweep_id, feed in feeds:
                 if len(made) >= count:
                     break

@@ -290,7 +290,8 @@ class ParticleField:
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent standard Gaussian fields at the particles, cell-averaged (module doc)."""
-        return tuple(self._at_particles(values) for values in self.grid.draw(rng))
+        first, second = self.grid.draw(rng)
+        return self._at_particles(first), self._at_particles(second)
 
     def _at_particles(self, grid_values: np.ndarray) -> np.ndarray:
         if self.grid.cell_m is not None:  # the grid holds the cell averages

@@ -122,7 +122,8 @@ class RefinedSweepStudy(StudyType):
         return more
 
     def conclude(self, outcomes: dict, timings: CaseTimings, wall_start: float) -> RefinedSweepOutcome:
-        refinements, results = {}, {}
+        refinements: dict[str, RefinementOutcome | None] = {}
+        results = {}
         for case_id, refinement in self.refinements.items():
             if case_id in self.diverged:
                 refinements[case_id] = None
