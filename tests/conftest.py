@@ -63,6 +63,14 @@ def separate_dask_cluster(tmp_path):
 
 
 @pytest.fixture
+def separate_dask_scheduler_file(tmp_path):
+    """As :func:`separate_dask_cluster`, yielding the scheduler file the scheduler wrote (what a batch
+    job hands the study: ``--scheduler FILE``)."""
+    with _separate_cluster(tmp_path) as _:
+        yield tmp_path / "scheduler.json"
+
+
+@pytest.fixture
 def separate_dask_workers(tmp_path):
     """As :func:`separate_dask_cluster`, yielding (the scheduler's address, the two worker processes,
     each the leader of its own process group)."""
