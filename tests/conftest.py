@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
+from distributed import Client
 
 from verification.scenes import beam_scene, column_scene
 from workflows.cases import RunOptions
@@ -106,6 +107,8 @@ def _separate_cluster(tmp_path):
                 [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
             ))
+        with Client(address, timeout=60) as client:  # both workers joined: a test may kill them or time their joining
+            client.wait_for_workers(2, timeout=120)
         yield address, processes
     finally:
         for process in processes:
