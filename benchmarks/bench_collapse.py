@@ -14,12 +14,12 @@ import argparse
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-
 from spfem_core.simulation import Simulation
 from workflows.scene import build_scene, solver_settings
 from workflows.stages.running import begin_stage
 from workflows.study import parse_study
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def collapse_stage(study_file: str, spacing_m: float) -> dict:

@@ -14,11 +14,9 @@ from __future__ import annotations
 
 import statistics
 import time
-from pathlib import Path
+from functools import partial
 
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
 
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.mesh import delaunay_triangles, element_quality_min_angle, mesh_from_elements, triangulate
@@ -54,12 +52,12 @@ def main() -> None:
         elem, n = mesh.elem_nodes, len(xy)
         repeats = 50 if n < 5000 else 15
         row = [
-            median_ms(lambda: delaunay_triangles(xy), repeats),
-            median_ms(lambda: triangulate(xy, spacing_m), repeats),
-            median_ms(lambda: mesh_from_elements(elem, n), repeats),
-            median_ms(lambda: unique_key_adjacency(elem, n), repeats),
-            median_ms(lambda: element_quality_min_angle(xy, elem), 5 * repeats),
-            median_ms(lambda: all_corners_min_angle(xy, elem), 5 * repeats),
+            median_ms(partial(delaunay_triangles, xy), repeats),
+            median_ms(partial(triangulate, xy, spacing_m), repeats),
+            median_ms(partial(mesh_from_elements, elem, n), repeats),
+            median_ms(partial(unique_key_adjacency, elem, n), repeats),
+            median_ms(partial(element_quality_min_angle, xy, elem), 5 * repeats),
+            median_ms(partial(all_corners_min_angle, xy, elem), 5 * repeats),
         ]
         same = element_quality_min_angle(xy, elem) == all_corners_min_angle(xy, elem)
         print(f"{1e3 * spacing_m:6.0f} {n:9d} {mesh.n_elem:8d} " + " ".join(

@@ -81,7 +81,7 @@ def compare(args, scratch: Path) -> None:
     rows = [("this", ROOT, True), ("this, no solve", ROOT, False)]
     if args.compare:
         rows.append(("other", args.compare.resolve(), True))
-    for label, tree, direct in rows:  # compile or load every kernel of each tree first
+    for _label, tree, direct in rows:  # compile or load every kernel of each tree first
         measure(tree, study_text(1.0, direct if tree == ROOT else True), args.srf, scratch / "warm.npy")
     print(f"{'h (m)':>6} {'particles':>9} {'tree':>15} {'gravity steps':>13} {'gravity s':>9} {'SRF steps':>9} "
           f"{'SRF s':>6} {'SRF max u (m)':>13} {'stress vs other':>15}")

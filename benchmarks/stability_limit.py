@@ -9,10 +9,6 @@ beta = 0, 0.1, 0.3 and 1.  The refusal rule cfl <= 1/(1 + beta) must sit below e
 
 from __future__ import annotations
 
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[1]
-
 from spfem_core.divergence import DivergenceError
 from spfem_core.settings import SolverSettings
 from spfem_core.simulation import Simulation

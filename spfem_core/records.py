@@ -38,7 +38,7 @@ class RecordBuffers(NamedTuple):
     count: np.ndarray  # (1,) int64 rows filled
 
     @classmethod
-    def empty(cls, capacity: int, n_monitor: int) -> "RecordBuffers":
+    def empty(cls, capacity: int, n_monitor: int) -> RecordBuffers:
         """Buffers for ``capacity`` rows, none filled."""
         return cls(
             np.zeros(capacity),
@@ -59,7 +59,7 @@ class RecordBuffers(NamedTuple):
     def n_filled(self) -> int:
         return int(self.count[0])
 
-    def grown(self) -> "RecordBuffers":
+    def grown(self) -> RecordBuffers:
         """Twice the capacity, with the filled rows copied."""
         new = RecordBuffers.empty(2 * self.capacity, self.monitor_displacement_m.shape[1])
         for old_array, new_array in zip(self[:-1], new[:-1]):
@@ -67,7 +67,7 @@ class RecordBuffers(NamedTuple):
         new.count[0] = self.count[0]
         return new
 
-    def filled(self) -> "RecordBuffers":
+    def filled(self) -> RecordBuffers:
         """Copies of the filled rows only."""
         n = self.n_filled
         return RecordBuffers(*(array[:n].copy() for array in self[:-1]), self.count.copy())
@@ -143,7 +143,7 @@ class TimeSeries:
     notes: dict = field(default_factory=dict)
 
     @classmethod
-    def from_records(cls, records: RecordBuffers, **counters) -> "TimeSeries":
+    def from_records(cls, records: RecordBuffers, **counters) -> TimeSeries:
         """The filled rows of ``records`` with the stage's counters (the other fields)."""
         rows = records.filled()
         return cls(

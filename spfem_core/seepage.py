@@ -182,8 +182,7 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
     changes: list[float] = []
     relaxation, last_update = 1.0, None
     converged = False
-    iteration = 0
-    for iteration in range(1, max_iterations + 1):
+    for _ in range(max_iterations):
         held = fixed | held_face
         target = np.where(fixed, problem.node_fixed_head_m, y)
         matrix = system.matrix(kr)
@@ -212,7 +211,7 @@ def solve_steady_flow(problem: FlowProblem, tolerance: float = 1e-6, max_iterati
             break
     matrix = system.matrix(kr)
     velocity = darcy_velocity_m_s(kr, problem.elem_conductivity_m_s, system.b, head[problem.elem_nodes])
-    return FlowSolution(head, matrix @ head, kr, velocity, fixed | held_face, iteration, converged, changes)
+    return FlowSolution(head, matrix @ head, kr, velocity, fixed | held_face, len(changes), converged, changes)
 
 
 def phreatic_segments(node_xy_m: np.ndarray, elem_nodes: np.ndarray, pressure_head_m: np.ndarray) -> np.ndarray:

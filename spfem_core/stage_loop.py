@@ -16,7 +16,8 @@ The functions work on a ``simulation.Simulation``: its state, mesh and time step
 from __future__ import annotations
 
 import time
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 

@@ -42,9 +42,9 @@ class StageSetup:
     node_phreatic_line: np.ndarray | None = None  # (n,) line of each particle, -1: none (default: the first, or none)
     pond_level_m: float | None = None  # ponded water level; None: none
     load_ramp_s: float = 0.0  # the surface loads grow from zero over this stage time (0: at once)
-    start: "str | StressState" = "continue"
+    start: str | StressState = "continue"
 
-    def supports(self, n_particles: int) -> "Supports":
+    def supports(self, n_particles: int) -> Supports:
         """The stage's supports, checked."""
         return Supports.of(n_particles, self.node_fixed, self.node_fixed_velocity_m_s, self.node_slip_length_m,
                            self.node_slip_side)
@@ -62,7 +62,7 @@ class Supports:
 
     @classmethod
     def of(cls, n_particles: int, node_fixed, node_fixed_velocity_m_s, node_slip_length_m=None,
-           node_slip_side=None) -> "Supports":
+           node_slip_side=None) -> Supports:
         """The supports of ``n_particles`` (``StageSetup``'s fields; None: no slip support).  A slip
         support needs exactly one prescribed direction and a share L_k > 0."""
         n = n_particles

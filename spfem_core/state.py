@@ -71,7 +71,7 @@ class StepScratch(NamedTuple):
     external_force_n: np.ndarray  # (n, 2) water and surface-load forces of the last step (``external_forces``)
 
     @classmethod
-    def for_nodes(cls, n: int) -> "StepScratch":
+    def for_nodes(cls, n: int) -> StepScratch:
         """Scratch for ``n`` particles."""
         return cls(np.zeros((n, VELOCITY_GRADIENT_WIDTH)), np.zeros(n), np.zeros((n, 2)), np.zeros(n, dtype=np.int64),
                    np.zeros(LEAPFROG_OUT_WIDTH), np.zeros(n), np.zeros((n, 2)))

@@ -13,8 +13,8 @@ import sys
 import time
 from pathlib import Path
 
-import distributed
 import pytest
+from distributed import Client
 
 from verification.scenes import beam_scene, column_scene
 from workflows.cases import RunOptions
@@ -64,6 +64,14 @@ def separate_dask_cluster(tmp_path):
 
 
 @pytest.fixture
+def separate_dask_scheduler_file(tmp_path):
+    """As :func:`separate_dask_cluster`, yielding the scheduler file the scheduler wrote (what a batch
+    job hands the study: ``--scheduler FILE``)."""
+    with _separate_cluster(tmp_path) as _:
+        yield tmp_path / "scheduler.json"
+
+
+@pytest.fixture
 def separate_dask_workers(tmp_path):
     """As :func:`separate_dask_cluster`, yielding (the scheduler's address, the two worker processes,
     each the leader of its own process group)."""
@@ -99,7 +107,7 @@ def _separate_cluster(tmp_path):
                 [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1", "--no-dashboard"],
                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True, cwd=tmp_path,
             ))
-        with distributed.Client(address, timeout=60) as client:  # both joined: a loaded machine starts them late
+        with Client(address, timeout=60) as client:  # both workers joined: a test may kill them or time their joining
             client.wait_for_workers(2, timeout=120)
         yield address, processes
     finally:

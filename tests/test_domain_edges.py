@@ -12,6 +12,15 @@ import pytest
 import xarray as xr
 
 from verification.least_circle import slope_least_circle
+from verification.study_text import (
+    drained_soil,
+    gravity,
+    gravity_stage,
+    held_base_and_sides,
+    slope_form,
+    srf_stage,
+    study_text,
+)
 from workflows.cases import RunOptions
 from workflows.fos.critical_circle import critical_circle, domain_warnings
 from workflows.study import load_study, parse_study
@@ -19,44 +28,12 @@ from workflows.study_types import run_study
 
 REPO = Path(__file__).resolve().parents[1]
 
-SHORT_DOMAIN = """
-[study]
-name = "short"
-
-[geometry]
-spacing_m = 1.0
-
-[geometry.slope]
-height_m = 10.0
-gradient = 2.0
-foundation_depth_m = 10.0
-crest_length_m = 3.0
-toe_length_m = 3.0
-
-[[materials]]
-name = "clay"
-model = "tresca"
-unit_weight_kn_m3 = 20.0
-youngs_modulus_mpa = 100.0
-poisson_ratio = 0.45
-undrained_shear_strength_kpa = 50.0
-
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-max_duration_s = 20.0
-record_interval_s = 0.05
-
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 8.0
-record_interval_s = 0.02
-srf_min = 1.0
-srf_max = 2.0
-srf_step = 0.1
-"""
+SHORT_DOMAIN = study_text(
+    "short", {"spacing_m": 1.0, "slope": slope_form(10.0, 2.0, foundation_depth_m=10.0, crest_length_m=3.0,
+                                                   toe_length_m=3.0)},
+    [{"name": "clay", "model": "tresca", "unit_weight_kn_m3": 20.0, "youngs_modulus_mpa": 100.0, "poisson_ratio": 0.45,
+      "undrained_shear_strength_kpa": 50.0}],
+    [gravity_stage(20.0, 0.05), srf_stage(8.0, 0.02)])
 """An undrained slope on a deep foundation drawn 3 m behind its crest and 3 m beyond its toe: its
 deep base circle needs some 10 m more on either side."""
 
@@ -79,53 +56,11 @@ def test_the_quickstarts_mechanism_stays_clear_of_the_box(quickstart_run):
         assert ds.attrs["box_decides"] == 0
 
 
-NARROW_SLOPE = """
-[study]
-name = "narrow"
-
-[geometry]
-polygon_m = [[8.0, 0.0], [20.5, 0.0], [20.5, 3.0], [20.0, 3.0], [10.0, 8.0], [8.0, 8.0]]
-spacing_m = 1.0
-
-[[materials]]
-name = "soil"
-model = "drucker_prager"
-density_kg_m3 = 2000.0
-youngs_modulus_pa = 1e8
-poisson_ratio = 0.3
-cohesion_pa = 10e3
-friction_deg = 20.0
-
-[loads]
-gravity_m_s2 = [0.0, -10.0]
-
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-
-[[boundary]]
-name = "sides"
-x_max_m = 8.0
-vx_m_s = 0.0
-
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-max_duration_s = 5.0
-record_interval_s = 0.1
-
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 1.0
-record_interval_s = 0.05
-srf_min = 1.0
-srf_max = 1.4
-srf_step = 0.2
-"""
+NARROW_SLOPE = study_text(
+    "narrow", {"polygon_m": [[8.0, 0.0], [20.5, 0.0], [20.5, 3.0], [20.0, 3.0], [10.0, 8.0], [8.0, 8.0]],
+               "spacing_m": 1.0},
+    [drained_soil()], [gravity_stage(5.0, 0.1), srf_stage(1.0, 0.05, 1.0, 1.4, 0.2)],
+    loads=gravity(), boundary=held_base_and_sides(8.0))
 """A coarse slope (h = 1 m) drawn 2 m behind its crest, the fuzzer's seepage slope cut short
 (``verification.fuzz_study_files``, check (a))."""
 

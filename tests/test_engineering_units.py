@@ -10,52 +10,19 @@ import tomllib
 import jsonschema
 import pytest
 
+from verification.study_text import gravity, gravity_stage, slope_form, srf_stage, study_text
 from workflows.study import StudyError, parse_study, reference
 from workflows.study.reading import sweep_cases
 from workflows.study.toml_text import to_toml
 
-SI = """
-[study]
-name = "units"
-[geometry]
-spacing_m = 1.0
-[geometry.slope]
-height_m = 10.0
-gradient = 2.0
-[[materials]]
-name = "soil"
-model = "mohr_coulomb"
-density_kg_m3 = 2000.0
-saturated_density_kg_m3 = 2100.0
-youngs_modulus_pa = 100e6
-poisson_ratio = 0.3
-cohesion_pa = 10e3
-friction_deg = 20.0
-tensile_strength_pa = 2e3
-[water]
-phreatic_level_m = 6.0
-[loads]
-gravity_m_s2 = [0.0, -10.0]
-[[loads.strip]]
-name = "surcharge"
-x_start_m = 2.0
-x_end_m = 8.0
-pressure_pa = 20e3
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-max_duration_s = 20.0
-record_interval_s = 0.05
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 5.0
-record_interval_s = 0.05
-srf_min = 1.0
-srf_max = 2.0
-srf_step = 0.1
-"""
+SI = study_text(
+    "units", {"spacing_m": 1.0, "slope": slope_form(10.0, 2.0)},
+    [{"name": "soil", "model": "mohr_coulomb", "density_kg_m3": 2000.0, "saturated_density_kg_m3": 2100.0,
+      "youngs_modulus_pa": 100e6, "poisson_ratio": 0.3, "cohesion_pa": 10e3, "friction_deg": 20.0,
+      "tensile_strength_pa": 2e3}],
+    [gravity_stage(20.0, 0.05), srf_stage(5.0, 0.05)],
+    water={"phreatic_level_m": 6.0},
+    loads={**gravity(), "strip": [{"name": "surcharge", "x_start_m": 2.0, "x_end_m": 8.0, "pressure_pa": 20e3}]})
 
 ENGINEERING = {"density_kg_m3": ("unit_weight_kn_m3", 20.0),
                "saturated_density_kg_m3": ("saturated_unit_weight_kn_m3", 21.0),

@@ -19,6 +19,15 @@ import pytest
 import xarray as xr
 from distributed import Client, Event, LocalCluster
 
+from verification.study_text import (
+    box_m,
+    drained_soil,
+    gravity,
+    gravity_stage,
+    held_base_and_sides,
+    srf_stage,
+    study_text,
+)
 from workflows.cases import RunOptions
 from workflows.fos.cluster import WORKER_MODULES, close_client, start_client
 from workflows.fos.gravity import read_gravity, run_gravity, stored_gravity, write_gravity
@@ -287,51 +296,10 @@ def test_unreachable_scheduler_exits_2(tmp_path):
     assert run.stderr.startswith(f"error: {study_path}: --scheduler: cannot connect") and run.stderr.count("\n") == 1
 
 
-COLUMN_FOS = """
-[study]
-name = "column"
-[geometry]
-polygon_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 10.0], [0.0, 10.0]]
-spacing_m = 0.25
-[[materials]]
-name = "soil"
-model = "drucker_prager"
-density_kg_m3 = 2000.0
-youngs_modulus_pa = 100e6
-poisson_ratio = 0.3
-cohesion_pa = 10e3
-friction_deg = 20.0
-[loads]
-gravity_m_s2 = [0.0, -10.0]
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-[[boundary]]
-name = "sides"
-x_max_m = 0.0
-vx_m_s = 0.0
-[[boundary]]
-name = "right"
-x_min_m = 2.0
-vx_m_s = 0.0
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-tolerance = 1e-5
-max_duration_s = 20.0
-record_interval_s = 0.05
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 2.0
-record_interval_s = 0.05
-srf_min = 1.0
-srf_max = 2.0
-srf_step = 0.5
-"""
+COLUMN_FOS = study_text(
+    "column", {"polygon_m": box_m(2.0, 10.0), "spacing_m": 0.25}, [drained_soil()],
+    [gravity_stage(20.0, 0.05, tolerance=1e-5), srf_stage(2.0, 0.05, 1.0, 2.0, 0.5)],
+    loads=gravity(), boundary=held_base_and_sides(0.0, 2.0))
 
 
 def test_gravity_stage_matches_the_elastic_column(tmp_path):

@@ -29,6 +29,8 @@ def test_readme_set_up_commands_are_what_ci_runs():
     ci = (REPO / ".ci" / "run").read_text()
     assert 'pip install -e ".[test]" && python -m pytest -q' in README
     assert 'pip install -e ".[test]"' in ci and "python -m pytest -q" in ci
+    assert "python -m ruff check . && python -m mypy" in README
+    assert "python -m ruff check ." in ci and "python -m mypy" in ci
     assert "pip install -e . && spfem-fos studies/quickstart.toml" in README
 
 

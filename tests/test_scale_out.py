@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import xarray as xr
 
 REPO = Path(__file__).resolve().parents[1]
@@ -49,6 +50,8 @@ def batch_job(folder: Path, n_workers: int):
             process.wait()
 
 
+@pytest.mark.slow  # about 110 s: the default suite runs a sweep through a scheduler file (test_sweep.py) and a
+# worker killed mid-study (test_probabilistic.py); this one adds the job's own cache, compiled from nothing
 def test_a_sweep_through_a_scheduler_file_survives_a_killed_worker(strength_sweep, tmp_path):
     """The shipped 3 x 3 strength sweep on the batch job above, one of its two workers killed once
     three cases are done: the scheduler runs the lost run again on the other, and every case's FOS,

@@ -346,12 +346,13 @@ def test_killed_sweep_resumes_on_one_worker_with_the_same_study_nc(strength_swee
     assert "cohesion_pa  friction_deg" in rerun.stdout
 
 
-@pytest.mark.slow  # the default suite runs this path with a killed worker: tests/test_scale_out.py
-def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_dask_cluster, tmp_path):
+def test_sweep_on_a_separately_started_dask_cluster(strength_sweep, separate_dask_scheduler_file, tmp_path):
+    """The shipped sweep through the scheduler file of a separately started scheduler and two workers
+    (docs/cluster.md's recipe; tests/test_scale_out.py kills a worker of such a job, in the slow suite)."""
     _, local_out, _ = strength_sweep
     path = tmp_path / "sweep.toml"
     path.write_text(SWEEP)
-    run = cli(path, "--out", tmp_path / "out", "--scheduler", separate_dask_cluster, "--quiet")
+    run = cli(path, "--out", tmp_path / "out", "--scheduler", separate_dask_scheduler_file, "--quiet")
     assert run.returncode == 0, run.stderr
     local, remote = xr.load_dataset(local_out / "study.nc"), xr.load_dataset(tmp_path / "out" / "study.nc")
     assert remote.drop_attrs().identical(local.drop_attrs())

@@ -17,6 +17,7 @@ from spfem_core.cloud import particles_in_polygon
 from spfem_core.energy_budget import ENERGY_COLUMNS
 from spfem_core.materials.tension_cutoff import tension_cutoff
 from spfem_core.simulation import Simulation
+from verification.study_text import box_m, elastic_soil, gravity, gravity_stage, held_base_and_sides, study_text
 from verification.water_and_loads import DRAWDOWN_REFERENCE, SEISMIC_KC, prandtl_fos
 from workflows.cases import RunOptions
 from workflows.cli import app
@@ -28,58 +29,12 @@ from workflows.water.table import water_above_ground_warnings
 REPO = Path(__file__).resolve().parents[1]
 GAMMA_W = 9810.0
 
-SATURATED_GROUND = """
-[study]
-name = "saturated_ground"
-
-[geometry]
-polygon_m = [[0.0, 0.0], [10.0, 0.0], [10.0, 5.0], [0.0, 5.0]]
-spacing_m = 0.25
-
-[[materials]]
-name = "soil"
-model = "elastic"
-density_kg_m3 = 1800.0
-saturated_density_kg_m3 = 2000.0
-youngs_modulus_pa = 20e6
-poisson_ratio = 0.3
-
-[loads]
-gravity_m_s2 = [0.0, -9.81]
-
-[water]
-phreatic_level_m = 5.0
-
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-
-[[boundary]]
-name = "sides"
-x_max_m = 0.0
-vx_m_s = 0.0
-
-[[boundary]]
-name = "right"
-x_min_m = 10.0
-vx_m_s = 0.0
-
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-tolerance = 1e-5
-max_duration_s = 20.0
-record_interval_s = 0.05
-
-[[stages]]
-name = "hold"
-kind = "dynamic"
-duration_s = 1.0
-record_interval_s = 0.01
-"""
+SATURATED_GROUND = study_text(
+    "saturated_ground", {"polygon_m": box_m(10.0, 5.0), "spacing_m": 0.25},
+    [elastic_soil(density_kg_m3=1800.0, saturated_density_kg_m3=2000.0, youngs_modulus_pa=20e6)],
+    [gravity_stage(20.0, 0.05, tolerance=1e-5), {"name": "hold", "kind": "dynamic", "duration_s": 1.0,
+                                                 "record_interval_s": 0.01}],
+    loads=gravity(9.81), water={"phreatic_level_m": 5.0}, boundary=held_base_and_sides(0.0, 10.0))
 
 
 def test_level_saturated_ground_has_the_hydrostatic_effective_stress_and_does_not_move(tmp_path):
@@ -368,9 +323,9 @@ def test_load_ramp_grows_the_load_and_relaxation_waits_for_it(tmp_path):
     text = (REPO / "studies" / "strip_load.toml").read_text().replace("spacing_m = 0.25", "spacing_m = 0.5")
     gravity_only = text.split('[[stages]]\nname = "srf"')[0].split("[[monitors]]")[0]
     states = []
-    for name, study_text in (("at_once", gravity_only),
+    for name, text_of_case in (("at_once", gravity_only),
                              ("ramped", gravity_only.replace("[loads]\n", "[loads]\nramp_time_s = 3.0\n"))):
-        run = run_study(parse_study(study_text), tmp_path / name)
+        run = run_study(parse_study(text_of_case), tmp_path / name)
         with xr.open_dataset(run.paths[0]) as gravity:
             states.append((gravity["particle_syy"].values, float(gravity["time"].values[-1])))
     assert states[1][1] >= 3.0 > states[0][1]

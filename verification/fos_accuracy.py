@@ -26,6 +26,7 @@ from pathlib import Path
 import xarray as xr
 
 from verification.study_command import run_study_command
+from verification.study_text import gravity_stage, slope_form, srf_stage, study_text
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -48,45 +49,6 @@ def _taylor(angle_deg: float) -> str:
     return text[:text.index("[sweep]")].replace("angle_deg = 60.0", f"angle_deg = {angle_deg}")
 
 
-C_PHI_SLOPE = """[study]
-name = "{name}"
-
-[geometry]
-spacing_m = 1.0
-
-[geometry.slope]
-height_m = 10.0
-gradient = {gradient}
-foundation_depth_m = 5.0
-
-[[materials]]
-name = "soil"
-model = "drucker_prager"
-unit_weight_kn_m3 = {gamma}
-youngs_modulus_mpa = 100.0
-poisson_ratio = 0.3
-cohesion_kpa = {cohesion}
-friction_deg = {phi}
-{water}
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-max_duration_s = 20.0
-record_interval_s = 0.05
-
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 8.0
-record_interval_s = 0.02
-srf_min = 1.0
-srf_max = 2.0
-srf_step = 0.1
-fos_tolerance = 0.005
-"""
-"""A homogeneous c-phi slope 10 m high on a 5 m foundation (the slope form)."""
-
 # (gradient, phi (deg), c (kPa), gamma (kN/m3), ru): the six slopes of issue #45's table (c chosen
 # for an FOS near 1.3) and Li & Lumb's (1987) 45 deg slope, dry and at ru = 0.2, on its 5 m foundation
 C_PHI_SLOPES = {
@@ -102,10 +64,13 @@ C_PHI_SLOPES = {
 
 
 def c_phi_text(name: str) -> str:
+    """A homogeneous c-phi slope 10 m high on a 5 m foundation (the slope form), of C_PHI_SLOPES[name]."""
     gradient, phi, cohesion, gamma, ru = C_PHI_SLOPES[name]
-    water = f"\n[water]\nru = {ru}\n" if ru > 0.0 else ""
-    return C_PHI_SLOPE.format(name=name.replace(".", "_"), gradient=gradient, phi=phi, cohesion=cohesion,
-                              gamma=gamma, water=water)
+    soil = {"name": "soil", "model": "drucker_prager", "unit_weight_kn_m3": gamma, "youngs_modulus_mpa": 100.0,
+            "poisson_ratio": 0.3, "cohesion_kpa": cohesion, "friction_deg": phi}
+    water = {"water": {"ru": ru}} if ru > 0.0 else {}
+    return study_text(name.replace(".", "_"), {"spacing_m": 1.0, "slope": slope_form(10.0, gradient, foundation_depth_m=5.0)},
+                      [soil], [gravity_stage(20.0, 0.05), srf_stage(8.0, 0.02, fos_tolerance=0.005)], **water)
 
 
 def c_phi_upper_bound(name: str) -> float:

@@ -73,96 +73,28 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
+from verification.study_text import (
+    box_m,
+    coarse_slope_stages,
+    coarse_slope_text,
+    elastic_soil,
+    gravity,
+    held_base_and_sides,
+    study_text,
+)
 from workflows.cli import app
 from workflows.distributions import DISTRIBUTIONS, FIELD_DISTRIBUTIONS
 from workflows.random_field.correlation import CORRELATION_MODELS
 from workflows.study.toml_text import to_toml
 
-BLOCK = """\
-[study]
-name = "block"
+BLOCK = study_text("block", {"polygon_m": box_m(2.0, 1.0), "spacing_m": 0.25}, [elastic_soil()],
+                   [{"name": "settle", "kind": "relaxation", "max_duration_s": 0.5, "record_interval_s": 0.05}],
+                   loads=gravity(), boundary=held_base_and_sides(None),
+                   monitors=[{"name": "top", "x_m": 1.0, "y_m": 1.0}])
+"""An elastic block settling under gravity: a stage study."""
 
-[geometry]
-polygon_m = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]
-spacing_m = 0.25
-
-[[materials]]
-name = "soil"
-model = "elastic"
-density_kg_m3 = 2000.0
-youngs_modulus_pa = 1e7
-poisson_ratio = 0.3
-
-[loads]
-gravity_m_s2 = [0.0, -10.0]
-
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-
-[[stages]]
-name = "settle"
-kind = "relaxation"
-max_duration_s = 0.5
-record_interval_s = 0.05
-
-[[monitors]]
-name = "top"
-x_m = 1.0
-y_m = 1.0
-"""
-
-SLOPE = """\
-[study]
-name = "slope"
-
-[geometry]
-polygon_m = [[0.0, 0.0], [30.0, 0.0], [30.0, 3.0], [20.0, 3.0], [10.0, 8.0], [0.0, 8.0]]
-spacing_m = 1.0
-
-[[materials]]
-name = "soil"
-model = "drucker_prager"
-density_kg_m3 = 2000.0
-youngs_modulus_pa = 1e8
-poisson_ratio = 0.3
-cohesion_pa = 10e3
-friction_deg = 20.0
-
-[loads]
-gravity_m_s2 = [0.0, -10.0]
-
-[[boundary]]
-name = "base"
-y_max_m = 0.0
-vx_m_s = 0.0
-vy_m_s = 0.0
-
-[[boundary]]
-name = "sides"
-x_max_m = 0.0
-vx_m_s = 0.0
-
-[[stages]]
-name = "gravity"
-kind = "relaxation"
-elastic = true
-max_duration_s = 5.0
-record_interval_s = 0.1
-
-[[stages]]
-name = "srf"
-kind = "strength_reduction"
-duration_s = 1.0
-record_interval_s = 0.05
-srf_min = 1.0
-srf_max = 1.4
-srf_step = 0.2
-fos_tolerance = 0.1
-max_runs = 4
-"""
+SLOPE = coarse_slope_text()
+"""The coarse drained slope that computes an FOS in seconds (``verification.study_text``)."""
 
 SWEEP = (
     '[study]\nname = "sweep"\n\n[geometry]\nspacing_m = 1.0\n\n'
@@ -194,18 +126,16 @@ RUNOUT = (
 )
 """The slope with a softening soil, failing in a runout stage, with an animation."""
 
-SECTION = (
-    '[study]\nname = "section"\n\n[geometry]\nspacing_m = 1.0\n\n'
-    "[geometry.section]\nground_m = [[0.0, 8.0], [10.0, 8.0], [20.0, 3.0], [30.0, 3.0]]\nbase_y_m = 0.0\n\n"
-    '[[geometry.section.layers]]\nmaterial = "clay"\nbelow_m = [[0.0, 4.0], [30.0, 2.5]]\n'
-    "above_m = [[0.0, 1.0], [30.0, 0.5]]\n\n"
-    + SLOPE[SLOPE.index("[[materials]]"):SLOPE.index("[loads]")]
-    .replace("density_kg_m3 = 2000.0", "unit_weight_kn_m3 = 20.0").replace("cohesion_pa = 10e3", "cohesion_kpa = 10.0")
-    + '[[materials]]\nname = "clay"\nmodel = "tresca"\nunit_weight_kn_m3 = 19.0\nyoungs_modulus_mpa = 50.0\n'
-    "poisson_ratio = 0.45\nundrained_shear_strength_kpa = 40.0\n\n"
-    + SLOPE[SLOPE.index("[loads]"):SLOPE.index("[[boundary]]")]  # no supports: the section makes them
-    + SLOPE[SLOPE.index("[[stages]]"):]
-)
+SECTION = study_text(
+    "section",
+    {"spacing_m": 1.0, "section": {"ground_m": [[0.0, 8.0], [10.0, 8.0], [20.0, 3.0], [30.0, 3.0]], "base_y_m": 0.0,
+                                   "layers": [{"material": "clay", "below_m": [[0.0, 4.0], [30.0, 2.5]],
+                                               "above_m": [[0.0, 1.0], [30.0, 0.5]]}]}},
+    [{"name": "soil", "model": "drucker_prager", "unit_weight_kn_m3": 20.0, "youngs_modulus_pa": 1e8,
+      "poisson_ratio": 0.3, "cohesion_kpa": 10.0, "friction_deg": 20.0},
+     {"name": "clay", "model": "tresca", "unit_weight_kn_m3": 19.0, "youngs_modulus_mpa": 50.0, "poisson_ratio": 0.45,
+      "undrained_shear_strength_kpa": 40.0}],
+    coarse_slope_stages(), loads=gravity())  # no supports: the section makes them
 """The slope drawn as lines ([geometry.section]) with a layer between two lines, in kPa, MPa and kN/m3."""
 
 LINES = (
@@ -297,19 +227,13 @@ RANDOM_FIELD = (
 )
 """The slope with random fields of cohesion and friction angle (correlated), 3 realisations."""
 
-SEEPAGE = (
-    SLOPE.replace('name = "slope"', 'name = "seepage"', 1)
-    .replace("cohesion_pa = 10e3\nfriction_deg = 20.0",
-             "cohesion_pa = 15e3\nfriction_deg = 20.0\nsaturated_density_kg_m3 = 2100.0\npermeability_m_s = 1e-5", 1)
-    .replace("[[boundary]]", (
-        "[seepage]\nunsaturated_band_m = 1.0\n\n"
-        '[[seepage.boundary]]\nname = "rain"\ncondition = "infiltration"\ny_min_m = 3.0\nflux_m_s = 1e-7\n\n'
-        '[[seepage.boundary]]\nname = "face"\ncondition = "seepage_face"\nx_min_m = 10.0\nx_max_m = 20.0\n'
-        "y_min_m = 3.01\n\n"
-        '[[seepage.boundary]]\nname = "left"\ncondition = "total_head"\nx_max_m = 0.0\ntotal_head_m = 5.0\n\n'
-        '[[seepage.boundary]]\nname = "right"\ncondition = "total_head"\nx_min_m = 30.0\ntotal_head_m = 2.0\n\n'
-        "[[boundary]]"), 1)
-)
+SEEPAGE = coarse_slope_text(
+    "seepage", soil={"cohesion_pa": 15e3, "saturated_density_kg_m3": 2100.0, "permeability_m_s": 1e-5},
+    seepage={"unsaturated_band_m": 1.0, "boundary": [
+        {"name": "rain", "condition": "infiltration", "y_min_m": 3.0, "flux_m_s": 1e-7},
+        {"name": "face", "condition": "seepage_face", "x_min_m": 10.0, "x_max_m": 20.0, "y_min_m": 3.01},
+        {"name": "left", "condition": "total_head", "x_max_m": 0.0, "total_head_m": 5.0},
+        {"name": "right", "condition": "total_head", "x_min_m": 30.0, "total_head_m": 2.0}]})
 """The slope with steady seepage: rain on the crest and the toe, a seepage face, heads at both sides."""
 
 REFINEMENT = (

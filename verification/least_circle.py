@@ -29,6 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
+from workflows.study.geometry import SlopeForm
+from workflows.study.slope_form import polygon_m
+
 INTEGRATION_POINTS = 20000
 """Midpoints in x and on the arc of the final circle."""
 SEARCH_POINTS = 1000
@@ -45,16 +48,10 @@ class Circle:
 
 def slope_polygon_m(height_m: float, angle_deg: float, foundation_depth_m: float = 0.0,
                     crest_length_m: float | None = None, toe_length_m: float | None = None) -> np.ndarray:
-    """The outline that ``[geometry.slope]`` makes (workflows/study/slope_form.py), counter-clockwise."""
-    crest = 2.0 * height_m if crest_length_m is None else crest_length_m
-    toe_length = 2.0 * height_m if toe_length_m is None else toe_length_m
-    run = height_m / math.tan(math.radians(angle_deg)) if angle_deg < 90.0 else 0.0
-    x_toe = crest + run
-    d = foundation_depth_m
-    if d == 0.0:
-        return np.array([[0.0, 0.0], [x_toe, 0.0], [crest, height_m], [0.0, height_m]])
-    width = x_toe + toe_length
-    return np.array([[0.0, 0.0], [width, 0.0], [width, d], [x_toe, d], [crest, d + height_m], [0.0, d + height_m]])
+    """The outline that ``[geometry.slope]`` makes (``workflows.study.slope_form.polygon_m``), counter-clockwise."""
+    form = SlopeForm(height_m=height_m, angle_deg=angle_deg, foundation_depth_m=foundation_depth_m,
+                     crest_length_m=crest_length_m, toe_length_m=toe_length_m)
+    return np.array(polygon_m(form))
 
 
 def _distance_to_segment(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

@@ -22,7 +22,7 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from spfem_core.divergence import DivergenceError
 from workflows.layers import thin_layer_warnings
@@ -89,7 +89,7 @@ class Concluded:
     """The outcome of a case that ran to its end: its ``result``, a ``fos.summary.FosOutcome`` (a
     strength-reduction case) or a ``stages.running.StudyRun``."""
 
-    result: object
+    result: Any
     diverged: ClassVar[bool] = False
     error: ClassVar[None] = None
 
@@ -128,7 +128,7 @@ class CaseTimings:
     gravity_worker: float = 0.0  # summed over the cases that computed it
     srf_runs_worker: float = 0.0  # summed over the runs made now
 
-    def add(self, other: "CaseTimings") -> None:
+    def add(self, other: CaseTimings) -> None:
         """Add the timings of another round of cases."""
         self.cases_elapsed += other.cases_elapsed
         self.gravity_worker += other.gravity_worker
@@ -204,7 +204,8 @@ def _stage_cases(cases, placement: Placement, options: RunOptions, progress: Pro
     """Every case's stages in this process, one case after another."""
     from workflows.stages.running import run_stages  # the core: once the study is known to be valid
 
-    outcomes, timings = {}, CaseTimings()
+    outcomes: dict[str, object] = {}  # a StudyRun, or the DivergenceError of a case that diverged
+    timings = CaseTimings()
     start = time.perf_counter()
     for index, case in enumerate(cases):
         if case.case_id:
@@ -238,9 +239,20 @@ class StudyType:
     :class:`Placement`), and how their outcomes come together into its own result and report.
     ``workflows.study_types`` lists the kinds and runs one; adding one: docs/architecture.md."""
 
-    placement: Placement
-    label: ClassVar[str]  # what the study is, for report.html: "a single study", "a sweep", ...
-    base_note: ClassVar[str] = ""  # what the section figure of report.html shows of a study whose cases vary
+    @property
+    def label(self) -> str:
+        """What the study is, for report.html: "a single study", "a sweep", ... (a class attribute of most kinds)."""
+        raise NotImplementedError
+
+    @property
+    def base_note(self) -> str:
+        """What the section figure of report.html shows of a study whose cases vary (a class attribute)."""
+        return ""
+
+    @property
+    def placement(self) -> Placement:
+        """How its cases run: a class attribute of most kinds."""
+        raise NotImplementedError
 
     def __init__(self, study: Study, out_dir: Path):
         self.study = study

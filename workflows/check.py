@@ -39,7 +39,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from workflows.fos.critical_circle import critical_circle, domain_warnings
+from workflows.fos.critical_circle import CriticalCircle, critical_circle, domain_warnings
 from workflows.memory_guard import BYTES_PER_PARTICLE
 from workflows.output.writing import make_output_folder
 from workflows.scene import monitor_particles, scene_and_flow
@@ -188,7 +188,7 @@ class StudyCheck:
     estimate: RunTimeEstimate | None
     section_png: Path
     flow: object = None  # the steady flow of [seepage] (``workflows.seepage.flow.StudyFlow``), or None
-    critical: object = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
+    critical: CriticalCircle | None = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
     warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings)
 
     def lines(self) -> list[str]:

@@ -27,7 +27,7 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -35,6 +35,7 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 
 from spfem_core import __version__  # imports no numba
 from spfem_core.divergence import DivergenceError  # imports no numba
+from workflows.progress import Progress as StudyProgress
 from workflows.study import StudyError, load_study
 
 EXIT_DIVERGED = 1
@@ -84,7 +85,7 @@ class SignalsInCallbacks:
             self.previous(unraisable)
 
 
-class BarsProgress:
+class BarsProgress(StudyProgress):
     """The study's ``workflows.progress.Progress`` as rich progress bars on stderr: one per stage run
     in this process, one for the SRF runs (with the cases of a sweep), and the messages.  The
     display starts with its first bar, so that an error before any work stays one line."""
@@ -223,23 +224,23 @@ def _print_version(value: bool) -> None:
 def main(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to run", show_default=False)],
     out: Annotated[
-        Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
+        str | None, typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="print only the result: the FOS line (a sweep: its table)")] = False,
     force: Annotated[bool, typer.Option("--force", help="run again even if the results are up to date (and into a "
                                         "folder holding another study's results, replacing them)")] = False,
     workers: Annotated[
-        Optional[int], typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread "
+        int | None, typer.Option("--workers", "-w", help="local dask worker processes for the SRF runs (1 thread "
                                     "each; default 2, at most the cores)", show_default=False)
     ] = None,
     scheduler: Annotated[
-        Optional[str],
+        str | None,
         typer.Option("--scheduler", help="a running dask scheduler to run the SRF runs on: its address "
                      "(tcp://host:8786) or its scheduler file (scheduler.json)",
                      show_default=False),
     ] = None,
     max_memory: Annotated[
-        Optional[float],
+        float | None,
         typer.Option("--max-memory", metavar="GIB", help="refuse a study whose particles would need more memory than "
                      "this (default: what the machine has available)", show_default=False),
     ] = None,
@@ -316,10 +317,10 @@ def main(
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
         how = "terminated (SIGTERM)" if terminated else "interrupted"
         kept = "the finished SRF runs are kept" if study.strength_reduction is not None else "finished stages are kept"
-        error = _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
-                      EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
+        failure = _fail(f"{how}: {kept} in {out_dir}; run the same command again to resume",
+                        EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
         signal.signal(signal.SIGINT, previous_sigint)
-        raise error from None
+        raise failure from None
     finally:
         signal.signal(signal.SIGTERM, previous_sigterm)
         sys.unraisablehook = signals_in_callbacks.previous
@@ -334,14 +335,14 @@ check_app = typer.Typer(add_completion=False, pretty_exceptions_show_locals=Fals
 def check(
     study_file: Annotated[Path, typer.Argument(metavar="STUDY.toml", help="study file to check", show_default=False)],
     out: Annotated[
-        Optional[str], typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
+        str | None, typer.Option("--out", "-o", help="output folder (default: ./<study name>)", show_default=False)
     ] = None,
     workers: Annotated[
-        Optional[int], typer.Option("--workers", "-w", help="local workers the study would run on (default 2, at most "
+        int | None, typer.Option("--workers", "-w", help="local workers the study would run on (default 2, at most "
                                     "the cores)", show_default=False)
     ] = None,
     max_memory: Annotated[
-        Optional[float],
+        float | None,
         typer.Option("--max-memory", metavar="GIB", help="the memory limit the study would run with (default: what "
                      "the machine has available)", show_default=False),
     ] = None,

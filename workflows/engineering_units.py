@@ -128,7 +128,8 @@ def si_value(node: dict, field: str, declared: dict, raw: dict) -> float | None:
 
 def in_pascals(raw: dict, declared: dict, path: str) -> tuple[dict, dict]:
     """The table ``raw`` with its kPa and MPa fields given in Pa, and {Pa field: the name used}."""
-    table, given_as = {}, {}
+    table: dict = {}
+    given_as: dict[str, str] = {}
     for key, value in raw.items():
         alias = None if key in declared else pressure_field(key, declared)
         if alias is None:

@@ -11,6 +11,7 @@ message ``<field path>: <problem>``), the JSON schema and the study-file referen
 
 from __future__ import annotations
 
+import builtins
 import dataclasses
 import json
 import math
@@ -82,7 +83,7 @@ class Spec:
         return [(op, value) for op, value in pairs if value is not None]
 
     @property
-    def variants(self) -> dict[str, type]:
+    def variants(self) -> dict[str, builtins.type]:  # (the field `type` hides the builtin here)
         """For ``tables`` with a ``key``: kind -> dataclass; otherwise {}."""
         return dict(self.of) if isinstance(self.of, dict) else {}
 

@@ -96,7 +96,7 @@ def write_html_report(kind, outcome, study_file) -> Path:
 def report_page(study: Study, out_dir: Path, printed_lines: list[str], *, label: str, base_note: str = "") -> str:
     """The HTML text of the page (module doc) of a study of the type ``label`` says (``StudyType.label``;
     its section figure captioned with its ``base_note``)."""
-    created = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    created = datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
     esc = html.escape
     parts = [
         "<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',

@@ -111,7 +111,8 @@ def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | WaterAt 
             raise StudyError(f"walls[{i}]", f"{behind.size} particles lie behind {wall.name!r} (the first at "
                              f"({x_m:g}, {y_m:g}) m): the material must lie on the wall's left going from start_m "
                              "to end_m, so a wall may run along the soil, not through it (or swap start_m and end_m)")
-        scene.add_wall(*wall.start_m, *wall.end_m, friction=wall.friction)
+        (x1_m, y1_m), (x2_m, y2_m) = wall.start_m, wall.end_m
+        scene.add_wall(x1_m, y1_m, x2_m, y2_m, friction=wall.friction)
     for i, boundary in enumerate(study.boundary):
         if _boundary_nodes(scene, boundary).size == 0:
             raise StudyError(f"boundary[{i}]", f"the box of {boundary.name!r} holds no particle")
@@ -119,7 +120,7 @@ def scene_and_flow(study: Study, flow=None) -> tuple[Scene, StudyFlow | WaterAt 
     scene.node_fixed, scene.node_fixed_velocity_m_s = held.fixed, held.velocity_m_s
     scene.node_slip_length_m, scene.node_slip_side = held.slip_length_m, held.slip_side
     counts = np.bincount(node_material, minlength=len(study.materials))
-    for i, material in enumerate(study.materials):
+    for i in range(len(study.materials)):
         if counts[i] == 0:
             raise _no_particle(study, i)
     for i, stage in enumerate(study.stages):

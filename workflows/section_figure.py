@@ -8,6 +8,7 @@ limit-equilibrium search.  ``spfem-fos check`` draws it into ``OUT/section.png``
 from __future__ import annotations
 
 from pathlib import Path
+from typing import BinaryIO, TypeVar
 
 import numpy as np
 
@@ -16,8 +17,10 @@ from workflows.output.figures import pyplot, save_figure
 from workflows.scene import supports
 from workflows.study import Study
 
+PathOrFile = TypeVar("PathOrFile", Path, BinaryIO)  # a PNG file, or a buffer it is drawn into
 
-def draw_section(study: Study, scene, path: Path, critical=None, flow=None) -> Path:
+
+def draw_section(study: Study, scene, path: PathOrFile, critical=None, flow=None) -> PathOrFile:
     """The section of the module doc into ``path``, with the ``critical`` circle of a limit-equilibrium
     search (``fos.critical_circle``) dashed where it lies in the ground, and the water table of the
     study's steady ``flow`` (``workflows.seepage.flow``) with ``[seepage]``."""

@@ -14,8 +14,8 @@ The kernels read the constants of every model from one (n_rows, width) array
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -120,7 +120,7 @@ class MaterialTable:
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_rows(cls, rows: Sequence[Mapping]) -> "MaterialTable":
+    def from_rows(cls, rows: Sequence[Mapping]) -> MaterialTable:
         """A table from one mapping per row: ``name``, ``model``, the elastic columns and the
         row's properties (absent ones: NaN, the model's default)."""
         names = sorted({key for row in rows for key in row} - {"name", "model", *ELASTIC_COLUMNS})
@@ -142,14 +142,14 @@ class MaterialTable:
         given = {key: [value] for key, value in (strength | properties).items() if value is not None}
         return cls((name,), [model], [density_kg_m3], [youngs_modulus_pa], [poisson_ratio], given)
 
-    def rows(self, index: np.ndarray) -> "MaterialTable":
+    def rows(self, index: np.ndarray) -> MaterialTable:
         """The table of rows ``index`` (a row may come several times): a row per particle."""
         index = np.asarray(index, dtype=np.int64)
         return MaterialTable(tuple(self.name[i] for i in index), self.model[index],
                              *(getattr(self, column)[index] for column in ELASTIC_COLUMNS),
                              {key: column[index] for key, column in self.properties.items()})
 
-    def with_values(self, values: Mapping[str, np.ndarray]) -> "MaterialTable":
+    def with_values(self, values: Mapping[str, np.ndarray]) -> MaterialTable:
         """The table with the columns of ``values`` replaced where they are not NaN (elastic
         columns or properties, one value per row); checked as any table is."""
         elastic_values = {key: np.where(np.isnan(v := _column(values[key], self.n_rows, key)), getattr(self, key), v)
@@ -204,7 +204,7 @@ class MaterialTable:
         return params
 
     # ------------------------------------------------------------------ derived tables
-    def with_strength_reduction(self, srf: float, associated: bool = False) -> "MaterialTable":
+    def with_strength_reduction(self, srf: float, associated: bool = False) -> MaterialTable:
         """Strength divided by ``srf`` as each row's model says (``<model>.reduced``): c / F and
         tan(phi) / F with psi_F = min(psi, phi_F), or psi_F = phi_F with ``associated`` (normality:
         the flow rule under which limit equilibrium and limit analysis give the factor of safety)."""
@@ -231,7 +231,7 @@ class MaterialTable:
                     self._model_properties(material_model, rows, self.properties), int(rows.sum()))
         return cohesion, tan_friction
 
-    def with_moduli_scaled(self, factor: float) -> "MaterialTable":
+    def with_moduli_scaled(self, factor: float) -> MaterialTable:
         """Every Young's modulus times ``factor`` (Poisson's ratios kept): in small-strain theory the
         elastic-plastic stresses of a body under given loads do not change and its displacements
         are divided by ``factor``."""
@@ -244,6 +244,6 @@ class MaterialTable:
         law = self.properties.get("softening_law")
         return law is not None and bool(np.any(np.nan_to_num(law) > 0))
 
-    def as_elastic(self) -> "MaterialTable":
+    def as_elastic(self) -> MaterialTable:
         """The same table with every material linear elastic (e.g. for a gravity stage)."""
         return dataclasses.replace(self, model=np.full(self.n_rows, elastic.CODE, dtype=np.int64))

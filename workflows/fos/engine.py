@@ -53,7 +53,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from distributed import Event, wait
+from distributed import Client, Event, wait
 
 from spfem_core.divergence import DivergenceError
 from spfem_core.snapshot import StressState
@@ -178,7 +178,7 @@ class Engine:
     def __init__(self, session, cases: list[CaseSearch], progress: Progress, start_unix_s: float,
                  force: bool = False, more=None, to_come=None):
         self.session = session
-        self.client = None
+        self.client: Client | None = None
         self.cases = list(cases)  # the cases not handed back yet
         self.more = more  # up to n more cases (a callable), or None: no more come
         self.to_come = to_come or (lambda: 0)  # how many more will come

@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import xarray as xr
 
@@ -39,7 +40,7 @@ class GravityResult:
     n_particles: int
     wall_time_s: float
     unconverged: list[str] = field(default_factory=list)  # stages that reached max_duration_s
-    flow: object = None  # the study's steady flow (``workflows.seepage.flow.StudyFlow``), or None
+    flow: Any = None  # the study's steady flow (``workflows.seepage.flow.StudyFlow``), or None
 
 
 def gravity_paths(study: Study, out_dir: Path) -> list[Path]:

@@ -11,8 +11,8 @@ damaged one.  Nothing else in the folder is touched: a file named as a run file 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import xarray as xr
 

@@ -26,6 +26,7 @@ import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.fos_time.figures import draw_fos_time
@@ -62,7 +63,7 @@ class TransientOutcome:
     flow_wall_s: float
     stopped_at_h: float | None  # the time the study stopped at (stop_below_fos), None: it ran every time
     time_fos_one_h: float  # when the FOS reaches 1, interpolated between the times either side (NaN: never)
-    runout: object = None  # the runout of the failing state (``stages.running.StudyRun``), if one was asked for
+    runout: Any = None  # the runout of the failing state (``stages.running.StudyRun``), if one was asked for
     timings_s: dict[str, float] = field(default_factory=dict)
     figures: list[Path] = field(default_factory=list)
 
@@ -219,10 +220,10 @@ class TransientStudy(StudyType):
         if quiet:
             return Report([verdict])
         runs = sum(len(o.runs) for o in outcome.outcomes.values())
-        t = outcome.timings_s
+        timings = outcome.timings_s
         header = (f"{self.study.name}: FOS at {len(outcome.times_h)} times, {runs} SRF runs "
-                  f"({runs / max(len(outcome.times_h), 1):.1f} per FOS), wall time {t['total']:.1f} s "
-                  f"(the flow {t['flow']:.1f} s, {t['flow'] / max(t['total'], 1e-9):.1%})")
+                  f"({runs / max(len(outcome.times_h), 1):.1f} per FOS), wall time {timings['total']:.1f} s "
+                  f"(the flow {timings['flow']:.1f} s, {timings['flow'] / max(timings['total'], 1e-9):.1%})")
         stopped = ([f"stopped after {outcome.stopped_at_h:g} h: FOS below stop_below_fos = "
                     f"{self.study.transient.stop_below_fos:g}"] if outcome.stopped_at_h is not None else [])
         if outcome.runout is not None:

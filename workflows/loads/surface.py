@@ -24,7 +24,7 @@ class UpperSurface:
     x_b_m: np.ndarray  # (n_edges,) x of b (< x_a)
 
     @classmethod
-    def of_cloud(cls, node_xy_m: np.ndarray, spacing_m, alpha: float) -> "UpperSurface":
+    def of_cloud(cls, node_xy_m: np.ndarray, spacing_m, alpha: float) -> UpperSurface:
         """The upper surface of the first mesh of the particles ``node_xy_m`` (spacing: h, or one per particle)."""
         edges = boundary_edges(triangulate(node_xy_m, spacing_m, alpha).elem_nodes)
         edges = edges[node_xy_m[edges[:, 1], 0] < node_xy_m[edges[:, 0], 0]]

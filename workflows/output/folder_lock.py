@@ -113,7 +113,7 @@ def check_folder_study(out_dir: Path, study_name: str, force: bool, digest: str 
 
 
 @contextmanager
-def folder_lock(out_dir: Path, study_name: str, say=lambda text: None, force: bool = False,
+def folder_lock(out_dir: str | Path, study_name: str, say=lambda text: None, force: bool = False,
                 digest: str | None = None):
     """Hold ``out_dir``'s lock for the block (made with the folder if needed; a folder made here
     and left empty is removed again), and mark the folder as the study's (``study_name``, and its

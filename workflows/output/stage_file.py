@@ -12,7 +12,7 @@ code version and the run's counters.
 from __future__ import annotations
 
 import re
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import netCDF4
@@ -181,7 +181,7 @@ def provenance(study: Study) -> dict:
     return {
         "study": study.source_text,
         "spfem_fos_version": __version__,
-        "created_utc": datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "created_utc": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
     }
 
 

@@ -84,7 +84,10 @@ def pf_convergence(path: Path, ds: xr.Dataset) -> Path:
     for k, f in zip(decided, failed):
         if k:
             estimate = failure_probability(int(f), int(k))
-            n.append(k), pf.append(estimate[0]), low.append(estimate[1]), high.append(estimate[2])
+            n.append(k)
+            pf.append(estimate[0])
+            low.append(estimate[1])
+            high.append(estimate[2])
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.fill_between(n, low, high, color="tab:blue", alpha=0.25, label="95% interval")
@@ -135,10 +138,10 @@ def draw_pf_sweep(out_dir: Path, ds: xr.Dataset) -> Path:
     first = axes[0]
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
-    lines = [(None, ds)]
+    lines: list[tuple[str | None, xr.Dataset]] = [(None, ds)]
     if ds["pf"].ndim == 2:
-        second = [d for d in ds["pf"].dims if d != first][0]
-        lines = [(f"{second} = {value:g}" if np.isscalar(value) else str(value), ds.sel({second: value}))
+        second = str([d for d in ds["pf"].dims if d != first][0])
+        lines = [(f"{second} = {format(value, 'g')}" if np.isscalar(value) else str(value), ds.sel({second: value}))
                  for value in ds[second].values]
     elif ds["pf"].ndim > 2:
         lines = [(None, ds.isel({d: ds.sizes[d] // 2 for d in ds["pf"].dims if d != first}))]

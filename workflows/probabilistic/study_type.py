@@ -317,7 +317,7 @@ class ProbabilisticStudy(SweepStudy):
         self.slip_lines: dict[str, tuple] = {}  # case id -> the slip line (x, y) of a failed realisation
         self.edges_reached: dict[str, list] = {}  # case id -> the supports its mechanism reaches (failed ones)
         self.study_of: dict[str, Study] = {}  # case id -> its study, until it concludes
-        self.predicted = None  # fos mode: (Generations, WindowPredictor) of the realisations' searches
+        self.generation_windows: tuple[Generations, WindowPredictor] | None = None  # fos mode: (Generations, WindowPredictor) of the realisations' searches
         self.n_concluded = 0
         if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
@@ -415,11 +415,11 @@ class ProbabilisticStudy(SweepStudy):
         doc, step 2); in fos mode, generation by generation, each searched in a window about its predicted
         FOS (``fos.prediction``: from the realisations of the earlier generations)."""
         if self.study.probabilistic.compute == "fos":
-            if self.predicted is None:
-                self.predicted = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
-            generations, _ = self.predicted
+            if self.generation_windows is None:
+                self.generation_windows = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
+            generations, _ = self.generation_windows
             count = min(count, generations.room(self.n_concluded))
-        cases = []
+        cases: list[Case] = []
         while len(cases) < count and self.next_index < self.batch_end:
             i = self.next_index
             case = self.first[i] if i < len(self.first) else self.realisations.case(i)
@@ -429,8 +429,8 @@ class ProbabilisticStudy(SweepStudy):
             write_text_if_changed(folder / CASE_TEXT_NAME, case.study.source_text)
             self.study_of[case.case_id] = case.study
             made = self._placed(Case(case.study, folder, case.case_id, case.position, case.values))
-            if self.predicted is not None:
-                generations, windows = self.predicted
+            if self.generation_windows is not None:
+                generations, windows = self.generation_windows
                 generations.take(1)
                 made = windows.with_window(made, self.features(made), self._field_estimate(made))
             cases.append(made)
@@ -490,10 +490,10 @@ class ProbabilisticStudy(SweepStudy):
         mechanisms of failed realisations are kept)."""
         table = self.study.probabilistic
         tally = self.tally
-        if self.predicted is not None:
+        if self.generation_windows is not None:
             self.n_concluded += 1
             fos = outcome.fos
-            self.predicted[1].concluded(case_id, fos)
+            self.generation_windows[1].concluded(case_id, fos)
             slip = getattr(outcome.result, "slip", None)
             if getattr(self, "_mechanisms", None) is not None and hasattr(slip, "x_m") and case_id in self.study_of:
                 self._mechanisms.add(self.study_of[case_id], slip.x_m, slip.y_m, fos)

@@ -114,7 +114,7 @@ class GridField:
     @classmethod
     @functools.lru_cache(maxsize=8)  # the realisations of a study on one worker share the embedding
     def build(cls, model: CorrelationModel, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float,
-              dy_m: float, cell_m: float | None = None) -> "GridField":
+              dy_m: float, cell_m: float | None = None) -> GridField:
         """The embedding of an ``nx`` x ``ny`` grid of spacing ``dx_m``, ``dy_m`` for the point field,
         or with ``cell_m`` for the field of its averages over squares of that side (covariance
         :func:`cell_covariance`); :class:`EmbeddingError` when no embedding up to :data:`MAX_EMBEDDING`
@@ -206,7 +206,7 @@ class ParticleGrid:
     cell_m: float | None
 
     @classmethod
-    def of(cls, x_m, y_m, spacing_m) -> "ParticleGrid":
+    def of(cls, x_m, y_m, spacing_m) -> ParticleGrid:
         x_m, y_m = np.asarray(x_m, float), np.asarray(y_m, float)
         spacing = np.broadcast_to(np.asarray(spacing_m, float), x_m.shape)
         one_spacing = float(spacing.max()) <= float(spacing.min()) * (1.0 + 1e-9)
@@ -282,7 +282,8 @@ class ParticleField:
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent standard Gaussian fields at the particles, cell-averaged (module doc)."""
-        return tuple(self._at_particles(values) for values in self.grid.draw(rng))
+        first, second = self.grid.draw(rng)
+        return self._at_particles(first), self._at_particles(second)
 
     def _at_particles(self, grid_values: np.ndarray) -> np.ndarray:
         if self.grid.cell_m is not None:  # the grid holds the cell averages

@@ -161,7 +161,7 @@ class RandomField(Record):
     def check_in_study(self, study) -> None:
         """Every entry names a material and one of its numeric properties, with a valid mean (module doc)."""
         materials = {material.name: material for material in study.materials}
-        seen = {}
+        seen: dict[tuple[str, str], str] = {}
         for i, entry in enumerate(self.properties):
             where = f"random_field.properties[{i}]"
             if (entry.material, entry.property) in seen:
@@ -224,7 +224,7 @@ class RandomField(Record):
                     a, b = (self.properties[k] for k in ks)
                     rho = a.correlation if a.correlated_with == b.name else (
                         b.correlation if b.correlated_with == a.name else 0.0)
-                probability = order_broken_probability(*sides, rho)
+                probability = order_broken_probability(sides[0], sides[1], rho)
                 if probability > OUTSIDE_RANGE_LIMIT:
                     k = ks[0] if ks[0] is not None else ks[1]
                     entry = self.properties[k]

@@ -63,7 +63,8 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
         structure = (row, entry.correlation_model, entry.thetas_m())
         if structure not in fields:
             try:
-                fields[structure] = ParticleField(entry.model(), *entry.thetas_m(), node_xy_m[mine, 0],
+                theta_x_m, theta_y_m = entry.thetas_m()
+                fields[structure] = ParticleField(entry.model(), theta_x_m, theta_y_m, node_xy_m[mine, 0],
                                                   node_xy_m[mine, 1], node_spacing_m[mine])
             except EmbeddingError:
                 raise _too_long(random_field, k, ParticleGrid.of(node_xy_m[mine, 0], node_xy_m[mine, 1],

@@ -20,6 +20,8 @@ outlines; each becomes a refined zone (``spfem_core.cloud``, graded around it).
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 import xarray as xr
 from scipy.spatial import cKDTree
@@ -86,7 +88,9 @@ def zone_outlines(band_xy_m: np.ndarray, reach_m: float) -> list[np.ndarray]:
     distance, _ = cKDTree(band_xy_m).query(np.column_stack([grid_x.ravel(), grid_y.ravel()]))
     inside = reach_m - distance.reshape(grid_x.shape)  # > 0 within reach
     outlines = []
-    for line in contourpy.contour_generator(x, y, inside).lines(0.0):
+    # the default line type (LineType.Separate): one (n, 2) array a line
+    lines = cast(list[np.ndarray], contourpy.contour_generator(x, y, inside).lines(0.0))
+    for line in lines:
         if line.shape[0] < 4:
             continue
         ring = line[:-1] if np.allclose(line[0], line[-1]) else line

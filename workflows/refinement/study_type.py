@@ -33,6 +33,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
 from workflows.layers import thin_layer_warnings
@@ -45,6 +46,9 @@ from workflows.refinement.results import refinement_dataset
 from workflows.study import Study, StudyError
 from workflows.study.reading import _build_study, _loads, resolve_sweep_path
 from workflows.study.toml_text import to_toml
+
+if TYPE_CHECKING:
+    from workflows.fos.summary import FosOutcome
 
 LEVELS_FOLDER = "levels"
 CASE_TEXT_NAME = "case.toml"
@@ -161,7 +165,7 @@ class RefinementStudy(StudyType):
         self.spacings = self.table.spacings(study.geometry.spacing_m)
         self.levels: list[_Level] = [self._plan(0, self.spacings[0], [], None)]
         self.repeat: _Level | None = None
-        self.found: dict[int, object] = {}  # the FosOutcome of each level done
+        self.found: dict[int, FosOutcome] = {}  # the outcome of each level done
         self.repeat_outcome = None
         self.pending: dict[str, tuple[int, bool]] = {}  # case id -> (level, repeated) of the cases computing
         self.stop_reason = ""

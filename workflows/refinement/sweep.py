@@ -53,7 +53,8 @@ class RefinedSweep(SweepSummary):
                  wall_start: float) -> RefinedSweepOutcome:
         """``study.nc`` with each case's finest level and its band (a case whose gravity diverged: its
         row diverged), and the design charts."""
-        refinements, results = {}, {}
+        refinements: dict = {}
+        results: dict = {}
         for case_id, refinement in sweep.studies.items():
             outcome = concluded[case_id]
             if outcome.diverged:

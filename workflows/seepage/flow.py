@@ -137,7 +137,7 @@ def _flow(geometry, materials, seepage, pond_level_m, pond_x_range_m, water_unit
     face = np.zeros(n, dtype=bool)
     node_condition = np.full(n, -1, dtype=np.int64)
     flux_of = {}  # condition index -> (n,) its nodal inflow
-    conditions = []
+    conditions: list = []
     x, y = node_xy_m[:, 0], node_xy_m[:, 1]
     if pond_level_m is not None:
         x_min, x_max = pond_x_range_m

@@ -35,7 +35,7 @@ class QuasiStatic(Protocol):
     name = "quasi_static"
     description = ("at once, with local damping, each run until the unbalanced force converges (a slope at rest) "
                    "or the slope slides")
-    fields = ("damping", "tolerance")
+    fields: tuple[str, ...] = ("damping", "tolerance")
     rest_by_unbalanced_force = True
 
     def run(self, stage, sim, declared, srf, study, record):
@@ -47,7 +47,7 @@ class QuasiStatic(Protocol):
 class Undamped(Protocol):
     """Undamped dynamics, at rest once the displacement stops growing over ``rest_window_s``."""
 
-    fields = ("rest_window_s", "rest_growth")
+    fields: tuple[str, ...] = ("rest_window_s", "rest_growth")
 
     def check(self, stage) -> None:
         """With early_stop, two rest windows within ``duration_s``."""

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+import xarray as xr
 
 from spfem_core.records import TimeSeries
 from spfem_core.simulation import DetachedParticlesError, Simulation, StageSetup
@@ -73,7 +74,7 @@ class StageResult(NamedTuple):
 
     series: TimeSeries
     final: Snapshot
-    dataset: object  # xarray.Dataset
+    dataset: xr.Dataset
 
 
 def new_simulation(study: Study, scene, threads: int = 0, initial_mesh=None) -> Simulation:
@@ -127,6 +128,7 @@ def stage_setup(study: Study, sim: Simulation, index: int, start_from: StressSta
     stage = study.stages[index]
     scene = sim.scene
     lines, node_line, pond = stage.water(study_water(study, scene.node_material), study, scene.node_material)
+    start: str | StressState
     if start_from is not None:
         start = start_from
     else:
@@ -173,7 +175,7 @@ def snapshots(study: Study, index: int, out_dir: Path):
     ParaView files every ``[output] snapshot_interval_s`` into ``out_dir/paraview``, animation frames
     every ``animation_interval_s`` of an animated stage; (None, None) when the study asks for neither."""
     output, stage = study.output, study.stages[index]
-    callbacks = []
+    callbacks: list[tuple[float, SnapshotWriter | AnimationRecorder]] = []
     if output.snapshot_interval_s is not None:
         callbacks.append((output.snapshot_interval_s, SnapshotWriter(Path(out_dir) / "paraview", stage.name)))
     recorder = None

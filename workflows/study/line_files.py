@@ -93,7 +93,7 @@ def _csv_line(path: Path, field: str) -> list[list[float]]:
         dialect = csv.Sniffer().sniff(text[:2048], delimiters=",;\t")
     except csv.Error:
         dialect = csv.excel
-    points = []
+    points: list[list[float]] = []
     reader = csv.reader(text.splitlines(), dialect)
     try:
         for number, row in enumerate(reader, start=1):

@@ -102,7 +102,7 @@ def _loads(toml_text: str) -> dict:
 def _build_study(raw: dict) -> Study:
     """The Study of a study dict, a slope form (``[geometry.slope]``) or a section drawn as lines
     (``[geometry.section]``) expanded first."""
-    weights = {}
+    weights: dict = {}
     if isinstance(raw, dict):
         raw, weights = engineering_units.with_densities(raw)
     geometry = raw.get("geometry") if isinstance(raw, dict) else None
@@ -162,7 +162,8 @@ def resolve_field(raw: dict, path: str) -> FieldAt:
     ``unit_weight_kn_m3``: ``workflows.engineering_units``) is found with its declaration in those
     units.  StudyError (field ``path``) otherwise."""
     parts = path.split(".")
-    cls, node, i, where = Study, raw, 0, ""
+    cls: type = Study
+    node, i, where = raw, 0, ""
     while i < len(parts):
         part = parts[i]
         declared = specs(cls)
@@ -239,6 +240,7 @@ def sweep_cases(study: Study) -> list[SweepCase]:
             except ValueError as error:
                 raise StudyError(f"sweep.axes[{a}].values[{j}]", f"{axis.path}: {error}") from None
         axes_values.append(checked)
+    positions: list[tuple[int, ...]]
     if sweep.combination == "zip":
         positions = [(i,) for i in range(len(axes_values[0]))]
         combos = [tuple(values[i] for values in axes_values) for i in range(len(axes_values[0]))]

@@ -114,8 +114,8 @@ class Wall(Record):
     when going from start to end (a floor runs in +x)."""
 
     name: str = name_field("name of the wall")
-    start_m: tuple = point("m", "first end of the segment [x, y]")
-    end_m: tuple = point("m", "second end of the segment [x, y]")
+    start_m: tuple[float, float] = point("m", "first end of the segment [x, y]")
+    end_m: tuple[float, float] = point("m", "second end of the segment [x, y]")
     friction: float = number("1", "Coulomb friction coefficient mu (0: frictionless)", default=0.0, ge=0.0)
 
     def check(self):

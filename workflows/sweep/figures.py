@@ -26,7 +26,7 @@ from workflows.sweep.results import ABOVE, BELOW, FOUND
 
 def _axes(ds: xr.Dataset) -> list[str]:
     """The swept coordinates, in the order of the axes."""
-    return [name for name in ds.coords if "sweep_path" in ds[name].attrs]
+    return [str(name) for name in ds.coords if "sweep_path" in ds[name].attrs]
 
 
 def _label(ds: xr.Dataset, name: str) -> str:
@@ -79,8 +79,8 @@ def fos_lines(ds: xr.Dataset, axis: str, ax=None):
         order = np.argsort(ds[axis].values) if _is_numeric(ds[axis].values) else np.arange(ds.sizes["case"])
         picked = ds.isel(case=order)
         x, ticks = _positions(picked[axis].values)
-        _curve(ax, x, *(picked[v].values for v in ("fos", "fos_low", "fos_high")), picked["status"].values.astype(str),
-               "tab:blue", None)
+        _curve(ax, x, picked["fos"].values, picked["fos_low"].values, picked["fos_high"].values,
+               picked["status"].values.astype(str), "tab:blue", None)
     else:
         others = [name for name in _axes(ds) if name != axis]
         series = others[0] if others else None
@@ -92,8 +92,8 @@ def fos_lines(ds: xr.Dataset, axis: str, ax=None):
             value = line[series].values.item() if series else None
             label = None if series is None else f"{series} = {value:g}" if _is_numeric(picked[series].values) \
                 else f"{series} = {value}"
-            _curve(ax, x, *(line[v].values for v in ("fos", "fos_low", "fos_high")), line["status"].values.astype(str),
-                   colour, label)
+            _curve(ax, x, line["fos"].values, line["fos_low"].values, line["fos_high"].values,
+                   line["status"].values.astype(str), colour, label)
         if note:
             title += f" ({note})"
     if ticks is not None:
@@ -139,7 +139,7 @@ def fos_map(ds: xr.Dataset, ax=None):
     low = picked["fos_low"].transpose(y_name, x_name).values
     high = picked["fos_high"].transpose(y_name, x_name).values
     for i, j in np.ndindex(fos.shape):
-        text = {FOUND: f"{fos[i, j]:.2f}", ABOVE: f">{low[i, j]:g}", BELOW: f"<{high[i, j]:g}"}.get(status[i, j], "-")
+        text = {FOUND: f"{fos[i, j]:.2f}", ABOVE: f">{low[i, j]:g}", BELOW: f"<{high[i, j]:g}"}.get(str(status[i, j]), "-")
         ax.plot(gx[i, j], gy[i, j], "k.", ms=4, clip_on=False)
         ax.annotate(text, (gx[i, j], gy[i, j]), textcoords="offset points", xytext=(0, 5), ha="center", fontsize=7,
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.7})

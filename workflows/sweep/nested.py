@@ -132,7 +132,7 @@ class NestedSweep(StudyType):
             return None
 
         def more(count: int) -> list[Case]:
-            made = []
+            made: list[Case] = []
             for sweep_id, feed in feeds:
                 if len(made) >= count:
                     break

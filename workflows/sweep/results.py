@@ -100,6 +100,8 @@ def sweep_coordinates(study: Study, cases: list[SweepCase]) -> tuple[tuple[str, 
     sweep = study.sweep
     labels = axis_labels(sweep)
     specs = [resolve_sweep_path(tomllib.loads(study.source_text), axis.path)[2] for axis in sweep.axes]
+    dims: tuple[str, ...]
+    shape: tuple[int, ...]
     if sweep.combination == "zip":
         dims = ("case",)
         shape = (len(cases),)

@@ -273,7 +273,7 @@ def case_features(study: Study, values: dict) -> list[float]:
     import math
 
     features = []
-    for axis, (label, value) in zip(study.sweep.axes, values.items()):
+    for axis, value in zip(study.sweep.axes, values.values()):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             listed = list(axis.values) if axis.values is not None else []
             features.append(float(listed.index(value)) if value in listed else 0.0)

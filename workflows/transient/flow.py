@@ -136,7 +136,7 @@ def rain_history(entry) -> History:
     times, values = [], []
     if entry.rain_history_h_mm_h[0][0] > 0.0:
         times, values = [0.0], [0.0]
-    for k, (t_h, intensity) in enumerate(entry.rain_history_h_mm_h):
+    for t_h, intensity in entry.rain_history_h_mm_h:
         if times:
             times.append(t_h * HOUR_S)
             values.append(values[-1])
@@ -154,9 +154,9 @@ def level_history(entry) -> History:
 def output_times_h(transient, until_h: float | None = None) -> np.ndarray:
     """The times the flow is saved at (h, > 0): the FOS's, water_at_h, and ``saved_times`` evenly spaced; with
     ``until_h`` those up to it and the first after (the flow need go no further to give the water then)."""
-    times = list(transient.fos_times()) + ([transient.water_at_h] if transient.water_at_h is not None else [])
-    times += list(np.linspace(0.0, transient.end_time_h, transient.saved_times + 1)[1:])
-    times = np.unique(np.round(np.array(times, dtype=float), 9))
+    listed = list(transient.fos_times()) + ([transient.water_at_h] if transient.water_at_h is not None else [])
+    listed += list(np.linspace(0.0, transient.end_time_h, transient.saved_times + 1)[1:])
+    times = np.unique(np.round(np.array(listed, dtype=float), 9))
     times = times[times > 0.0]
     if until_h is not None:
         times = times[:max(1, int(np.searchsorted(times, until_h + 1e-9)))]
@@ -187,7 +187,8 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
     edges = boundary_edges(elem_nodes)
     on_boundary = np.zeros(n, dtype=bool)
     on_boundary[edges.ravel()] = True
-    boundaries, reservoirs = [], []
+    boundaries: list[FluxBoundary | ReservoirBoundary | SeepageFace | HeadBoundary] = []
+    reservoirs: list = []
     for i, entry in enumerate(transient.boundary):
         where = f"transient.boundary[{i}]"
         box = on_boundary & entry.holds(node_xy_m, finest_m)
