@@ -60,6 +60,7 @@ from workflows.output.writing import make_output_folder, write_dataset, write_te
 from workflows.probabilistic.reliability import failure_probability
 from workflows.probabilistic.sampling import Marginal, Sampler
 from workflows.random_field.table import spread_problem
+from workflows.scene import random_field_notes
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_field, resolve_sweep_path, set_field
 from workflows.study.toml_text import to_toml
@@ -619,7 +620,7 @@ class ProbabilisticStudy(SweepStudy):
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
-                       *_edge_lines(outcome), _discretisation_line(self.study),
+                       *_edge_lines(outcome), *random_field_notes(self.study), _discretisation_line(self.study),
                        f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
                        + "".join(f", {path.name}" for path in outcome.figures), *self.removed])
 
