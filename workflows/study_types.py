@@ -13,6 +13,9 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
   realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
+- ``probabilistic.design_points.DesignPointStudy``: ``[probabilistic]`` with ``method = "form"`` or
+  ``"point_estimate"``, a case per point it places (FORM's iterations in rounds), and ``probabilistic.nc``
+  with beta or the FOS's moments;
 - ``probabilistic.sweep.ProbabilisticSweepStudy``: a study with both ``[sweep]`` and
   ``[probabilistic]``, a probabilistic study per case, every realisation on one cluster, and
   ``study.nc`` with pf per case.
@@ -30,6 +33,7 @@ from pathlib import Path
 
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.output.folder_lock import folder_lock, study_digest
+from workflows.probabilistic.design_points import DesignPointStudy
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.sweep import ProbabilisticSweepStudy
 from workflows.progress import Progress
@@ -39,7 +43,7 @@ from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, DesignPointStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
                                               SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 

@@ -336,7 +336,7 @@ class ProbabilisticStudy(SweepStudy):
         field, or the realisation and the field."""
         from workflows.fos.keys import gravity_key  # the core (numba): once the study is known to be valid
 
-        self.realisations = realisations = Realisations(self.study)
+        self.realisations = realisations = self.make_realisations()
         self.first = [realisations.case(i) for i in range(min(FIRST_REALISATIONS, realisations.count))]
         self._check_each_variable_changes_something()
         self.shared_gravity = len({gravity_key(case.study) for case in self.first}) == 1
@@ -344,6 +344,11 @@ class ProbabilisticStudy(SweepStudy):
         study.strength_reduction.check_resolution(study)
         check_memory(study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
         self._check_scenes()
+
+    def make_realisations(self) -> Realisations:
+        """The realisations (module doc, step 1), or the first points of a method that places them
+        (``probabilistic.design_points``)."""
+        return Realisations(self.study)
 
     def processes(self, options: RunOptions) -> int:
         """The local workers, and this process when it relaxes the one gravity state of every realisation."""

@@ -11,6 +11,9 @@ from workflows.random_field.table import spread_problem
 MAX_REALISATIONS = 100_000
 DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
 KEEP_FIELDS = ("failed", "all", "none")
+METHODS = ("monte_carlo", "latin_hypercube", "form", "point_estimate")
+DESIGN_POINT_METHODS = ("form", "point_estimate")
+"""Methods that place their points (``workflows.probabilistic.design_points``) instead of sampling them."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,9 +68,12 @@ class Probabilistic(Record):
         "correlation matrix of the variables themselves, in their order (rows of numbers, symmetric, ones on "
         "the diagonal); default uncorrelated", default=None,
     )
-    method: str = text("`monte_carlo`, or `latin_hypercube` (stratified; drawn for its count: extending it is a "
-                       "new design)", default="monte_carlo", choices=("monte_carlo", "latin_hypercube"))
-    realisations: int = integer("number of realisations", ge=1, le=MAX_REALISATIONS)
+    method: str = text("`monte_carlo`, `latin_hypercube` (stratified; drawn for its count: extending it is a "
+                       "new design), `form` (the reliability index by FORM on the FOS: random variables, "
+                       "compute = \"fos\") or `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
+                       "a screen)", default="monte_carlo", choices=METHODS)
+    realisations: int = integer("number of realisations (form, point_estimate: the most FOS searches)", ge=1,
+                                le=MAX_REALISATIONS)
     seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
     compute: str = text(
         "`verdict`: one strength-reduction run per realisation at `factor`, stable or failed; `fos`: each "
@@ -87,6 +93,15 @@ class Probabilistic(Record):
     )
     keep_fields_first: int = integer("the first this many realisations keep the particle state of all their runs "
                                      "too, stable or failed", default=0, ge=0)
+    fos_tolerance: float = number(
+        "1", "*form, point_estimate:* the FOS bracket of each point's search (its stage's fos_tolerance, set "
+        "tighter: FORM's finite differences must stand well above it)", default=0.002, gt=0.0, lt=0.1)
+    form_step: float = number(
+        "1", "*form:* the finite-difference step, in standard deviations of the standard normal variables; it "
+        "should change the FOS by several brackets (the report names a variable whose change is within 3)",
+        default=0.5, gt=0.0, le=3.0)
+    form_tolerance: float = number("1", "*form:* stop once beta changes by at most this between iterations",
+                                   default=0.02, gt=0.0, lt=1.0)
 
     def check_in_study(self, study) -> None:
         """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
@@ -97,9 +112,17 @@ class Probabilistic(Record):
                              "reduction: it needs a strength_reduction stage")
         if study.refinement is not None:
             raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
+        if self.method in DESIGN_POINT_METHODS:
+            if study.random_field is not None:
+                raise StudyError("probabilistic.method", f"{self.method} here takes random variables only, not a "
+                                 "[random_field] (use monte_carlo)")
+            if study.sweep is not None:
+                raise StudyError("probabilistic.method", f"{self.method} with [sweep] is not supported yet")
 
     def check(self):
         n = len(self.variables)
+        if self.method in DESIGN_POINT_METHODS:
+            self._check_design_points(n)
         if self.correlation is not None:
             rows = self.correlation
             if len(rows) != n or any(not isinstance(row, (list, tuple)) or len(row) != n for row in rows):
@@ -113,3 +136,17 @@ class Probabilistic(Record):
                     if not -1 < value <= 1 or value != rows[j][i]:
                         raise StudyError(f"correlation[{i}][{j}]", "must lie in (-1, 1) and equal "
                                          f"correlation[{j}][{i}]")
+
+    def _check_design_points(self, n: int) -> None:
+        """What form and point_estimate need: random variables, each point's FOS, a budget for their points."""
+        if n == 0:
+            raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]])")
+        if self.compute != "fos":
+            raise StudyError("compute", f'{self.method} takes the FOS of each point: give compute = "fos"')
+        if self.pf_interval_width is not None:
+            raise StudyError("pf_interval_width", f"applies to monte_carlo and latin_hypercube, not {self.method}")
+        needed = 2**n if self.method == "point_estimate" else 2 * (n + 1)
+        if self.realisations < needed:
+            raise StudyError("realisations", f"{self.method} with {n} variables needs at least {needed} FOS searches "
+                             + ("(2^n points)" if self.method == "point_estimate" else "(two iterations of n + 1)")
+                             + f", got {self.realisations}")
