@@ -150,3 +150,72 @@ def test_a_form_study_gives_beta_beside_fosm_and_resumes_without_a_run(tmp_path)
     assert math.isnan(ds.attrs["pf"]) and (tmp_path / "form.png").exists()
     again = run_study(study, tmp_path, RunOptions(workers=2))
     assert again.runs_made == 0 and again.beta == first.beta
+
+
+def _subset_study(tmp_path, seed: int, samples: int = 200):
+    """A subset simulation of the c-phi slope with one normal cohesion (mean 10 kPa, std 1 kPa), its FOS
+    replaced by c / 7 kPa (the study's points and levels, no run): pf = P(c < 7 kPa) = Phi(-3)."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import study_type
+
+    text = C_PHI[: C_PHI.index("[probabilistic]")] + (
+        f'[probabilistic]\nmethod = "subset_simulation"\nrealisations = 5000\nsamples_per_level = {samples}\n'
+        f'seed = {seed}\ncompute = "fos"\nfactor = 1.0\n\n[[probabilistic.variables]]\n'
+        'path = "materials.soil.cohesion_pa"\ndistribution = "normal"\nstd = 1000.0\n')
+    kind = study_type(parse_study(text), tmp_path / f"seed_{seed}")
+    kind.check(RunOptions(workers=1))
+    kind.cases()
+    return kind
+
+
+def _fake_outcome(fos: float):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(runs=[], fos=fos, fos_low=fos - 1e-3, fos_high=fos + 1e-3, criteria_agree=True,
+                           knee_srf=math.nan, n_particles=0, verdict="", status_low=math.nan, status_high=math.nan)
+
+
+def test_subset_simulation_levels_reach_a_small_pf_within_their_interval(tmp_path):
+    """pf = Phi(-3) = 1.35e-3 by the study's own levels and chains (FOS c / 7 kPa, 200 points a level), over
+    three seeds: each estimate's approximate 95% interval holds the exact value, with 3 or 4 levels and under
+    1,000 FOS searches where crude Monte Carlo needs (1 - pf) / (pf cov^2) for the same cov."""
+    from workflows.progress import Progress
+    from workflows.probabilistic.subset_study import SubsetStudy
+
+    exact = 0.5 * math.erfc(3.0 / math.sqrt(2.0))
+    for seed in (1, 2, 3):
+        kind = _subset_study(tmp_path, seed)
+        assert isinstance(kind, SubsetStudy)
+        points, outcomes, progress = kind.realisations, {}, Progress()
+        while True:
+            for i in range(len(outcomes), points.count):
+                outcomes[points.case_id(i)] = _fake_outcome(points.values[i, 0] / 7e3)
+            if not kind.next_cases(outcomes, progress) and kind.finished:
+                break
+        levels = kind.levels
+        assert levels[-1]["last"] and len(levels) in (3, 4) and not kind.stop_reason
+        p = 0.1 ** (len(levels) - 1) * levels[-1]["fraction"]
+        from workflows.probabilistic import subset
+
+        cov = math.sqrt(sum(subset.level_cov(level["fraction"], 200, level["gamma"]) ** 2 for level in levels))
+        low, high = subset.interval(p, cov)
+        assert low <= exact <= high, (seed, p, cov)
+        assert 0.15 < cov < 0.8 and points.count < 1000
+        assert (1 - p) / (p * cov**2) > 2 * points.count
+
+
+def test_subset_seeds_and_threshold_and_the_chains_correlation():
+    fos = np.array([1.5, 1.1, 1.3, 0.9, 1.2, 1.4, 1.6, 1.7, 1.8, 1.9])
+    order, threshold, last = subset_module().seeds_and_threshold(fos, 0.2, 0.8)
+    assert list(order) == [3, 1] and threshold == pytest.approx(1.15) and not last
+    assert subset_module().seeds_and_threshold(fos, 0.1, 1.0)[2]  # one of ten below the factor: the last level
+    independent = np.random.default_rng(1).random((400, 10)) < 0.1
+    assert subset_module().chain_gamma(independent) < 0.15
+    stuck = np.repeat(np.random.default_rng(2).random((400, 1)) < 0.1, 10, axis=1)  # chains that never move
+    assert subset_module().chain_gamma(stuck) == pytest.approx(9.0, rel=0.05)  # 2 sum (1 - l / 10) over 9 lags
+
+
+def subset_module():
+    from workflows.probabilistic import subset
+
+    return subset

@@ -16,6 +16,8 @@ A study type (``workflows.cases.StudyType``) makes its cases, says how they run 
 - ``probabilistic.design_points.DesignPointStudy``: ``[probabilistic]`` with ``method = "form"`` or
   ``"point_estimate"``, a case per point it places (FORM's iterations in rounds), and ``probabilistic.nc``
   with beta or the FOS's moments;
+- ``probabilistic.subset_study.SubsetStudy``: ``method = "subset_simulation"``, level after level of
+  Markov chains on the FOS (rounds), and ``probabilistic.nc`` with pf and its coefficient of variation;
 - ``probabilistic.sweep.ProbabilisticSweepStudy``: a study with both ``[sweep]`` and
   ``[probabilistic]``, a probabilistic study per case, every realisation on one cluster, and
   ``study.nc`` with pf per case.
@@ -35,6 +37,7 @@ from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.output.folder_lock import folder_lock, study_digest
 from workflows.probabilistic.design_points import DesignPointStudy
 from workflows.probabilistic.study_type import ProbabilisticStudy
+from workflows.probabilistic.subset_study import SubsetStudy
 from workflows.probabilistic.sweep import ProbabilisticSweepStudy
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
@@ -43,7 +46,8 @@ from workflows.single import SingleStudy
 from workflows.study import Study
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, DesignPointStudy, ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticSweepStudy, SubsetStudy, DesignPointStudy,
+                                              ProbabilisticStudy, RefinedSweepStudy, RefinementStudy, SweepStudy,
                                               SingleStudy)
 """Every study type, asked in this order whether a study is of it (the last takes any study)."""
 

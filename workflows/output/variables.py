@@ -316,6 +316,16 @@ PROBABILISTIC_FILE = _table(
              "form: the sensitivity factors alpha = grad g / |grad g| at the last iteration (alpha^2 the variable's "
              "share; positive: its increase makes the slope safer)"),
     Variable("point_weight", ("realisation",), "1", "point_estimate: Rosenblueth's weight of the point"),
+    Variable("subset_level", ("realisation",), "1",
+             "subset_simulation: the level that made the point (0: the Monte Carlo sample; a later level's chains)"),
+    Variable("subset_accepted", ("realisation",), "1",
+             "subset_simulation: 1 if the point is a level's sample (level 0's, or a chain's accepted candidate)"),
+    Variable("last_level_failed", ("realisation",), "1",
+             "subset_simulation: 1 for the last level's samples below the factor (the conditional failure samples)"),
+    Variable("threshold_fos", ("subset_threshold",), "1",
+             "subset_simulation: each level's threshold FOS b_k (the last: the factor)"),
+    Variable("threshold_pf", ("subset_threshold",), "1",
+             "subset_simulation: P(FOS < threshold_fos): p0^k, and pf at the factor (pf against the threshold)"),
     Variable("slip_envelope_x", ("slip_envelope_point",), "m",
              "x of the envelope of the failed realisations' slip lines (of those whose run files keep the particles)"),
     Variable("slip_envelope_lower", ("slip_envelope_point",), "m", "the deepest of the slip lines at x"),
@@ -340,6 +350,11 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "form_stop_reason", "form: beta (Hasofer-Lind, by HL-RF on FOS - factor), Phi(-beta), the first "
               "iteration's beta at the mean (FOSM), the iterations, 1 if beta changed by at most form_tolerance, why "
               "it stopped otherwise"),
+    Attribute("pf_cov, p0, samples_per_level, subset_levels, subset_accepted_share, subset_stop_reason",
+              "subset_simulation: pf (in pf; pf_low and pf_high an approximate 95% interval from pf_cov, lognormal about "
+              "pf) and its coefficient of variation (Au & Beck, with the chains' correlation), the levels, the share "
+              "of the chains' candidates accepted, why it stopped early if it did; fos_mean, fos_std and the "
+              "reliability indices are those of the Monte Carlo level 0"),
     Attribute("point_estimate_fos_mean, point_estimate_fos_std", "point_estimate: the FOS's mean and std by "
               "Rosenblueth's weights; reliability_index_normal and _lognormal from them, against factor"),
     Attribute("n_mechanisms, mechanism_edges, box_decides_fraction",

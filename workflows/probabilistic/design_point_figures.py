@@ -1,9 +1,11 @@
-"""Figures of a form or point_estimate study (``workflows.probabilistic.design_points``), drawn from its
+"""Figures of a form, point_estimate or subset_simulation study (``workflows.probabilistic.design_points``), drawn from its
 ``probabilistic.nc`` (PNG, matplotlib without a display):
 
 - ``form.png``: the FOS at each iteration's centre against the iteration, with the factor, and the
   sensitivity factors alpha as bars (alpha^2 the variable's share), beta, the FOSM index and the design
   point in the titles;
+- ``subset_simulation.png``: P(FOS < threshold) at each level's threshold down to pf at the factor (the
+  curve of pf against the threshold), and the FOS of every level's samples, the last level's failures marked;
 - ``point_estimate.png``: the FOS at the 2^n points (their weights as the markers' areas) with the mean
   and mean +- std of the estimate.
 """
@@ -37,6 +39,22 @@ def draw(out_dir: Path, ds: xr.Dataset, method: str, factor: float) -> Path:
         right.set(xlabel="sensitivity alpha", title="design point: " + ", ".join(
             f"{label} {value:.4g}" for label, value in zip(labels, ds["design_point"].values)))
         right.title.set_fontsize(8)
+    elif method == "subset_simulation":
+        path = out_dir / "subset_simulation.png"
+        fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
+        left.semilogy(ds["threshold_fos"].values, ds["threshold_pf"].values, "o-", color="tab:blue")
+        left.axvline(factor, color="tab:red", lw=1, label=f"factor {factor:g}")
+        left.set(xlabel="threshold FOS", ylabel="P(FOS < threshold)",
+                 title=f"pf = {ds.attrs['pf']:.3g}, cov {ds.attrs['pf_cov']:.3g}")
+        left.legend()
+        level, fos = ds["subset_level"].values, ds["fos"].values
+        sample = ds["subset_accepted"].values == 1
+        right.scatter(level[sample], fos[sample], s=6, color="tab:gray", label="levels' samples")
+        failed = ds["last_level_failed"].values == 1
+        right.scatter(level[failed], fos[failed], s=10, color="tab:red", label="last level below the factor")
+        right.axhline(factor, color="tab:red", lw=1)
+        right.set(xlabel="level", ylabel="FOS", title="the points by level")
+        right.legend(fontsize=8)
     else:
         path = out_dir / "point_estimate.png"
         fig, ax = plt.subplots(figsize=(6, 4))

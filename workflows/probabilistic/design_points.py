@@ -41,7 +41,6 @@ from workflows.probabilistic.study_type import (
     ProbabilisticStudy,
     Realisations,
 )
-from workflows.probabilistic.table import DESIGN_POINT_METHODS
 from workflows.study import Study, StudyError
 from workflows.study.reading import resolve_sweep_path
 from workflows.sweep.results import CASES_FOLDER, case_result, diverged_result
@@ -50,7 +49,7 @@ from workflows.sweep.stale import remove_stale_cases
 NOISE_BRACKETS = 3.0
 """A FORM step whose change of the FOS is within this many brackets of its searches gives a noisy
 sensitivity: the report names the variable."""
-FIGURES = ("form.png", "point_estimate.png")
+FIGURES = ("form.png", "point_estimate.png", "subset_simulation.png")
 SRF_MIN_SHARE = 0.5
 """Each point's search starts at most at this share of the factor (FORM's design point has FOS = factor)."""
 
@@ -135,6 +134,8 @@ class DesignPointOutcome(ProbabilisticOutcome):
 class DesignPointStudy(ProbabilisticStudy):
     """A study with ``[probabilistic]`` and ``method = "form"`` or ``"point_estimate"`` (module doc)."""
 
+    outcome_type = DesignPointOutcome
+
     def __init__(self, study: Study, out_dir: Path):
         super().__init__(study, out_dir)
         self.placement = dataclasses.replace(self.placement, rounds=True)
@@ -146,7 +147,7 @@ class DesignPointStudy(ProbabilisticStudy):
 
     @staticmethod
     def applies_to(study: Study) -> bool:
-        return study.probabilistic is not None and study.probabilistic.method in DESIGN_POINT_METHODS
+        return study.probabilistic is not None and study.probabilistic.method in ("form", "point_estimate")
 
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
@@ -241,8 +242,8 @@ class DesignPointStudy(ProbabilisticStudy):
             path.unlink(missing_ok=True)
         table = self.study.probabilistic
         points = self.realisations
-        result = DesignPointOutcome(**{f.name: getattr(base, f.name) for f in dataclasses.fields(ProbabilisticOutcome)},
-                                    method=table.method, n_searches=points.count)
+        result = self.outcome_type(**{f.name: getattr(base, f.name) for f in dataclasses.fields(ProbabilisticOutcome)},
+                                   method=table.method, n_searches=points.count)
         result.pf = result.pf_low = result.pf_high = math.nan
         result.figures = []
         var = PROBABILISTIC_FILE
@@ -256,8 +257,24 @@ class DesignPointStudy(ProbabilisticStudy):
         attrs.update(fos_mean=math.nan, fos_std=math.nan, reliability_index_normal=math.nan,
                      reliability_index_lognormal=math.nan)
         result.fos_mean = result.fos_std = math.nan
+        ds = self._method_results(result, ds, attrs)
+        ds.attrs.update(attrs)
+        write_dataset(ds, result.result_path)
+        if self.study.output.figures:
+            from workflows.probabilistic.design_point_figures import draw  # matplotlib: on use
+
+            result.figures = [draw(self.out_dir, ds, table.method, table.factor)]
+        self.stale_figures = remove_stale_figures(self.out_dir, FIGURES, keep={path.name for path in result.figures})
+        return result
+
+    def _method_results(self, result: DesignPointOutcome, ds, attrs: dict):
+        """The method's own results into ``result``, the dataset ``ds`` (returned) and its ``attrs``."""
+        from workflows.output.variables import PROBABILISTIC_FILE as var
+
+        table = self.study.probabilistic
+        points = self.realisations
         if table.method == "form":
-            self._form_result(result, outcomes)
+            self._form_result(result)
             ds["form_iteration"] = var["form_iteration"](ds["realisation"].values // (len(points.labels) + 1))
             ds["design_point"] = var["design_point"](np.array([result.design_point.get(label, math.nan)
                                                                for label in points.labels]))
@@ -276,16 +293,9 @@ class DesignPointStudy(ProbabilisticStudy):
             attrs.update(point_estimate_fos_mean=result.pem_mean, point_estimate_fos_std=result.pem_std,
                          reliability_index_normal=result.beta_normal,
                          reliability_index_lognormal=result.beta_lognormal)
-        ds.attrs.update(attrs)
-        write_dataset(ds, result.result_path)
-        if self.study.output.figures:
-            from workflows.probabilistic.design_point_figures import draw  # matplotlib: on use
+        return ds
 
-            result.figures = [draw(self.out_dir, ds, table.method, table.factor)]
-        self.stale_figures = remove_stale_figures(self.out_dir, FIGURES, keep={path.name for path in result.figures})
-        return result
-
-    def _form_result(self, result: DesignPointOutcome, outcomes: dict) -> None:
+    def _form_result(self, result: DesignPointOutcome) -> None:
         """beta, the design point, alpha and the stop of FORM's iterations (module doc)."""
         points = self.realisations
         result.iterations = len(self.iterations)

@@ -11,8 +11,8 @@ from workflows.random_field.table import spread_problem
 MAX_REALISATIONS = 100_000
 DISTRIBUTIONS = ("normal", "lognormal", "uniform", "truncated_normal")
 KEEP_FIELDS = ("failed", "all", "none")
-METHODS = ("monte_carlo", "latin_hypercube", "form", "point_estimate")
-DESIGN_POINT_METHODS = ("form", "point_estimate")
+METHODS = ("monte_carlo", "latin_hypercube", "form", "point_estimate", "subset_simulation")
+DESIGN_POINT_METHODS = ("form", "point_estimate", "subset_simulation")
 """Methods that place their points (``workflows.probabilistic.design_points``) instead of sampling them."""
 
 
@@ -70,8 +70,9 @@ class Probabilistic(Record):
     )
     method: str = text("`monte_carlo`, `latin_hypercube` (stratified; drawn for its count: extending it is a "
                        "new design), `form` (the reliability index by FORM on the FOS: random variables, "
-                       "compute = \"fos\") or `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
-                       "a screen)", default="monte_carlo", choices=METHODS)
+                       "compute = \"fos\"), `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
+                       "a screen) or `subset_simulation` (a small pf by levels of Markov chains on the FOS: random "
+                       "variables, compute = \"fos\")", default="monte_carlo", choices=METHODS)
     realisations: int = integer("number of realisations (form, point_estimate: the most FOS searches)", ge=1,
                                 le=MAX_REALISATIONS)
     seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
@@ -102,6 +103,11 @@ class Probabilistic(Record):
         default=0.5, gt=0.0, le=3.0)
     form_tolerance: float = number("1", "*form:* stop once beta changes by at most this between iterations",
                                    default=0.02, gt=0.0, lt=1.0)
+    samples_per_level: int = integer("*subset_simulation:* the FOS searches of each level (its first a Monte Carlo "
+                                     "sample); samples_per_level * p0 Markov chains make each next level",
+                                     default=500, ge=10, le=MAX_REALISATIONS)
+    p0: float = number("1", "*subset_simulation:* the conditional probability of each level (its threshold the "
+                       "p0-quantile of the level's FOS); 1 / p0 a whole number", default=0.1, gt=0.0, le=0.5)
 
     def check_in_study(self, study) -> None:
         """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
@@ -145,6 +151,15 @@ class Probabilistic(Record):
             raise StudyError("compute", f'{self.method} takes the FOS of each point: give compute = "fos"')
         if self.pf_interval_width is not None:
             raise StudyError("pf_interval_width", f"applies to monte_carlo and latin_hypercube, not {self.method}")
+        if self.method == "subset_simulation":
+            chains = self.samples_per_level * self.p0
+            if abs(1.0 / self.p0 - round(1.0 / self.p0)) > 1e-9 or abs(chains - round(chains)) > 1e-9:
+                raise StudyError("p0", f"1 / p0 and samples_per_level * p0 must be whole numbers (the chains, of 1 / p0 "
+                                 f"states each), got p0 = {self.p0:g} with samples_per_level = {self.samples_per_level}")
+            if self.realisations < self.samples_per_level:
+                raise StudyError("realisations", f"subset_simulation needs at least samples_per_level = "
+                                 f"{self.samples_per_level} FOS searches (its first level), got {self.realisations}")
+            return
         needed = 2**n if self.method == "point_estimate" else 2 * (n + 1)
         if self.realisations < needed:
             raise StudyError("realisations", f"{self.method} with {n} variables needs at least {needed} FOS searches "
