@@ -178,7 +178,8 @@ def _fake_outcome(fos: float):
 def test_subset_simulation_levels_reach_a_small_pf_within_their_interval(tmp_path):
     """pf = Phi(-3) = 1.35e-3 by the study's own levels and chains (FOS c / 7 kPa, 200 points a level), over
     three seeds: each estimate's approximate 95% interval holds the exact value, with 3 or 4 levels and under
-    1,000 FOS searches where crude Monte Carlo needs (1 - pf) / (pf cov^2) for the same cov."""
+    1,000 FOS searches where crude Monte Carlo needs (1 - pf) / (pf cov^2) for the same cov; with every FOS
+    lowered by the expected discretisation excess (the slope's phi = 20 deg), pf from the last level rises."""
     from workflows.progress import Progress
     from workflows.probabilistic.subset_study import SubsetStudy
 
@@ -202,6 +203,10 @@ def test_subset_simulation_levels_reach_a_small_pf_within_their_interval(tmp_pat
         assert low <= exact <= high, (seed, p, cov)
         assert 0.15 < cov < 0.8 and points.count < 1000
         assert (1 - p) / (p * cov**2) > 2 * points.count
+        excess_low, excess_high, pf_low, pf_high = kind._discretisation(None)  # FOS lowered by the expected excess
+        assert 0.0 < excess_low < excess_high and p <= pf_low <= pf_high
+        exact_high = 0.5 * math.erfc((10e3 - 7e3 * (1 + excess_high)) / 1e3 / math.sqrt(2.0))
+        assert pf_high > 0.5 * exact_high if exact_high > 2 * exact else True
 
 
 def test_subset_seeds_and_threshold_and_the_chains_correlation():

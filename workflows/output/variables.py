@@ -355,6 +355,11 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "pf) and its coefficient of variation (Au & Beck, with the chains' correlation), the levels, the share "
               "of the chains' candidates accepted, why it stopped early if it did; fos_mean, fos_std and the "
               "reliability indices are those of the Monte Carlo level 0"),
+    Attribute("pf_discretisation_excess, pf_at_zero_spacing, form_discretisation_excess, "
+              "reliability_index_form_at_zero_spacing",
+              "subset_simulation and form: the expected excess of every FOS at the study's spacing over its value at "
+              "h -> 0 (low and high, workflows/fos/discretisation.py) and pf (from the levels' samples) or beta (on the last "
+              "linearisation) with every FOS lowered by it, each pair in one text; absent where not estimated"),
     Attribute("point_estimate_fos_mean, point_estimate_fos_std", "point_estimate: the FOS's mean and std by "
               "Rosenblueth's weights; reliability_index_normal and _lognormal from them, against factor"),
     Attribute("n_mechanisms, mechanism_edges, box_decides_fraction",

@@ -112,6 +112,7 @@ class DesignPointOutcome(ProbabilisticOutcome):
     design_point: dict = dataclasses.field(default_factory=dict)  # form: variable -> value at u*
     alpha: dict = dataclasses.field(default_factory=dict)  # form: variable -> sensitivity factor
     noisy: list = dataclasses.field(default_factory=list)  # form: variables whose step was within the noise
+    discretised: tuple | None = None  # form: (low excess, high excess, beta at h -> 0 for each)
     pem_mean: float = math.nan
     pem_std: float = math.nan
     beta_normal: float = math.nan  # point_estimate: of a normal FOS
@@ -280,6 +281,10 @@ class DesignPointStudy(ProbabilisticStudy):
                                                                for label in points.labels]))
             ds["sensitivity_alpha"] = var["sensitivity_alpha"](np.array([result.alpha.get(label, math.nan)
                                                                          for label in points.labels]))
+            if result.discretised is not None:
+                attrs.update(form_discretisation_excess=f"{result.discretised[0]:.4f} {result.discretised[1]:.4f}",
+                             reliability_index_form_at_zero_spacing=f"{result.discretised[2]:.4f} "
+                                                                    f"{result.discretised[3]:.4f}")
             attrs.update(reliability_index_form=result.beta, pf_form=form.failure_probability(result.beta),
                          reliability_index_fosm=result.beta_fosm, form_iterations=result.iterations,
                          form_converged=int(result.converged), form_stop_reason=result.stop_reason)
@@ -308,6 +313,14 @@ class DesignPointStudy(ProbabilisticStudy):
         result.beta, result.beta_fosm = last.beta, self.iterations[0].beta
         result.design_point = dict(zip(points.labels, map(float, points.x_of(last.next_u))))
         result.alpha = dict(zip(points.labels, map(float, last.alpha)))
+        from workflows.fos.discretisation import expected_excess
+
+        expected = expected_excess(self.study)
+        if expected is not None:  # g lowered by factor * e: beta - factor e / |grad| on the last linearisation
+            norm = float(np.linalg.norm(last.gradient))
+            factor = self.study.probabilistic.factor
+            result.discretised = (expected[0], expected[1],
+                                  *(last.beta - factor * e / norm for e in expected[:2]))
 
     def report(self, outcome: DesignPointOutcome, quiet: bool, study_file) -> Report:
         if quiet:
@@ -316,6 +329,13 @@ class DesignPointStudy(ProbabilisticStudy):
         if outcome.method == "form" and outcome.design_point:
             lines.append("design point: " + ", ".join(f"{k} {v:.5g}" for k, v in outcome.design_point.items())
                          + "; sensitivity alpha: " + ", ".join(f"{k} {v:+.3f}" for k, v in outcome.alpha.items()))
+            if outcome.discretised is not None:
+                low, high, beta_low, beta_high = outcome.discretised
+                lines.append(f"discretisation (apart from beta above): every FOS expected {100 * low:.1f}% to "
+                             f"{100 * high:.1f}% above its value at h -> 0, so beta at h -> 0 about {beta_high:.3f} to "
+                             f"{beta_low:.3f} (pf_FORM {form.failure_probability(beta_low):.3g} to "
+                             f"{form.failure_probability(beta_high):.3g}): g = FOS - factor lowered by factor x excess "
+                             "on the last linearisation")
             if outcome.noisy:
                 lines.append(f"note: the step of {', '.join(outcome.noisy)} changed the FOS by less than "
                              f"{NOISE_BRACKETS:g} brackets of its searches: its alpha is noise (a larger form_step, "

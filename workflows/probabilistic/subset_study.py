@@ -37,6 +37,7 @@ class SubsetOutcome(DesignPointOutcome):
     """What a subset simulation found (module doc)."""
 
     cov: float = math.nan  # the estimator's coefficient of variation
+    discretised: tuple | None = None  # (low excess, high excess, pf at h -> 0 for each) (module doc)
     thresholds: list = dataclasses.field(default_factory=list)  # b_k of each level but the last
     level_covs: list = dataclasses.field(default_factory=list)
     accepted_share: float = math.nan  # of the chains' candidates
@@ -161,6 +162,22 @@ class SubsetStudy(DesignPointStudy):
         self.batch_end = points.count
         return self.more_cases(FIRST_REALISATIONS)
 
+    def _discretisation(self, result: SubsetOutcome) -> tuple | None:
+        """The expected excess of every point's FOS at the study's spacing (``fos.discretisation``: the measured
+        slopes near its friction angle), low and high, and pf with every FOS lowered by it: P(FOS < factor (1 +
+        e)) from the deepest level that holds it (``subset.pf_below``); None where no slope was measured near."""
+        from workflows.fos.discretisation import expected_excess
+
+        table = self.study.probabilistic
+        expected = expected_excess(self.study)
+        if expected is None:
+            return None
+        low, high, _ = expected
+        level_fos = [[self.level_fos[i] for i in level["samples"]] for level in self.levels]
+        thresholds = [level["threshold"] for level in self.levels[:-1]]
+        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e))
+                            for e in (low, high))
+
     def _method_results(self, result: SubsetOutcome, ds, attrs: dict):
         from workflows.output.variables import PROBABILISTIC_FILE as var
 
@@ -174,6 +191,7 @@ class SubsetStudy(DesignPointStudy):
             result.cov = math.sqrt(sum(c * c for c in covs))
             result.pf_low, result.pf_high = subset.interval(result.pf, result.cov)
             result.level_covs = covs
+            result.discretised = self._discretisation(result)
         result.thresholds = [level["threshold"] for level in levels if not level["last"]]
         chained = [i for i in self.level_of if self.level_of[i] > 0]
         result.accepted_share = (sum(i in self.accepted for i in chained) / len(chained)) if chained else math.nan
@@ -198,6 +216,9 @@ class SubsetStudy(DesignPointStudy):
                                                 {"long_name": "level"}))
         ds["threshold_fos"] = var["threshold_fos"](np.array(thresholds, float))
         ds["threshold_pf"] = var["threshold_pf"](np.array(probabilities, float))
+        if result.discretised is not None:
+            attrs.update(pf_discretisation_excess=f"{result.discretised[0]:.4f} {result.discretised[1]:.4f}",
+                         pf_at_zero_spacing=f"{result.discretised[2]:.4g} {result.discretised[3]:.4g}")
         attrs.update(pf=result.pf, pf_low=result.pf_low, pf_high=result.pf_high, pf_cov=result.cov,
                      p0=table.p0, samples_per_level=n, subset_levels=len(levels),
                      subset_accepted_share=result.accepted_share, subset_stop_reason=result.stop_reason)
@@ -215,6 +236,18 @@ class SubsetStudy(DesignPointStudy):
             f"covs {', '.join(f'{c:.3g}' for c in outcome.level_covs)} (with the chains' correlation)"
             + (f"; {100 * outcome.accepted_share:.0f}% of the chains' candidates accepted"
                if math.isfinite(outcome.accepted_share) else ""),
+            _discretisation_line(outcome),
             f"crude Monte Carlo would need about {crude:,.0f} realisations for this pf at this coefficient of "
             f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches"]
         return report
+
+
+def _discretisation_line(outcome) -> str:
+    """pf's discretisation estimate, apart from its sampling interval (``SubsetStudy._discretisation``)."""
+    if outcome.discretised is None:
+        return ("discretisation: no estimate of pf at h -> 0 (no slope measured near this friction angle); see the "
+                "note below")
+    low, high, pf_low, pf_high = outcome.discretised
+    return (f"discretisation (apart from the sampling interval): every FOS expected {100 * low:.1f}% to "
+            f"{100 * high:.1f}% above its value at h -> 0, so pf at h -> 0 about {pf_low:.3g} to {pf_high:.3g} "
+            "(P(FOS < factor (1 + excess)) from the levels' samples)")
