@@ -146,7 +146,8 @@ class Probabilistic(Record):
     def _check_design_points(self, n: int) -> None:
         """What form and point_estimate need: random variables, each point's FOS, a budget for their points."""
         if n == 0:
-            raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]])")
+            raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]]); it "
+                             "does not take a [random_field] yet (use monte_carlo)")
         if self.compute != "fos":
             raise StudyError("compute", f'{self.method} takes the FOS of each point: give compute = "fos"')
         if self.pf_interval_width is not None:
