@@ -147,11 +147,12 @@ def test_only_our_pictures_are_shown_in_the_order_of_the_captions(tmp_path):
 
 def test_every_figure_a_study_draws_has_a_caption():
     from workflows.fos.figures import FIGURE_NAMES as FOS_FIGURES
+    from workflows.probabilistic.design_points import FIGURES as DESIGN_POINT_FIGURES
     from workflows.probabilistic.figures import FIGURE_NAMES as PROBABILISTIC_FIGURES
     from workflows.sweep.stale import SWEEP_FIGURE_NAMES
 
     patterns = [pattern for pattern, _ in FIGURE_CAPTIONS]
-    for name in (*FOS_FIGURES, *PROBABILISTIC_FIGURES, *SWEEP_FIGURE_NAMES, "convergence.png", "pf.png",
+    for name in (*FOS_FIGURES, *PROBABILISTIC_FIGURES, *DESIGN_POINT_FIGURES, *SWEEP_FIGURE_NAMES, "convergence.png", "pf.png",
                  "seepage.png"):
         assert name in patterns, name
 

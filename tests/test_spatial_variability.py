@@ -159,43 +159,30 @@ def test_a_probabilistic_study_of_a_random_field_alone_runs_and_reuses_its_reali
     assert again.runs_made == 0 and again.pf == first.pf
 
 
-def test_the_longest_scale_a_section_holds_is_found_to_within_a_tenth():
-    """largest_theta_scale on the quickstart's grid: the field at the scale it gives embeds, one a tenth
-    longer does not (the grid's own embedding, cell averages of h = 1 m)."""
-    from workflows.random_field.embedding import ParticleGrid, embedding, largest_theta_scale
-
-    scene = build_scene(parse_study(QUICKSTART))
-    grid = ParticleGrid.of(scene.node_xy_m[:, 0], scene.node_xy_m[:, 1], 1.0)
-    scale = largest_theta_scale(MARKOV, 100.0, 100.0, grid)
-    for factor, embeds in ((1.0, True), (1.1, False)):
-        theta_m = factor * scale * 100.0
-        found = embedding(MARKOV, theta_m, theta_m, grid.nx, grid.ny, grid.step_m, grid.step_m, grid.cell_m)
-        assert (found is not None) == embeds, theta_m
-
-
-@pytest.mark.parametrize("theta_m", [100.0, 1000.0])
-def test_a_scale_of_fluctuation_longer_than_the_section_holds_is_one_line_before_anything_is_written(theta_m, tmp_path):
+@pytest.mark.parametrize("theta_m, method", [(100.0, "expansion"), (1000.0, "expansion"), (1e5, "single")])
+def test_a_scale_of_fluctuation_no_embedding_holds_is_drawn_another_way_with_a_note(theta_m, method, tmp_path):
     """theta 100 m on the 60 m section, or 1,000 m: a ValueError traceback from the embedding in check and
-    the run (case folders left) before; now one line naming the field and the longest scale this
-    section holds, in check and before any case folder of a probabilistic study is written; that
-    scale itself runs."""
+    the run before, then a refusal naming the longest scale the section held; now the Karhunen-Loeve
+    expansion, with a note of the variance it keeps in check, and beyond 100 times the section one value per
+    realisation (the single-variable limit), with its note."""
     from workflows.check import check_study
     from workflows.study_types import study_type
 
     text = with_fields(COHESION_FIELD.replace("theta_x_m = 4.0", f"theta_x_m = {theta_m}")) + (
         "\n[probabilistic]\nrealisations = 3\n")
     study = parse_study(text)
-    lines = []
-    for name, call in (("check", lambda out: check_study(study, study_type(study, out), out, RunOptions())),
-                       ("run", lambda out: run_study(study, out, RunOptions()))):
-        with pytest.raises(StudyError) as error:
-            call(tmp_path / name)
-        assert not (tmp_path / name).exists()
-        lines.append(error.value)
-    assert str(lines[0]) == str(lines[1]) and lines[0].field == "random_field.properties[0].theta_x_m"
-    longest_m = float(lines[0].problem.split("holds theta_x_m up to ")[1].split(" m")[0])
-    assert 20.0 < longest_m < 60.0  # of the order of the section's 60 m
-    build_scene(parse_study(text.replace(f"theta_x_m = {theta_m}", f"theta_x_m = {longest_m}")))
+    lines = check_study(study, study_type(study, tmp_path), tmp_path, RunOptions()).lines()
+    notes = [line for line in lines if line.startswith("note: random field 'c'")]
+    assert len(notes) == 1, lines
+    if method == "expansion":
+        kept = float(notes[0].split("keeps ")[1].split("%")[0])
+        assert "Karhunen-Loeve" in notes[0] and 99.0 < kept <= 100.0
+    else:
+        assert "single-variable limit" in notes[0]
+    cohesion, scene = values(text)
+    soil = np.isfinite(cohesion)
+    assert soil.all() and (method == "single") == (np.ptp(cohesion) == 0.0)
+    assert not np.array_equal(cohesion, values(text.replace("realisation = 0", "realisation = 1"))[0])
 
 
 DILATION_FIELD = ('name = "psi"\nmaterial = "soil"\nproperty = "dilation_deg"\ndistribution = "lognormal"\n'

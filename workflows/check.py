@@ -42,7 +42,7 @@ from pathlib import Path
 from workflows.fos.critical_circle import CriticalCircle, critical_circle, domain_warnings
 from workflows.memory_guard import BYTES_PER_PARTICLE
 from workflows.output.writing import make_output_folder
-from workflows.scene import monitor_particles, scene_and_flow
+from workflows.scene import monitor_particles, random_field_notes, scene_and_flow
 from workflows.section_figure import draw_section
 from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
@@ -189,7 +189,7 @@ class StudyCheck:
     section_png: Path
     flow: object = None  # the steady flow of [seepage] (``workflows.seepage.flow.StudyFlow``), or None
     critical: CriticalCircle | None = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
-    warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings)
+    warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings), field notes
 
     def lines(self) -> list[str]:
         """What the command prints."""
@@ -239,5 +239,6 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
                       run_time_estimate(study, scene, options.workers), path, flow, critical,
-                      tuple(domain_warnings(study, critical)) if critical is not None else ())
+                      (tuple(domain_warnings(study, critical)) if critical is not None else ())
+                      + tuple(random_field_notes(study)))
 

@@ -54,6 +54,12 @@ FIGURE_CAPTIONS: tuple[tuple[str, str], ...] = (
     ("fos_distribution.png", "The distribution of the realisations' FOS: histogram and empirical cumulative "
                              "distribution, with the failure threshold dashed."),
     ("sensitivity.png", "Rank correlation of each random variable with the FOS."),
+    ("form.png", "FORM: the FOS at each iteration's centre, the factor marked, and the sensitivity factors alpha at "
+                 "the design point (beta, the FOSM index and the design point in the titles)."),
+    ("point_estimate.png", "Point estimate method: the FOS at Rosenblueth's 2^n points (marker area: weight), the "
+                           "estimated mean and +- one standard deviation, the factor marked."),
+    ("subset_simulation.png", "Subset simulation: P(FOS < threshold) at each level's threshold down to pf at the "
+                              "factor, and the FOS of every level's samples, the last level's failures in red."),
     ("slip_envelope.png", "The failed realisations' slip lines and their envelope."),
     ("failed_*.png", "A failed realisation: its random field and the plastic strain of its first failed run."),
     ("seepage.png", "The steady seepage solution: total head and flow."),

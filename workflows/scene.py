@@ -24,7 +24,7 @@ from spfem_core.settings import DEFAULT_CFL, SolverSettings
 from workflows.loads.surface import UpperSurface
 from workflows.particles import assign_materials, cloud, material_rows
 from workflows.random_field.table import SEEPAGE_PROPERTY
-from workflows.random_field.values import node_properties
+from workflows.random_field.values import field_notes, node_properties
 from workflows.seepage.flow import StudyFlow, study_flow
 from workflows.study import Study, StudyError
 from workflows.transient.flow import WaterAt, water_at_time
@@ -58,6 +58,16 @@ def field_values(study: Study, node_xy_m: np.ndarray | None = None, node_spacing
         node_xy_m, node_spacing_m = cloud(study)
         node_material = assign_materials(study, node_xy_m)
     return node_properties(study.random_field, study.materials, node_xy_m, node_spacing_m, node_material)
+
+
+def random_field_notes(study: Study) -> list[str]:
+    """A line per random field not drawn exactly by circulant embedding (``random_field.values.field_notes``);
+    none without ``[random_field]``."""
+    if study.random_field is None:
+        return []
+    node_xy_m, node_spacing_m = cloud(study)
+    return field_notes(study.random_field, study.materials, node_xy_m, node_spacing_m,
+                       assign_materials(study, node_xy_m))
 
 
 def build_scene(study: Study, flow=None) -> Scene:

@@ -9,6 +9,11 @@ the first of :data:`STUDY_TYPES` that takes it:
 
 - ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
   realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
+- ``probabilistic.design_points.DesignPointStudy``: ``[probabilistic]`` with ``method = "form"`` or
+  ``"point_estimate"``, a case per point it places (FORM's iterations in rounds), and ``probabilistic.nc``
+  with beta or the FOS's moments;
+- ``probabilistic.subset_study.SubsetStudy``: ``method = "subset_simulation"``, level after level of
+  Markov chains on the FOS (rounds), and ``probabilistic.nc`` with pf and its coefficient of variation;
 - ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
   spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``;
 - ``single.SingleStudy``: any other, one case in the output folder.
@@ -34,7 +39,9 @@ from pathlib import Path
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.fos_time.study_type import TransientStudy
 from workflows.output.folder_lock import folder_lock, study_digest
+from workflows.probabilistic.design_points import DesignPointStudy
 from workflows.probabilistic.study_type import ProbabilisticStudy
+from workflows.probabilistic.subset_study import SubsetStudy
 from workflows.probabilistic.sweep import ProbabilisticSweep
 from workflows.progress import Progress
 from workflows.refinement.study_type import RefinementStudy
@@ -44,7 +51,8 @@ from workflows.study import Study, StudyError
 from workflows.sweep.nested import NestedSweep, SweepSummary
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy, TransientStudy,
+STUDY_TYPES: tuple[type[StudyType], ...] = (SubsetStudy, DesignPointStudy, ProbabilisticStudy, RefinementStudy,
+                                              TransientStudy,
                                               SingleStudy)
 """Every type of a study without ``[sweep]``, asked in this order whether a study is of it (the last
 takes any study)."""

@@ -308,6 +308,24 @@ PROBABILISTIC_FILE = _table(
              "pf of the realisations up to and including this one (pf against the count)"),
     Variable("fos_rank_correlation", ("random_variable",), "1",
              "Spearman rank correlation of each random variable with the FOS (fos mode): the sensitivity"),
+    Variable("form_iteration", ("realisation",), "1",
+             "form: the iteration whose point it is (its centre, then a step along each variable)"),
+    Variable("design_point", ("random_variable",), "<the field's unit>",
+             "form: each variable's value at the design point, u* = -beta alpha through the Nataf transform"),
+    Variable("sensitivity_alpha", ("random_variable",), "1",
+             "form: the sensitivity factors alpha = grad g / |grad g| at the last iteration (alpha^2 the variable's "
+             "share; positive: its increase makes the slope safer)"),
+    Variable("point_weight", ("realisation",), "1", "point_estimate: Rosenblueth's weight of the point"),
+    Variable("subset_level", ("realisation",), "1",
+             "subset_simulation: the level that made the point (0: the Monte Carlo sample; a later level's chains)"),
+    Variable("subset_accepted", ("realisation",), "1",
+             "subset_simulation: 1 if the point is a level's sample (level 0's, or a chain's accepted candidate)"),
+    Variable("last_level_failed", ("realisation",), "1",
+             "subset_simulation: 1 for the last level's samples below the factor (the conditional failure samples)"),
+    Variable("threshold_fos", ("subset_threshold",), "1",
+             "subset_simulation: each level's threshold FOS b_k (the last: the factor)"),
+    Variable("threshold_pf", ("subset_threshold",), "1",
+             "subset_simulation: P(FOS < threshold_fos): p0^k, and pf at the factor (pf against the threshold)"),
     Variable("slip_envelope_x", ("slip_envelope_point",), "m",
              "x of the envelope of the failed realisations' slip lines (of those whose run files keep the particles)"),
     Variable("slip_envelope_lower", ("slip_envelope_point",), "m", "the deepest of the slip lines at x"),
@@ -326,6 +344,24 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
     Attribute("fos_mean, fos_std, reliability_index_normal, reliability_index_lognormal",
               "fos mode: the FOS statistics and the reliability index (beta = (mu - 1) / sigma; lognormal: "
               "ln(mu / sqrt(1 + V^2)) / sqrt(ln(1 + V^2)))"),
+    Attribute("n_fos_searches, n_srf_runs", "form, point_estimate: the points searched and the SRF runs made; "
+              "pf, pf_low, pf_high and pf_running are NaN there (the points are no sample)"),
+    Attribute("reliability_index_form, pf_form, reliability_index_fosm, form_iterations, form_converged, "
+              "form_stop_reason", "form: beta (Hasofer-Lind, by HL-RF on FOS - factor), Phi(-beta), the first "
+              "iteration's beta at the mean (FOSM), the iterations, 1 if beta changed by at most form_tolerance, why "
+              "it stopped otherwise"),
+    Attribute("pf_cov, p0, samples_per_level, subset_levels, subset_accepted_share, subset_stop_reason",
+              "subset_simulation: pf (in pf; pf_low and pf_high an approximate 95% interval from pf_cov, lognormal about "
+              "pf) and its coefficient of variation (Au & Beck, with the chains' correlation), the levels, the share "
+              "of the chains' candidates accepted, why it stopped early if it did; fos_mean, fos_std and the "
+              "reliability indices are those of the Monte Carlo level 0"),
+    Attribute("pf_discretisation_excess, pf_at_zero_spacing, form_discretisation_excess, "
+              "reliability_index_form_at_zero_spacing",
+              "subset_simulation and form: the expected excess of every FOS at the study's spacing over its value at "
+              "h -> 0 (low and high, workflows/fos/discretisation.py) and pf (from the levels' samples) or beta (on the last "
+              "linearisation) with every FOS lowered by it, each pair in one text; absent where not estimated"),
+    Attribute("point_estimate_fos_mean, point_estimate_fos_std", "point_estimate: the FOS's mean and std by "
+              "Rosenblueth's weights; reliability_index_normal and _lognormal from them, against factor"),
     Attribute("n_mechanisms, mechanism_edges, box_decides_fraction",
               "failed realisations whose mechanism was extracted (their run files keep particles); the fraction of "
               "them whose mechanism reaches each support it reaches (workflows/fos/domain_edges.py); the largest such "

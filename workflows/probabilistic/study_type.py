@@ -59,6 +59,7 @@ from workflows.output.writing import make_output_folder, write_dataset, write_te
 from workflows.probabilistic.reliability import failure_probability
 from workflows.probabilistic.sampling import Marginal, Sampler
 from workflows.random_field.table import spread_problem
+from workflows.scene import random_field_notes
 from workflows.study import Study, StudyError
 from workflows.study.reading import SweepCase, _build_study, _loads, resolve_field, resolve_sweep_path, set_field
 from workflows.study.toml_text import to_toml
@@ -337,7 +338,7 @@ class ProbabilisticStudy(SweepStudy):
         field, or the realisation and the field."""
         from workflows.fos.keys import gravity_key  # the core (numba): once the study is known to be valid
 
-        self.realisations = realisations = Realisations(self.study)
+        self.realisations = realisations = self.make_realisations()
         self.first = [realisations.case(i) for i in range(min(FIRST_REALISATIONS, realisations.count))]
         self._check_each_variable_changes_something()
         self.shared_gravity = len({gravity_key(case.study) for case in self.first}) == 1
@@ -345,6 +346,11 @@ class ProbabilisticStudy(SweepStudy):
         study.strength_reduction.check_resolution(study)
         check_memory(study, processes=self.processes(options), limit_bytes=options.max_memory_bytes)
         self._check_scenes()
+
+    def make_realisations(self) -> Realisations:
+        """The realisations (module doc, step 1), or the first points of a method that places them
+        (``probabilistic.design_points``)."""
+        return Realisations(self.study)
 
     def processes(self, options: RunOptions) -> int:
         """The local workers, and this process when it relaxes the one gravity state of every realisation."""
@@ -619,7 +625,7 @@ class ProbabilisticStudy(SweepStudy):
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "
                        f"{outcome.timings_s['total']:.1f} s",
-                       *_edge_lines(outcome), _discretisation_line(self.study),
+                       *_edge_lines(outcome), *random_field_notes(self.study), _discretisation_line(self.study),
                        f"wrote {outcome.result_path}, {self.out_dir / 'cases'}/"
                        + "".join(f", {path.name}" for path in outcome.figures), *self.removed])
 

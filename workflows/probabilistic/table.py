@@ -13,6 +13,9 @@ MAX_REALISATIONS = 100_000
 KEEP_FIELDS = ("failed", "all", "none")
 BOUNDED = ", ".join(name for name, kind in DISTRIBUTIONS.items() if kind.bounded)
 """The distributions that take bounds low and high."""
+METHODS = ("monte_carlo", "latin_hypercube", "form", "point_estimate", "subset_simulation")
+DESIGN_POINT_METHODS = ("form", "point_estimate", "subset_simulation")
+"""Methods that place their points (``workflows.probabilistic.design_points``) instead of sampling them."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -70,9 +73,13 @@ class Probabilistic(Record):
         "correlation matrix of the variables themselves, in their order (rows of numbers, symmetric, ones on "
         "the diagonal); default uncorrelated", default=None,
     )
-    method: str = text("`monte_carlo`, or `latin_hypercube` (stratified; drawn for its count: extending it is a "
-                       "new design)", default="monte_carlo", choices=("monte_carlo", "latin_hypercube"))
-    realisations: int = integer("number of realisations", ge=1, le=MAX_REALISATIONS)
+    method: str = text("`monte_carlo`, `latin_hypercube` (stratified; drawn for its count: extending it is a "
+                       "new design), `form` (the reliability index by FORM on the FOS: random variables, "
+                       "compute = \"fos\"), `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
+                       "a screen) or `subset_simulation` (a small pf by levels of Markov chains on the FOS: random "
+                       "variables, compute = \"fos\")", default="monte_carlo", choices=METHODS)
+    realisations: int = integer("number of realisations (form, point_estimate: the most FOS searches)", ge=1,
+                                le=MAX_REALISATIONS)
     seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
     compute: str = text(
         "`verdict`: one strength-reduction run per realisation at `factor`, stable or failed; `fos`: each "
@@ -92,6 +99,20 @@ class Probabilistic(Record):
     )
     keep_fields_first: int = integer("the first this many realisations keep the particle state of all their runs "
                                      "too, stable or failed", default=0, ge=0)
+    fos_tolerance: float = number(
+        "1", "*form, point_estimate:* the FOS bracket of each point's search (its stage's fos_tolerance, set "
+        "tighter: FORM's finite differences must stand well above it)", default=0.002, gt=0.0, lt=0.1)
+    form_step: float = number(
+        "1", "*form:* the finite-difference step, in standard deviations of the standard normal variables; it "
+        "should change the FOS by several brackets (the report names a variable whose change is within 3)",
+        default=0.5, gt=0.0, le=3.0)
+    form_tolerance: float = number("1", "*form:* stop once beta changes by at most this between iterations",
+                                   default=0.02, gt=0.0, lt=1.0)
+    samples_per_level: int = integer("*subset_simulation:* the FOS searches of each level (its first a Monte Carlo "
+                                     "sample); samples_per_level * p0 Markov chains make each next level",
+                                     default=500, ge=10, le=MAX_REALISATIONS)
+    p0: float = number("1", "*subset_simulation:* the conditional probability of each level (its threshold the "
+                       "p0-quantile of the level's FOS); 1 / p0 a whole number", default=0.1, gt=0.0, le=0.5)
 
     def check_in_study(self, study) -> None:
         """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
@@ -102,9 +123,17 @@ class Probabilistic(Record):
                              "reduction: it needs a strength_reduction stage")
         if study.refinement is not None:
             raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
+        if self.method in DESIGN_POINT_METHODS:
+            if study.random_field is not None:
+                raise StudyError("probabilistic.method", f"{self.method} here takes random variables only, not a "
+                                 "[random_field] (use monte_carlo)")
+            if study.sweep is not None:
+                raise StudyError("probabilistic.method", f"{self.method} with [sweep] is not supported yet")
 
     def check(self):
         n = len(self.variables)
+        if self.method in DESIGN_POINT_METHODS:
+            self._check_design_points(n)
         if self.correlation is not None:
             rows = self.correlation
             if len(rows) != n or any(not isinstance(row, (list, tuple)) or len(row) != n for row in rows):
@@ -118,3 +147,27 @@ class Probabilistic(Record):
                     if not -1 < value <= 1 or value != rows[j][i]:
                         raise StudyError(f"correlation[{i}][{j}]", "must lie in (-1, 1) and equal "
                                          f"correlation[{j}][{i}]")
+
+    def _check_design_points(self, n: int) -> None:
+        """What form and point_estimate need: random variables, each point's FOS, a budget for their points."""
+        if n == 0:
+            raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]]); it "
+                             "does not take a [random_field] yet (use monte_carlo)")
+        if self.compute != "fos":
+            raise StudyError("compute", f'{self.method} takes the FOS of each point: give compute = "fos"')
+        if self.pf_interval_width is not None:
+            raise StudyError("pf_interval_width", f"applies to monte_carlo and latin_hypercube, not {self.method}")
+        if self.method == "subset_simulation":
+            chains = self.samples_per_level * self.p0
+            if abs(1.0 / self.p0 - round(1.0 / self.p0)) > 1e-9 or abs(chains - round(chains)) > 1e-9:
+                raise StudyError("p0", f"1 / p0 and samples_per_level * p0 must be whole numbers (the chains, of 1 / p0 "
+                                 f"states each), got p0 = {self.p0:g} with samples_per_level = {self.samples_per_level}")
+            if self.realisations < self.samples_per_level:
+                raise StudyError("realisations", f"subset_simulation needs at least samples_per_level = "
+                                 f"{self.samples_per_level} FOS searches (its first level), got {self.realisations}")
+            return
+        needed = 2**n if self.method == "point_estimate" else 2 * (n + 1)
+        if self.realisations < needed:
+            raise StudyError("realisations", f"{self.method} with {n} variables needs at least {needed} FOS searches "
+                             + ("(2^n points)" if self.method == "point_estimate" else "(two iterations of n + 1)")
+                             + f", got {self.realisations}")

@@ -13,8 +13,8 @@ the negative ones, ``sum(|lambda_-|) / sum(lambda)``, times the variance (the ch
 ``F* diag(|lambda_-|) F / N``, whose entries are bounded by its trace over N); the embedding
 grows from twice the grid until that share is at most :data:`NEGATIVE_SHARE`, and a correlation
 no embedding up to :data:`MAX_EMBEDDING` times the grid reaches it with is an error
-(:class:`EmbeddingError`), never a wrong field: a scale of fluctuation much longer than the grid
-(:func:`largest_theta_scale` finds the longest the grid holds).
+(:class:`EmbeddingError`), never a wrong field: a scale of fluctuation much longer than the grid, which
+``workflows.random_field.expansion`` draws instead.
 
 The correlation ``rho`` is that of a model of ``workflows.random_field.correlation`` (``markov``,
 ``gaussian``), a function of r = sqrt((tau_x / theta_x)^2 + (tau_y / theta_y)^2) with the scales of
@@ -70,7 +70,7 @@ def correlation(model: CorrelationModel, tau_x_m, tau_y_m, theta_x_m: float, the
 
 class EmbeddingError(ValueError):
     """A correlation no circulant embedding up to :data:`MAX_EMBEDDING` times its grid holds (a scale of
-    fluctuation too long for the grid: :func:`largest_theta_scale`)."""
+    fluctuation too long for the grid: ``workflows.random_field.expansion`` draws it)."""
 
 
 def embedding(model: CorrelationModel, theta_x_m: float, theta_y_m: float, nx: int, ny: int, dx_m: float, dy_m: float,
@@ -219,45 +219,6 @@ class ParticleGrid:
     @property
     def extent_m(self) -> tuple[float, float]:
         return (self.nx - 1) * self.step_m, (self.ny - 1) * self.step_m
-
-
-COARSE_GRID_POINTS = 64
-"""Grid points along the longer side of the coarse grid on which :func:`largest_theta_scale` looks
-for the longest scale of fluctuation first (the embedding's limit is a property of theta over the
-grid's extent, little changed by its step: within 4% at 1/60 of the extent on the shipped slope)."""
-BISECTION_STEPS = 12
-"""Halvings of the interval (in log scale, from a factor of 2) that bracket the coarse grid's limit."""
-
-
-def largest_theta_scale(model: CorrelationModel, theta_x_m: float, theta_y_m: float, grid: ParticleGrid) -> float:
-    """The largest factor s, s theta_x to two significant digits rounded down, for which the field of
-    scales (s theta_x, s theta_y) has an embedding on ``grid`` (:func:`embedding`): first the limit of
-    the point field on a coarse grid of the same extent (:data:`COARSE_GRID_POINTS`), by bisection,
-    then 10% less at a time until the field itself embeds on ``grid``."""
-    lx, ly = grid.extent_m
-    step = max(grid.step_m, max(lx, ly) / COARSE_GRID_POINTS)
-    nx, ny = int(math.ceil(lx / step)) + 1, int(math.ceil(ly / step)) + 1
-
-    def coarse(scale: float) -> bool:
-        return embedding(model, scale * theta_x_m, scale * theta_y_m, nx, ny, step, step) is not None
-
-    low, high = 1.0, 1.0
-    while not coarse(low) and low > 1e-9:
-        high, low = low, 0.5 * low
-    for _ in range(BISECTION_STEPS if high > low else 0):
-        middle = math.sqrt(low * high)
-        low, high = (middle, high) if coarse(middle) else (low, middle)
-    scale = low
-    while scale * theta_x_m > 1e-9:
-        length_m = float(f"{scale * theta_x_m:.2g}")
-        if length_m > scale * theta_x_m:  # rounded up: one down in the second digit
-            length_m -= 10.0 ** (math.floor(math.log10(length_m)) - 1)
-        scale = length_m / theta_x_m
-        if embedding(model, length_m, scale * theta_y_m, grid.nx, grid.ny, grid.step_m, grid.step_m,
-                     grid.cell_m) is not None:
-            return scale
-        scale *= 0.9
-    return 0.0
 
 
 class ParticleField:

@@ -2,7 +2,9 @@
 
 Each entry of ``[[random_field.properties]]`` makes one property of one material a random field
 (Griffiths & Fenton 2004): a standard Gaussian field ``G`` of the entry's correlation model and
-scales of fluctuation (``workflows.random_field.embedding``), averaged over each particle's
+scales of fluctuation (circulant embedding, ``workflows.random_field.embedding``; where none holds the
+scales, a Karhunen-Loeve expansion, or one value per realisation beyond a multiple of the section:
+``workflows.random_field.expansion``, :func:`particle_field`), averaged over each particle's
 cell, mapped to the property by
 
     normal:     X = mean + std G
@@ -25,18 +27,21 @@ nodes: remeshing never moves a value from one particle to another.
 
 from __future__ import annotations
 
+import functools
 import math
 import zlib
+from typing import Any
 
 import numpy as np
 
-from workflows.fields import StudyError, specs
-from workflows.random_field.embedding import (
-    MAX_EMBEDDING,
-    EmbeddingError,
-    ParticleField,
-    ParticleGrid,
-    largest_theta_scale,
+from workflows.fields import specs
+from workflows.random_field.correlation import CorrelationModel
+from workflows.random_field.embedding import EmbeddingError, ParticleField
+from workflows.random_field.expansion import (
+    SINGLE_VARIABLE_MULTIPLE,
+    ExpandedField,
+    SingleValueField,
+    single_variable_limit,
 )
 from workflows.random_field.table import ORDERED
 
@@ -50,7 +55,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
     ``random_field`` (a ``workflows.random_field.table.RandomField``) over the study's ``materials`` (module doc)."""
     by_name = {material.name: row for row, material in enumerate(materials)}
     out: dict[str, np.ndarray] = {}
-    fields: dict[tuple, ParticleField] = {}
+    fields: dict[tuple, Any] = {}
     gaussian: dict[str, np.ndarray] = {}
     entries = random_field.properties
     order = sorted(range(len(entries)), key=lambda k: entries[k].correlated_with is not None)
@@ -62,13 +67,9 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
             continue
         structure = (row, entry.correlation_model, entry.thetas_m())
         if structure not in fields:
-            try:
-                theta_x_m, theta_y_m = entry.thetas_m()
-                fields[structure] = ParticleField(entry.model(), theta_x_m, theta_y_m, node_xy_m[mine, 0],
-                                                  node_xy_m[mine, 1], node_spacing_m[mine])
-            except EmbeddingError:
-                raise _too_long(random_field, k, ParticleGrid.of(node_xy_m[mine, 0], node_xy_m[mine, 1],
-                                                                 node_spacing_m[mine])) from None
+            theta_x_m, theta_y_m = entry.thetas_m()
+            fields[structure] = particle_field(entry.model(), theta_x_m, theta_y_m, node_xy_m[mine],
+                                               node_spacing_m[mine])
         stream = np.random.SeedSequence([random_field.seed, random_field.realisation],
                                         spawn_key=(FIELD_STREAM, zlib.crc32(entry.name.encode())))
         g = fields[structure].draw(np.random.default_rng(stream))[0]
@@ -108,19 +109,49 @@ def keep_order(materials, node_material: np.ndarray, out: dict[str, np.ndarray])
                 column[mine] = np.where(broken, values[upper], column[mine])
 
 
-def _too_long(random_field, k: int, grid: ParticleGrid) -> StudyError:
-    """The refusal of entry ``k``'s scales of fluctuation, too long for the circulant embedding on the
-    grid of its material's particles: the field named, the longest scales this section holds."""
-    entry = random_field.properties[k]
-    theta_x_m, theta_y_m = entry.thetas_m()
-    scale = largest_theta_scale(entry.model(), theta_x_m, theta_y_m, grid)
-    lx, ly = grid.extent_m
-    field = "theta_y_m" if entry.theta_y_m is not None and theta_y_m / ly > theta_x_m / lx else "theta_x_m"
-    longest = (f"theta_x_m up to {scale * theta_x_m:.2g} m" if entry.theta_y_m is None else
-               f"theta_x_m up to {scale * theta_x_m:.2g} m with theta_y_m {scale * theta_y_m:.2g} m (in this "
-               "ratio)")
-    return StudyError(f"random_field.properties[{k}].{field}", (
-        f"{entry.name!r}: a {entry.correlation_model} field with theta = ({theta_x_m:g}, {theta_y_m:g}) m over "
-        f"{entry.material!r} ({lx:.3g} m by {ly:.3g} m) has no circulant embedding of up to {MAX_EMBEDDING} "
-        f"times its grid; this section holds {longest}; a longer scale of fluctuation needs another method "
-        "(not yet)"))
+def particle_field(model: CorrelationModel, theta_x_m: float, theta_y_m: float, xy_m: np.ndarray, spacing_m: np.ndarray):
+    """The generator of a field's cell averages at the particles ``xy_m`` (module doc): one value per
+    realisation beyond :data:`~workflows.random_field.expansion.SINGLE_VARIABLE_MULTIPLE` times the section,
+    otherwise circulant embedding (exact), or where no embedding holds the scales the Karhunen-Loeve
+    expansion (``workflows.random_field.expansion``); made once per process for one cloud and model."""
+    xy_m, spacing_m = np.ascontiguousarray(xy_m, float), np.ascontiguousarray(np.broadcast_to(spacing_m, len(xy_m)),
+                                                                              float)
+    return _particle_field(model, float(theta_x_m), float(theta_y_m), xy_m.tobytes(), spacing_m.tobytes())
+
+
+@functools.lru_cache(maxsize=4)  # a study's realisations on one process share the cloud and its generator
+def _particle_field(model: CorrelationModel, theta_x_m: float, theta_y_m: float, xy_bytes: bytes, spacing_bytes: bytes):
+    xy_m = np.frombuffer(xy_bytes).reshape(-1, 2)
+    spacing_m = np.frombuffer(spacing_bytes)
+    extent_m = np.ptp(xy_m, axis=0) + spacing_m.max()  # the cells' bounding box
+    if single_variable_limit(theta_x_m, theta_y_m, *extent_m):
+        return SingleValueField(len(xy_m))
+    try:
+        return ParticleField(model, theta_x_m, theta_y_m, xy_m[:, 0], xy_m[:, 1], spacing_m)
+    except EmbeddingError:
+        return ExpandedField(model, theta_x_m, theta_y_m, xy_m[:, 0], xy_m[:, 1], spacing_m)
+
+
+def field_notes(random_field, materials, node_xy_m: np.ndarray, node_spacing_m: np.ndarray,
+                node_material: np.ndarray) -> list[str]:
+    """A line per field not drawn exactly by circulant embedding: the single-variable limit, or the
+    expansion with the share of the cells' variance it keeps (module doc of
+    ``workflows.random_field.expansion``)."""
+    by_name = {material.name: row for row, material in enumerate(materials)}
+    lines = []
+    for entry in random_field.properties:
+        mine = np.flatnonzero(node_material == by_name[entry.material])
+        if mine.size == 0 or entry.correlated_with is not None:
+            continue
+        theta_x_m, theta_y_m = entry.thetas_m()
+        field = particle_field(entry.model(), theta_x_m, theta_y_m, node_xy_m[mine], node_spacing_m[mine])
+        where = (f"random field {entry.name!r} (theta = ({theta_x_m:g}, {theta_y_m:g}) m over {entry.material!r})")
+        if isinstance(field, SingleValueField):
+            lines.append(f"note: {where}: theta is over {SINGLE_VARIABLE_MULTIPLE:g} times the section, so the field is "
+                         "one value per realisation (the single-variable limit)")
+        elif isinstance(field, ExpandedField):
+            kept = field.variance_kept
+            lines.append(f"note: {where}: no circulant embedding holds theta on this section; drawn by a "
+                         f"Karhunen-Loeve expansion ({field.n_modes} modes on {field.n_nodes} nodes) that keeps "
+                         f"{100 * kept.mean():.1f}% of the cells' variance (at least {100 * kept.min():.1f}%)")
+    return lines

@@ -1,0 +1,79 @@
+"""Subset simulation against the closed form of the undrained slope with one lognormal cu per realisation,
+at COVs that put pf near 1e-3 and 1e-4, over independent seeds.
+
+    python -m verification.subset_closed_form                          # h = 2 m, 200 points a level, seeds 1-5
+    python -m verification.subset_closed_form --spacing 1 --samples 500 --targets 1e-3
+
+``studies/probabilistic_undrained.toml`` without its field, cu one lognormal variable
+(``verification.undrained_variants``), ``method = "subset_simulation"``, each point's FOS searched to
+0.002.  For phi = 0 the FOS is proportional to cu, so pf = Phi((ln(mean cu / F_det) - mu_ln) / sigma_ln)
+with the project's own F_det at the same spacing; the COV for a target pf solves that for sigma_ln.
+Each row: subset simulation's pf with its coefficient of variation and approximate 95% interval, whether
+the interval holds the closed form, the FOS searches and SRF runs it made, and the realisations crude
+Monte Carlo would need for the same coefficient of variation, (1 - pf) / (pf cov^2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+import tempfile
+from pathlib import Path
+
+from scipy import optimize, stats
+
+from verification.undrained_variants import deterministic_fos, shipped_text, single_variable_text
+from workflows.cases import RunOptions
+from workflows.probabilistic.reliability import lognormal_strength_pf
+from workflows.study import parse_study
+from workflows.study_types import run_study
+
+
+def cov_for(target_pf: float, f_det: float) -> float:
+    """The COV of cu whose closed-form pf is ``target_pf`` (module doc)."""
+    return float(optimize.brentq(lambda cov: lognormal_strength_pf(1.0, cov, f_det) - target_pf, 0.01, 2.0))
+
+
+def subset_text(text: str, cov: float, seed: int, samples: int, budget: int) -> str:
+    """One lognormal cu per point, by subset simulation on each point's FOS."""
+    text = single_variable_text(text, cov, budget)
+    text = re.sub(r'(?m)^method = .*$', f'method = "subset_simulation"\nsamples_per_level = {samples}', text, count=1)
+    text = re.sub(r"(?m)^seed = 1$", f"seed = {seed}", text, count=1)
+    return re.sub(r'(?m)^compute = .*$', 'compute = "fos"', text, count=1)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--targets", nargs="+", type=float, default=[1e-3, 1e-4])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
+    parser.add_argument("--samples", type=int, default=200, help="FOS searches a level")
+    parser.add_argument("--spacing", type=float, default=2.0)
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args(argv)
+    text = shipped_text(args.spacing)
+    options = RunOptions(workers=args.workers)
+    with tempfile.TemporaryDirectory() as scratch:
+        f_det = deterministic_fos(text, 0.002, options, Path(scratch) / "det")
+        print("| target pf | COV | seed | subset pf (cov) [approx. 95% interval] | closed form | holds | levels | "
+              "FOS searches | SRF runs | crude MC for this cov | wall (s) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+        for target in args.targets:
+            cov = cov_for(target, f_det)
+            exact = lognormal_strength_pf(1.0, cov, f_det)
+            for seed in args.seeds:
+                case = subset_text(text, cov, seed, args.samples, 20 * args.samples)
+                out = run_study(parse_study(case), Path(scratch) / f"pf_{target:g}_seed_{seed}", options)
+                crude = (1.0 - out.pf) / (out.pf * out.cov**2) if out.pf > 0 else math.inf
+                holds = out.pf_low <= exact <= out.pf_high
+                print(f"| {target:g} | {cov:.4f} | {seed} | {out.pf:.3g} ({out.cov:.2f}) [{out.pf_low:.3g}, "
+                      f"{out.pf_high:.3g}] | {exact:.3g} | {'yes' if holds else 'NO'} | {len(out.thresholds) + 1} | "
+                      f"{out.n_searches} | {out.runs_made} | {crude:,.0f} | {out.timings_s['total']:.0f} |",
+                      flush=True)
+    print(f"(beta of the targets: {', '.join(f'{-stats.norm.ppf(t):.2f}' for t in args.targets)})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,254 @@
+"""A probabilistic study by subset simulation (``method = "subset_simulation"``, random variables,
+``compute = "fos"``): the levels of ``workflows.probabilistic.subset`` on the points' FOS.
+
+Level 0 is the Monte Carlo sample of a ``monte_carlo`` study of the same seed (point i's standard
+normals from the stream ``SeedSequence([seed, i])``), ``samples_per_level`` points.  Each later level
+runs its ``samples_per_level * p0`` chains together: a round is one candidate per chain (its noise from
+the stream ``SeedSequence([seed, i, 1])`` of the candidate's own number i), all searched at once on the
+cluster; ``1 / p0 - 1`` rounds make a level.  Every candidate is a realisation
+(``OUT/cases/realisation_<i>/``), accepted or not, numbered in the order they are made, so the points
+depend only on the seed and the FOS before them: a stopped study makes the same points again and reads
+their runs back.  A point's FOS for the levels is its search's (a FOS above ``srf_max``: infinite, never
+below a threshold; below ``srf_min``: the bracket's top).  ``realisations`` bounds the searches.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from workflows.cases import Report
+from workflows.distributions import DISTRIBUTIONS
+from workflows.probabilistic import subset
+from workflows.probabilistic.design_points import DesignPointOutcome, DesignPoints, DesignPointStudy
+from workflows.probabilistic.reliability import reliability_index
+from workflows.probabilistic.study_type import FIRST_REALISATIONS
+from workflows.study import Study
+from workflows.sweep.results import BELOW, case_result, diverged_result
+
+MAX_LEVELS = 12
+"""Levels at most (p0^12 = 1e-12 at p0 = 0.1)."""
+
+
+@dataclass
+class SubsetOutcome(DesignPointOutcome):
+    """What a subset simulation found (module doc)."""
+
+    cov: float = math.nan  # the estimator's coefficient of variation
+    discretised: tuple | None = None  # (low excess, high excess, pf at h -> 0 for each) (module doc)
+    thresholds: list = dataclasses.field(default_factory=list)  # b_k of each level but the last
+    level_covs: list = dataclasses.field(default_factory=list)
+    accepted_share: float = math.nan  # of the chains' candidates
+
+    @property
+    def verdict(self) -> str:
+        if not math.isfinite(self.pf):
+            return f"subset simulation: no pf ({self.stop_reason})"
+        return (f"pf = {self.pf:.4g} by subset simulation (coefficient of variation {self.cov:.3g}, approximate 95% "
+                f"interval [{self.pf_low:.3g}, {self.pf_high:.3g}]) after {len(self.thresholds) + 1} levels"
+                + ("" if not self.stop_reason else f", STOPPED: {self.stop_reason}"))
+
+
+class SubsetStudy(DesignPointStudy):
+    """A study with ``[probabilistic]`` and ``method = "subset_simulation"`` (module doc)."""
+
+    outcome_type = SubsetOutcome
+
+    def __init__(self, study: Study, out_dir):
+        super().__init__(study, out_dir)
+        self.level_fos: dict[int, float] = {}  # point -> its FOS for the levels
+        self.level_of: dict[int, int] = {}  # point -> the level that made it
+        self.accepted: set[int] = set()  # points that are a level's sample (level 0's, and accepted candidates)
+        self.levels: list[dict] = []  # each finished level: its samples' FOS, threshold, fraction, gamma
+        self.chains: list[list[int]] = []  # the current level's chains: their states (point numbers)
+        self.threshold = math.nan
+
+    @staticmethod
+    def applies_to(study: Study) -> bool:
+        return study.probabilistic is not None and study.probabilistic.method == "subset_simulation"
+
+    def make_realisations(self) -> DesignPoints:
+        points = DesignPoints(self.study)
+        table = self.study.probabilistic
+        n = len(points.marginals)
+        points.add_u(np.array([np.random.default_rng(np.random.SeedSequence([table.seed, i])).standard_normal(n)
+                               for i in range(table.samples_per_level)]))
+        for i in range(table.samples_per_level):
+            self.level_of[i] = 0
+            self.accepted.add(i)
+        return points
+
+    def case_concluded(self, case_id: str, outcome, progress) -> None:
+        super().case_concluded(case_id, outcome, progress)
+        progress.tally(f"{self.n_concluded} FOS searches, level {len(self.levels)}")
+
+    def _read_round(self, outcomes: dict) -> None:
+        points = self.realisations
+        for i in range(self.round_start, points.count):
+            outcome = outcomes[points.case_id(i)]
+            result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
+            if math.isfinite(result.fos):
+                self.level_fos[i] = result.fos
+            elif result.status == BELOW and math.isfinite(result.fos_high):
+                self.level_fos[i] = result.fos_high
+            else:  # above srf_max, or no verdict: never below a threshold
+                self.level_fos[i] = math.inf
+
+    def next_cases(self, outcomes: dict, progress) -> list:
+        """The next round of the chains, or the next level's first; none once a level reaches the factor
+        (module doc)."""
+        if self.finished:
+            return []
+        table = self.study.probabilistic
+        self._read_round(outcomes)
+        if self.chains:  # a round of candidates: each chain moves or stays
+            start = self.round_start
+            for k, chain in enumerate(self.chains):
+                candidate = start + k
+                if self.level_fos[candidate] < self.threshold:
+                    chain.append(candidate)
+                    self.accepted.add(candidate)
+                else:
+                    chain.append(chain[-1])
+            if len(self.chains[0]) < round(1.0 / table.p0):
+                return self._round(progress)
+            samples = [state for chain in self.chains for state in chain]
+        else:
+            samples = list(range(table.samples_per_level))
+        self._finish_level(samples, progress)
+        return [] if self.finished else self._round(progress)
+
+    def _finish_level(self, samples: list[int], progress) -> None:
+        """The level's threshold and its statistics; the next level's chains from its seeds (module doc)."""
+        table = self.study.probabilistic
+        fos = np.array([self.level_fos[i] for i in samples])
+        order, threshold, last = subset.seeds_and_threshold(fos, table.p0, table.factor)
+        fraction = float(np.mean(fos < threshold))
+        gamma = 0.0
+        if self.chains:
+            states = len(self.chains[0])
+            gamma = subset.chain_gamma((fos < threshold).reshape(len(self.chains), states))
+        self.levels.append({"samples": samples, "threshold": threshold, "fraction": fraction, "gamma": gamma,
+                            "last": last})
+        if last:
+            self.finished = True
+            return
+        if len(self.levels) >= MAX_LEVELS:
+            self.stop_reason, self.finished = f"{MAX_LEVELS} levels and the factor not reached", True
+            return
+        progress.message(f"subset level {len(self.levels) - 1}: threshold FOS {threshold:.4f} (p0 = {table.p0:g})")
+        self.threshold = threshold
+        self.chains = [[samples[j]] for j in order]
+
+    def _round(self, progress) -> list:
+        """One candidate per chain, as new points (module doc); none when the budget is spent."""
+        table = self.study.probabilistic
+        points = self.realisations
+        if points.count + len(self.chains) > points.budget:
+            self.stop_reason = f"the budget of {points.budget} FOS searches (realisations) is spent"
+            self.finished = True
+            return []
+        start = points.count
+        n = len(points.marginals)
+        candidates = [subset.candidate(points.u[chain[-1]], np.random.default_rng(
+            np.random.SeedSequence([table.seed, start + k, 1])).standard_normal(n))
+            for k, chain in enumerate(self.chains)]
+        for k in range(len(candidates)):
+            self.level_of[start + k] = len(self.levels)
+        self.round_start = start
+        points.add_u(np.array(candidates))
+        self.batch_end = points.count
+        return self.more_cases(FIRST_REALISATIONS)
+
+    def _discretisation(self, result: SubsetOutcome) -> tuple | None:
+        """The expected excess of every point's FOS at the study's spacing (``fos.discretisation``: the measured
+        slopes near its friction angle), low and high, and pf with every FOS lowered by it: P(FOS < factor (1 +
+        e)) from the deepest level that holds it (``subset.pf_below``); None where no slope was measured near."""
+        from workflows.fos.discretisation import expected_excess
+
+        table = self.study.probabilistic
+        expected = expected_excess(self.study)
+        if expected is None:
+            return None
+        low, high, _ = expected
+        level_fos = [[self.level_fos[i] for i in level["samples"]] for level in self.levels]
+        thresholds = [level["threshold"] for level in self.levels[:-1]]
+        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e))
+                            for e in (low, high))
+
+    def _method_results(self, result: SubsetOutcome, ds, attrs: dict):  # type: ignore[override]
+        from workflows.output.variables import PROBABILISTIC_FILE as var
+
+        table = self.study.probabilistic
+        levels = self.levels
+        result.stop_reason = self.stop_reason
+        n = table.samples_per_level
+        if levels and levels[-1]["last"]:
+            covs = [subset.level_cov(level["fraction"], n, level["gamma"]) for level in levels]
+            result.pf = subset.estimate(table.p0, levels[-1]["fraction"], len(levels))
+            result.cov = math.sqrt(sum(c * c for c in covs))
+            result.pf_low, result.pf_high = subset.interval(result.pf, result.cov)
+            result.level_covs = covs
+            result.discretised = self._discretisation(result)
+        result.thresholds = [level["threshold"] for level in levels if not level["last"]]
+        chained = [i for i in self.level_of if self.level_of[i] > 0]
+        result.accepted_share = (sum(i in self.accepted for i in chained) / len(chained)) if chained else math.nan
+        first = np.array([self.level_fos[i] for i in range(n) if i in self.level_fos and math.isfinite(self.level_fos[i])])
+        if first.size >= 3:  # level 0 is a Monte Carlo sample: its moment indices
+            result.fos_mean, result.fos_std = float(first.mean()), float(first.std(ddof=1))
+            attrs.update(fos_mean=result.fos_mean, fos_std=result.fos_std,
+                         reliability_index_normal=reliability_index(first, DISTRIBUTIONS["normal"]),
+                         reliability_index_lognormal=reliability_index(first, DISTRIBUTIONS["lognormal"]))
+        count = ds.sizes["realisation"]
+        ds["subset_level"] = var["subset_level"](np.array([self.level_of.get(i, -1) for i in range(count)]))
+        ds["subset_accepted"] = var["subset_accepted"](np.array([int(i in self.accepted) for i in range(count)],
+                                                                dtype=np.int8))
+        last = levels[-1]["samples"] if levels else []
+        ds["last_level_failed"] = var["last_level_failed"](np.array(
+            [int(i in set(last) and self.level_fos.get(i, math.inf) < table.factor) for i in range(count)], dtype=np.int8))
+        thresholds = result.thresholds + ([table.factor] if levels and levels[-1]["last"] else [])
+        probabilities = [table.p0 ** (k + 1) for k in range(len(result.thresholds))]
+        if levels and levels[-1]["last"]:
+            probabilities.append(result.pf)
+        ds = ds.assign_coords(subset_threshold=("subset_threshold", np.arange(len(thresholds)),
+                                                {"long_name": "level"}))
+        ds["threshold_fos"] = var["threshold_fos"](np.array(thresholds, float))
+        ds["threshold_pf"] = var["threshold_pf"](np.array(probabilities, float))
+        if result.discretised is not None:
+            attrs.update(pf_discretisation_excess=f"{result.discretised[0]:.4f} {result.discretised[1]:.4f}",
+                         pf_at_zero_spacing=f"{result.discretised[2]:.4g} {result.discretised[3]:.4g}")
+        attrs.update(pf=result.pf, pf_low=result.pf_low, pf_high=result.pf_high, pf_cov=result.cov,
+                     p0=table.p0, samples_per_level=n, subset_levels=len(levels),
+                     subset_accepted_share=result.accepted_share, subset_stop_reason=result.stop_reason)
+        return ds
+
+    def report(self, outcome: SubsetOutcome, quiet: bool, study_file) -> Report:  # type: ignore[override]
+        report = super().report(outcome, quiet, study_file)
+        if quiet or not math.isfinite(outcome.pf):
+            return report
+        table = self.study.probabilistic
+        levels = ", ".join(f"FOS < {b:.4f}: {table.p0 ** (k + 1):.3g}" for k, b in enumerate(outcome.thresholds))
+        crude = (1.0 - outcome.pf) / (outcome.pf * outcome.cov**2) if outcome.pf > 0.0 else math.inf
+        report.lines[1:1] = [
+            f"levels ({table.samples_per_level} FOS searches each, p0 = {table.p0:g}): {levels or '-'}; the level "
+            f"covs {', '.join(f'{c:.3g}' for c in outcome.level_covs)} (with the chains' correlation)"
+            + (f"; {100 * outcome.accepted_share:.0f}% of the chains' candidates accepted"
+               if math.isfinite(outcome.accepted_share) else ""),
+            _discretisation_line(outcome),
+            f"crude Monte Carlo would need about {crude:,.0f} realisations for this pf at this coefficient of "
+            f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches"]
+        return report
+
+
+def _discretisation_line(outcome) -> str:
+    """pf's discretisation estimate, apart from its sampling interval (``SubsetStudy._discretisation``)."""
+    if outcome.discretised is None:
+        return ("discretisation: no estimate of pf at h -> 0 (no slope measured near this friction angle); see the "
+                "note below")
+    low, high, pf_low, pf_high = outcome.discretised
+    return (f"discretisation (apart from the sampling interval): every FOS expected {100 * low:.1f}% to "
+            f"{100 * high:.1f}% above its value at h -> 0, so pf at h -> 0 about {pf_low:.3g} to {pf_high:.3g} "
+            "(P(FOS < factor (1 + excess)) from the levels' samples)")
