@@ -26,8 +26,10 @@ from pathlib import Path
 from benchmarks import bench_studies
 from benchmarks.bench_studies import ROOT
 from benchmarks.runs_per_fos import factors
+from workflows.cases import RunOptions
 from workflows.check import check_study
 from workflows.study import load_study
+from workflows.study_types import study_type
 
 WORKERS = 2
 STUDIES = bench_studies.STUDIES + ("sweep_strength", "sweep_geometry", "runout_residual_friction_sweep",
@@ -56,7 +58,7 @@ def main(argv=None) -> int:
     for name in args.only or STUDIES:
         study = load_study(ROOT / "studies" / f"{name}.toml")
         with tempfile.TemporaryDirectory() as scratch:
-            found = check_study(study, Path(scratch), WORKERS)
+            found = check_study(study, study_type(study, Path(scratch)), Path(scratch), RunOptions(workers=WORKERS))
             out = Path(scratch) / "out"
             wall_s = run_study(name, out)
             _, runs = factors(out)
