@@ -62,6 +62,9 @@ def main(argv=None) -> int:
             out = Path(scratch) / "out"
             wall_s = run_study(name, out)
             _, runs = factors(out)
+        if found.estimate is None:  # (no strength reduction to estimate: a runout sweep's last stage)
+            print(f"| {name} | {found.n_particles} | - | no estimate | {wall_s:.1f} | - | {runs} |", flush=True)
+            continue
         estimate_s = found.estimate.study_s
         ratios.append(estimate_s / wall_s)
         print(f"| {name} | {found.n_particles} | {found.estimate.cases} | {estimate_s:.1f} | {wall_s:.1f} | "

@@ -129,7 +129,8 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
         if study.probabilistic.compute == "verdict":
             return cases * stable_s
         later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
-        return search(FULL_SEARCH_RUNS) + (cases - 1) * search(later)
+        studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full
+        return studies * search(FULL_SEARCH_RUNS) + (cases - studies) * search(later)
     return search(FULL_SEARCH_RUNS) + (cases - 1) * search(WINDOW_RUNS)
 
 
@@ -165,8 +166,8 @@ def case_count(study: Study) -> int | None:
         return None
     if study.transient is not None and study.transient.against_time:
         return len(study.transient.fos_times())
-    if study.probabilistic is not None:
-        return study.probabilistic.realisations
+    if study.probabilistic is not None:  # (with [sweep]: a probabilistic study per case)
+        return study.probabilistic.realisations * (len(sweep_cases(study)) if study.sweep is not None else 1)
     if study.sweep is not None:
         return len(sweep_cases(study))
     return 1
