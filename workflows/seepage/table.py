@@ -32,6 +32,18 @@ ROUND_OFF_SPACINGS = 1000
 asked to go below it may never stop (a tolerance suggested is at least this far above)."""
 
 
+def check_flow_materials(materials, table: str) -> None:
+    """A study whose ``[table]`` computes the water ([seepage], [transient]): no material carries its own
+    phreatic line, and every one has a permeability (StudyError naming the material's field)."""
+    for i, material in enumerate(materials):
+        if material.phreatic_line_m is not None:
+            raise StudyError(f"materials[{i}].phreatic_line_m", f"[{table}] computes the pore pressure: leave "
+                             "the line out")
+        if material.permeability_m_s is None:
+            raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: the "
+                             f"study has [{table}]")
+
+
 @dataclass(frozen=True, kw_only=True)
 class SeepageBoundary(Box):
     """A flow condition on the boundary particles inside a box (closed, tolerance h/1000)."""
@@ -92,13 +104,7 @@ class Seepage(Record):
         for name in ("phreatic_line_m", "phreatic_level_m", "ru"):
             if water is not None and getattr(water, name) is not None:
                 raise StudyError(f"water.{name}", "[seepage] computes the pore pressure: leave the line and ru out")
-        for i, material in enumerate(study.materials):
-            if material.phreatic_line_m is not None:
-                raise StudyError(f"materials[{i}].phreatic_line_m", "[seepage] computes the pore pressure: leave "
-                                 "the line out")
-            if material.permeability_m_s is None:
-                raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: "
-                                 "the study has [seepage]")
+        check_flow_materials(study.materials, "seepage")
         try:
             largest_permeability = max(m.permeability_m_s * max(1.0, m.permeability_ratio) for m in study.materials)
             self._check_fluxes_and_tolerance(study.geometry.polygon_m, None if water is None else water.pond_level_m,

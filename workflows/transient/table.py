@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 from workflows.box import Box
 from workflows.fields import Record, StudyError, boolean, integer, name_field, number, numbers, polyline, tables, text
+from workflows.seepage.table import check_flow_materials
 
 MODELS = ("van_genuchten", "gardner")
 CONDITIONS = ("rain", "reservoir", "seepage_face", "total_head", "pressure_head", "no_flow")
@@ -245,13 +246,8 @@ class Transient(Record):
             raise StudyError("water.pond_level_m", "[transient] gives a reservoir's water as a condition = "
                              "\"reservoir\" entry of [[transient.boundary]]: leave pond_level_m out")
         names = [material.name for material in study.materials]
-        for i, material in enumerate(study.materials):
-            if material.phreatic_line_m is not None:
-                raise StudyError(f"materials[{i}].phreatic_line_m", "[transient] computes the pore pressure: leave "
-                                 "the line out")
-            if material.permeability_m_s is None:
-                raise StudyError(f"materials[{i}].permeability_m_s", f"{material.name!r} needs a permeability: the "
-                                 "study has [transient]")
+        check_flow_materials(study.materials, "transient")
+        for material in study.materials:
             if material.name not in [curve.material for curve in self.curves]:
                 raise StudyError("transient.curves", f"no soil-water curve for the material {material.name!r}")
         for i, curve in enumerate(self.curves):
