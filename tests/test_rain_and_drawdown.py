@@ -261,3 +261,39 @@ def test_a_rain_history_and_a_reservoir_level_may_come_from_csv_files_beside_the
     with pytest.raises(StudyError) as error:
         load_study(tmp_path / "study.toml")
     assert error.value.field == "transient.boundary[0].rain_history_h_mm_h"
+
+
+def test_a_threshold_chart_of_an_earlier_invocation_is_among_the_sweeps_stale_figures(tmp_path):
+    """threshold.png, drawn by an earlier threshold sweep, goes when the sweep does not draw it again
+    (figures = false, or no longer a sweep over the time of the water); a user's picture of that name stays."""
+    from PIL import Image
+
+    from workflows.output.figures import pyplot, remove_stale_figures, save_figure
+    from workflows.sweep.stale import SWEEP_FIGURE_NAMES
+
+    plt = pyplot()
+    fig, _ = plt.subplots()
+    save_figure(fig, tmp_path / "threshold.png")
+    plt.close(fig)
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep={"threshold.png"}) == []
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == ["threshold.png"]
+    Image.new("RGB", (20, 20)).save(tmp_path / "threshold.png")
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == []
+
+
+def test_the_fos_against_time_figure_of_an_earlier_invocation_goes_when_not_drawn_again(tmp_path):
+    """The small rain study at one time with figures, then with figures = false: fos_time.png is removed,
+    said in one line (it showed the earlier invocation's FOS)."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study, study_type
+
+    text = _replace(SMALL, "fos_interval_h = 6.0\n", "fos_times_h = [0.0]\n")
+    lines = []
+    for variant in (text, text + "\n[output]\nfigures = false\n"):
+        kind = study_type(parse_study(variant), tmp_path)
+        outcome = run_study(kind.study, tmp_path, RunOptions(workers=1), kind=kind)
+        lines.append(kind.report(outcome, False, None).lines[-1])
+        if variant == text:
+            assert (tmp_path / "fos_time.png").is_file()
+    assert lines[1] == "removed what an earlier invocation made: figures not drawn again (fos_time.png)"
+    assert not (tmp_path / "fos_time.png").exists() and (tmp_path / "fos_time.nc").is_file()
