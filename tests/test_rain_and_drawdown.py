@@ -297,3 +297,14 @@ def test_the_fos_against_time_figure_of_an_earlier_invocation_goes_when_not_draw
             assert (tmp_path / "fos_time.png").is_file()
     assert lines[1] == "removed what an earlier invocation made: figures not drawn again (fos_time.png)"
     assert not (tmp_path / "fos_time.png").exists() and (tmp_path / "fos_time.nc").is_file()
+
+
+def test_check_says_its_limit_equilibrium_circle_of_a_transient_study_is_dry(tmp_path):
+    """spfem-fos check draws its circle without the flow (it is not solved for the estimate): its line says so
+    rather than passing a dry estimate off as the slope's with its water."""
+    study = tmp_path / "study.toml"
+    study.write_text(SMALL)
+    result = CliRunner().invoke(check_app, [str(study), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 0, result.output
+    [line] = [line for line in result.stdout.splitlines() if line.startswith("limit equilibrium")]
+    assert "dry (the flow of [transient] and its suction are not solved for this estimate)" in line
