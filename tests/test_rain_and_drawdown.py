@@ -308,3 +308,33 @@ def test_check_says_its_limit_equilibrium_circle_of_a_transient_study_is_dry(tmp
     assert result.exit_code == 0, result.output
     [line] = [line for line in result.stdout.splitlines() if line.startswith("limit equilibrium")]
     assert "dry (the flow of [transient] and its suction are not solved for this estimate)" in line
+
+
+def test_the_rapid_drawdown_line_is_the_full_reservoirs_pore_pressure_less_the_water_removed():
+    """B-bar = 1: under the uncovered face u = gamma_w (y_s - y) (zero on it), under the water left
+    gamma_w (L - y), under the crest the full reservoir's gamma_w (H - y); nowhere above the ground unponded."""
+    from verification.rain_and_drawdown import _rapid, rapid_line
+    from workflows.water.table import water_above_ground_warnings
+
+    polygon = ((0.0, 0.0), (32.0, 0.0), (12.0, 10.0), (0.0, 10.0))  # studies/drawdown.toml's slope
+    for level_m in (10.0, 7.5, 5.0, 0.0):
+        line = np.array(rapid_line(polygon, 10.0, level_m))
+        x = np.linspace(0.0, 32.0, 129)
+        ground_m = np.where(x <= 12.0, 10.0, 10.0 - (x - 12.0) / 2.0)
+        full_m, removed_m = 10.0, np.maximum(10.0 - np.maximum(ground_m, level_m), 0.0)  # water depth taken away
+        np.testing.assert_allclose(np.interp(x, line[:, 0], line[:, 1]), full_m - removed_m, atol=1e-12)
+        assert water_above_ground_warnings(_rapid(level_m)) == []
+
+
+@pytest.mark.slow
+def test_the_rapid_drawdown_limit_lies_on_bishops_least_circle_for_the_same_water(tmp_path):
+    """Fully drawn down (L / H = 1, no water left on the face): the strength reduction with the rapid line
+    within 3% of Bishop's least circle on the same pore pressures (0.871 and 0.857 measured at h = 0.5 m)."""
+    from verification.rain_and_drawdown import _rapid
+    from workflows.cases import RunOptions
+    from workflows.fos.critical_circle import critical_circle
+    from workflows.study_types import run_study
+
+    study = _rapid(0.0)
+    outcome = run_study(study, tmp_path, RunOptions(workers=2))
+    assert outcome.fos == pytest.approx(critical_circle(study).fos, rel=0.03)

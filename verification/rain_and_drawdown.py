@@ -2,6 +2,7 @@
 
     python -m verification.rain_and_drawdown drawdown [--workers 2] [--out DIR]
     python -m verification.rain_and_drawdown rain [--workers 2] [--out DIR]
+    python -m verification.rain_and_drawdown rapid [--workers 2] [--out DIR]
 
 - ``drawdown``: the slope of Griffiths & Lane (1999, example 5; ``studies/drawdown.toml``) drawn down
   from its crest to its toe (L / H = 0 to 1) in 48 h (``studies/drawdown_time.toml``).  At 24, 36 and
@@ -9,6 +10,10 @@
   pond at the reservoir's level; Griffiths & Lane's Fig. 15), and the transient flow's FOS at very low
   (1e-9 m/s: nothing drains in 48 h, the rapid limit), the shipped (1e-6 m/s) and very high (1e-2 m/s:
   the water table follows the reservoir) permeability; then the shipped study's FOS against time.
+- ``rapid``: the rapid-drawdown limit of the same slope at L / H = 0, 0.25, 0.5, 0.75, 1 (:func:`rapid_line`: the
+  pore pressures of the full reservoir less the unloading, B-bar = 1), beside the transient flow at very low
+  permeability at the same levels and, where no water stands on the slope (L / H = 1), Bishop's least circle on
+  the same pore pressures (``workflows.fos.critical_circle``).
 - ``rain``: ``studies/rain.toml``: its FOS against time, the mass balance of its flow, the flow's
   share of the wall time and the runs per FOS.
 
@@ -18,13 +23,16 @@ Each prints a table; docs/verification.md quotes them.
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import xarray as xr
 
+from spfem_core.geometry import surface_height_m
 from workflows.cases import RunOptions
 from workflows.study import load_study, parse_study
 from workflows.study_types import run_study
@@ -36,6 +44,8 @@ SLOW_REFERENCE = {0.5: 1.35, 1.0: 1.40}
 their 0.7 and 0.9, 1.30 and 1.35)."""
 DRAWDOWN_TIMES_H = (24.0, 36.0, 48.0)
 LIMIT_PERMEABILITIES_M_S = (1e-9, 1e-6, 1e-2)
+RAPID_RATIOS = (0.0, 0.25, 0.5, 0.75, 1.0)
+"""L / H of Lane & Griffiths' (2000) rapid-drawdown charts at which the limit is computed."""
 
 
 def _steady(level_m: float):
@@ -52,6 +62,64 @@ def _transient_at(time_h: float, permeability_m_s: float):
     text = re.sub(r"fos_times_h = \[[^\]]*\]", f"water_at_h = {time_h}", text)
     text = re.sub(r"permeability_m_s = [0-9.e+-]+", f"permeability_m_s = {permeability_m_s:g}", text)
     return parse_study(text.replace("srf_min = 0.6", "srf_min = 0.3"))
+
+
+def rapid_line(polygon_m, height_m: float, level_m: float) -> list[list[float]]:
+    """The piezometric line of rapid drawdown from a full reservoir at the crest (``height_m``) to ``level_m``:
+    the ground surface where it lies above the level, the level elsewhere, so u = gamma_w (max(L, y_s(x)) - y).
+
+    Undrained unloading with B-bar = 1 (Skempton's pore-pressure coefficient; the rapid case of Morgenstern's
+    1963 charts): removing the water that stood above a point of the face lowers the total stress of the soil
+    below it by gamma_w times that water's depth, and its pore pressure by as much.  The full state's
+    u = gamma_w (H - y) less gamma_w (H - max(L, y_s)) leaves gamma_w (max(L, y_s) - y): hydrostatic from the
+    uncovered face (zero on it), from the new level where water still stands, and the full reservoir's under
+    the crest, where no load was removed."""
+    polygon = np.asarray(polygon_m, dtype=float)
+    x = np.unique(polygon[:, 0])  # the surface is straight between its vertices' abscissae
+    ground_m = surface_height_m(polygon, x)
+    above = ground_m - level_m
+    crossings = [x[i] + (x[i + 1] - x[i]) * above[i] / (above[i] - above[i + 1])
+                 for i in range(x.size - 1) if above[i] * above[i + 1] < 0.0]
+    x = np.unique(np.concatenate([x, crossings]))
+    ground_m = surface_height_m(polygon, x)
+    line_m = np.minimum(np.maximum(ground_m, level_m), height_m)
+    return [[float(a), float(b)] for a, b in zip(x, line_m)]
+
+
+def _rapid(level_m: float):
+    """``studies/drawdown.toml`` without its sweep, its water the rapid-drawdown line (:func:`rapid_line`) and a
+    pond at the reservoir's level."""
+    text = (STUDIES / "drawdown.toml").read_text()
+    text = text[:text.index("[sweep]")]
+    study = parse_study(text)
+    line = rapid_line(study.geometry.polygon_m, study.geometry.slope.height_m, level_m)
+    text = re.sub(r"phreatic_level_m = [0-9.]+", f"phreatic_line_m = {line}", text)
+    text = re.sub(r"pond_level_m = [0-9.]+", f"pond_level_m = {level_m}", text)
+    return parse_study(text.replace("srf_min = 1.0", "srf_min = 0.3"))
+
+
+def rapid(out: Path, workers: int) -> None:
+    """The rapid-drawdown limit (:func:`rapid_line`) against the slow one and the transient flow at 1e-9 m/s."""
+    from workflows.fos.critical_circle import critical_circle
+
+    options = RunOptions(workers=workers)
+    transient = load_study(STUDIES / "drawdown_time.toml").transient
+    height_m = 10.0
+    print("Griffiths & Lane's slope (cot beta = 2, phi' = 20 deg, c' / gamma H = 0.05): rapid drawdown from the crest")
+    print(f"{'L / H':>5}  {'rapid (B = 1)':>13}  {'bracket':>17}  {'Bishop, same u':>14}  {'slow: line':>10}  "
+          f"{'k = 1e-9, t (h)':>15}")
+    for ratio in RAPID_RATIOS:
+        level_m = height_m * (1.0 - ratio)
+        study = _rapid(level_m)
+        outcome = run_study(study, out / f"rapid_{ratio:g}", options)
+        circle = critical_circle(study) if level_m <= 0.0 else None  # (its water has no pond)
+        slow = run_study(_steady(level_m), out / f"slow_{ratio:g}", options)
+        time_h = next(t for t in np.linspace(0.0, 48.0, 193) if transient.reservoir_level_m(t) <= level_m + 1e-9)
+        low_k = run_study(_transient_at(float(time_h), 1e-9), out / f"t{time_h:g}_k1e-9", options)
+        low = f"{low_k.fos:.3f}" if math.isfinite(low_k.fos) else f"< {low_k.fos_high:.3g}"
+        print(f"{ratio:5.2f}  {outcome.fos:13.3f}  [{outcome.fos_low:.4g}, {outcome.fos_high:.4g}]  "
+              f"{(f'{circle.fos:.3f}' if circle is not None else '-'):>14}  {slow.fos:10.3f}  "
+              f"{low:>8} ({time_h:g})")
 
 
 def drawdown(out: Path, workers: int) -> None:
@@ -102,7 +170,7 @@ def _fos_time_table(folder: Path, outcome, wall_s: float) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("case", choices=("drawdown", "rain"))
+    parser.add_argument("case", choices=("drawdown", "rain", "rapid"))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: a temporary one)")
     args = parser.parse_args(argv)
@@ -110,6 +178,8 @@ def main(argv=None) -> None:
         out = args.out or Path(scratch)
         if args.case == "drawdown":
             drawdown(out, args.workers)
+        elif args.case == "rapid":
+            rapid(out, args.workers)
         else:
             rain(out, args.workers)
 
