@@ -43,6 +43,8 @@ def _replace(text: str, old: str, new: str) -> str:
     ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
      "rain_history_h_mm_h = [[0.0, 10.0], [0.0, 5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
     ("total_head_m = 3.0\n", "total_head_m = 3.0\nrain_mm_h = 1.0\n", "transient.boundary[1].rain_mm_h"),
+    ("total_head_m = 3.0\n", "total_head_m = 3.0\nloading_efficiency = 0.5\n",
+     "transient.boundary[1].loading_efficiency"),
     ('condition = "total_head"\n', 'condition = "reservoir"\n', "transient.boundary[1].total_head_m"),
     ("initial_water_table_m = 3.0\n", "", "transient.initial_water_table_m"),
     ("fos_interval_h = 6.0\n", "fos_interval_h = 60.0\n", "transient.fos_interval_h"),
