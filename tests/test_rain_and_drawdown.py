@@ -340,3 +340,27 @@ def test_the_rapid_drawdown_limit_lies_on_bishops_least_circle_for_the_same_wate
     study = _rapid(0.0)
     outcome = run_study(study, tmp_path, RunOptions(workers=2))
     assert outcome.fos == pytest.approx(critical_circle(study).fos, rel=0.03)
+
+
+@pytest.mark.parametrize("ratio", [0.0, 0.1, 0.5])
+def test_steady_rain_gives_lu_and_griffiths_suction_under_the_crest(ratio):
+    """The rain slope in Gardner's soil over a water table at its base, steady rain q = ratio K_s (h = 1 m): under
+    the crest, where the flow is vertical, the particles' pressure head within 0.05 m of Lu & Griffiths' (2004)
+    closed form (0.033 m measured at 0.01 K_s) and their suction stress exp(alpha psi) gamma_w psi within 0.15 kPa
+    (0.077 kPa at 0.5 K_s)."""
+    from verification.rain_and_drawdown import (
+        SUCTION_COLUMN_X_M,
+        SUCTION_END_H,
+        _suction_study,
+        lu_griffiths_pressure_head_m,
+        study_permeability_mm_h,
+    )
+
+    study = _suction_study(ratio * study_permeability_mm_h())
+    water = transient_flow(study).water_at(SUCTION_END_H)
+    x, y = water.node_xy_m[:, 0], water.node_xy_m[:, 1]
+    column = x <= SUCTION_COLUMN_X_M + 1e-9
+    exact = lu_griffiths_pressure_head_m(y[column], ratio, 0.5)
+    np.testing.assert_allclose(water.pressure_head_m[column], exact, atol=0.05)
+    stress_exact_pa = 9810.0 * np.exp(0.5 * exact) * exact
+    np.testing.assert_allclose(water.pore_pressure_pa()[column], stress_exact_pa, atol=150.0)

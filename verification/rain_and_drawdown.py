@@ -3,6 +3,7 @@
     python -m verification.rain_and_drawdown drawdown [--workers 2] [--out DIR]
     python -m verification.rain_and_drawdown rain [--workers 2] [--out DIR]
     python -m verification.rain_and_drawdown rapid [--workers 2] [--out DIR]
+    python -m verification.rain_and_drawdown suction [--workers 2] [--out DIR]
 
 - ``drawdown``: the slope of Griffiths & Lane (1999, example 5; ``studies/drawdown.toml``) drawn down
   from its crest to its toe (L / H = 0 to 1) in 48 h (``studies/drawdown_time.toml``).  At 24, 36 and
@@ -14,6 +15,9 @@
   pore pressures of the full reservoir less the unloading, B-bar = 1), beside the transient flow at very low
   permeability at the same levels and, where no water stands on the slope (L / H = 1), Bishop's least circle on
   the same pore pressures (``workflows.fos.critical_circle``).
+- ``suction``: the slope of ``studies/rain.toml`` in Gardner's soil over a water table at its base, under steady
+  rain q = 0, 0.01, 0.1, 0.5 K_s: the particles' pressure head and suction stress under the crest (far from the
+  face, where the flow is vertical) against Lu & Griffiths' (2004) closed form, and the FOS with that suction.
 - ``rain``: ``studies/rain.toml``: its FOS against time, the mass balance of its flow, the flow's
   share of the wall time and the runs per FOS.
 
@@ -122,6 +126,71 @@ def rapid(out: Path, workers: int) -> None:
               f"{low:>8} ({time_h:g})")
 
 
+SUCTION_RATIOS = (0.0, 0.01, 0.1, 0.5)
+"""q / K_s of the steady rain of ``suction``."""
+SUCTION_END_H = 4000.0
+"""The steady state: the flow followed this long (the change over its last saved interval is printed)."""
+SUCTION_COLUMN_X_M = 2.0
+"""The crest's particles at x <= this (the crest ends at x = 20 m) are compared with the vertical flow."""
+
+
+def _suction_study(rain_mm_h: float):
+    """``studies/rain.toml`` in Gardner's soil (alpha 0.5 /m), its water table at its base (held at psi = 0 there,
+    no flow through its sides), steady rain of ``rain_mm_h``, its water at ``SUCTION_END_H``."""
+    text = (STUDIES / "rain.toml").read_text()
+    for old, new in (('model = "van_genuchten"', 'model = "gardner"'), ("n = 2.0\n", ""),
+                     ("initial_water_table_m = 3.0", "initial_water_table_m = 0.0"), ("suction_limit_m = 5.0\n", ""),
+                     ("end_time_h = 48.0", f"end_time_h = {SUCTION_END_H}\nmax_step_h = 100.0"),
+                     ("fos_interval_h = 6.0\nstop_below_fos = 1.0\nrunout_duration_s = 5.0",
+                      f"water_at_h = {SUCTION_END_H}"),
+                     ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]", f"rain_mm_h = {rain_mm_h}"),
+                     ('name = "far_side"\ncondition = "total_head"\nx_min_m = 60.0\ntotal_head_m = 3.0',
+                      'name = "water_table"\ncondition = "pressure_head"\ny_max_m = 0.0\npressure_head_m = 0.0')):
+        assert old in text, old
+        text = text.replace(old, new)
+    return parse_study(text)
+
+
+def lu_griffiths_pressure_head_m(height_m, ratio: float, alpha_1_m: float):
+    """Lu & Griffiths (2004), Gardner's soil, a steady downward flux q = ratio K_s at ``height_m`` above the water
+    table: psi = ln(q / K_s + (1 - q / K_s) exp(-alpha z)) / alpha."""
+    return np.log(ratio + (1.0 - ratio) * np.exp(-alpha_1_m * np.asarray(height_m))) / alpha_1_m
+
+
+def suction(out: Path, workers: int) -> None:
+    """The suction stress under the crest against Lu & Griffiths' closed form, and the FOS with it."""
+    from workflows.transient.flow import transient_flow  # the core's mesh (numba): on use
+
+    options = RunOptions(workers=workers)
+    print("The rain slope in Gardner's soil (alpha 0.5 /m, K_s 1e-5 m/s), water table at its base, steady rain q;")
+    print(f"under the crest (x <= {SUCTION_COLUMN_X_M:g} m, 15 m above the water table) against Lu & Griffiths (2004)")
+    print(f"{'q / K_s':>7}  {'mm/h':>5}  {'psi top: exact':>14}  {'computed':>8}  {'max |dpsi| (m)':>14}  "
+          f"{'sigma_s top (kPa)':>17}  {'max |dsigma_s| (kPa)':>20}  {'last change (m)':>15}  {'FOS':>6}")
+    for ratio in SUCTION_RATIOS:
+        study = _suction_study(ratio * study_permeability_mm_h())
+        curve = study.transient.curves[0]
+        flow = transient_flow(study)
+        water = flow.water_at(SUCTION_END_H)
+        x, y = water.node_xy_m[:, 0], water.node_xy_m[:, 1]
+        column = x <= SUCTION_COLUMN_X_M + 1e-9
+        exact = lu_griffiths_pressure_head_m(y[column], ratio, curve.alpha_1_m)
+        stress = water.pore_pressure_pa()[column] / 1e3
+        stress_exact = water.water_unit_weight_n_m3 * np.exp(curve.alpha_1_m * np.minimum(exact, 0.0)) * exact / 1e3
+        psi = water.pressure_head_m[column]
+        top = np.argmax(y[column])
+        heads = flow.solution.head_m
+        change = float(np.max(np.abs(heads[-1] - heads[-2])))
+        outcome = run_study(study, out / f"suction_{ratio:g}", options)
+        print(f"{ratio:7g}  {ratio * study_permeability_mm_h():5.3g}  {exact[top]:14.3f}  {psi[top]:8.3f}  "
+              f"{np.max(np.abs(psi - exact)):14.2e}  {stress_exact[top]:17.3f}  "
+              f"{np.max(np.abs(stress - stress_exact)):20.2e}  {change:15.1e}  {outcome.fos:6.3f}")
+
+
+def study_permeability_mm_h() -> float:
+    """K_s of ``studies/rain.toml``'s soil in mm/h."""
+    return 1e-5 * 3.6e6
+
+
 def drawdown(out: Path, workers: int) -> None:
     options = RunOptions(workers=workers)
     study = load_study(STUDIES / "drawdown_time.toml")
@@ -170,7 +239,7 @@ def _fos_time_table(folder: Path, outcome, wall_s: float) -> None:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("case", choices=("drawdown", "rain", "rapid"))
+    parser.add_argument("case", choices=("drawdown", "rain", "rapid", "suction"))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: a temporary one)")
     args = parser.parse_args(argv)
@@ -180,6 +249,8 @@ def main(argv=None) -> None:
             drawdown(out, args.workers)
         elif args.case == "rapid":
             rapid(out, args.workers)
+        elif args.case == "suction":
+            suction(out, args.workers)
         else:
             rain(out, args.workers)
 
