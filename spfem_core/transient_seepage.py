@@ -538,7 +538,16 @@ REFACTOR_AFTER = 12
 def _preconditioned_cg(matrix: sparse.csc_matrix, rhs: np.ndarray, precondition, tolerance: float,
                        max_iterations: int) -> np.ndarray | None:
     """The conjugate-gradient solution of matrix x = rhs preconditioned by ``precondition`` (an SPD
-    approximation of its inverse), from x = 0; None when it has not converged in ``max_iterations``."""
+    approximation of its inverse), from x = 0; None when it has not converged in ``max_iterations``.
+    Factors made for a matrix far from this one can make the iterates overflow: that is
+    a solve that failed (None, and the caller factorizes again), not a warning."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _cg_iterations(matrix, rhs, precondition, tolerance, max_iterations)
+
+
+def _cg_iterations(matrix: sparse.csc_matrix, rhs: np.ndarray, precondition, tolerance: float,
+                   max_iterations: int) -> np.ndarray | None:
+    """:func:`_preconditioned_cg`'s iterations."""
     x = np.zeros_like(rhs)
     r = rhs.copy()
     bound = tolerance * float(np.linalg.norm(rhs))

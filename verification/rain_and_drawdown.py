@@ -16,7 +16,7 @@
   permeability at the same levels and, where no water stands on the slope (L / H = 1), Bishop's least circle on
   the same pore pressures (``workflows.fos.critical_circle``).
 - ``suction``: the slope of ``studies/rain.toml`` in Gardner's soil over a water table at its base, under steady
-  rain q = 0, 0.01, 0.1, 0.5 K_s: the particles' pressure head and suction stress under the crest (far from the
+  rain q = 0, 0.01, 0.1, 0.5, 0.9 K_s: the particles' pressure head and suction stress under the crest (far from the
   face, where the flow is vertical) against Lu & Griffiths' (2004) closed form, and the FOS with that suction.
 - ``rain``: ``studies/rain.toml``: its FOS against time, the mass balance of its flow, the flow's
   share of the wall time and the runs per FOS.
@@ -126,7 +126,7 @@ def rapid(out: Path, workers: int) -> None:
               f"{low:>8} ({time_h:g})")
 
 
-SUCTION_RATIOS = (0.0, 0.01, 0.1, 0.5)
+SUCTION_RATIOS = (0.0, 0.01, 0.1, 0.5, 0.9)
 """q / K_s of the steady rain of ``suction``."""
 SUCTION_END_H = 4000.0
 """The steady state: the flow followed this long (the change over its last saved interval is printed)."""
