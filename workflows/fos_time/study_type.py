@@ -38,7 +38,6 @@ from workflows.output.writing import make_output_folder, write_dataset, write_te
 from workflows.study import Study
 from workflows.study.reading import parse_study
 from workflows.study.toml_text import to_toml
-from workflows.sweep.stale import removed_line
 from workflows.transient.results import balance_line, write_transient
 
 TIMES_FOLDER = "times"
@@ -237,5 +236,6 @@ class TransientStudy(StudyType):
                            + "".join(f"; {warning}" for warning in outcome.runout.warnings))
         wrote = (f"wrote {outcome.transient_path}, {outcome.fos_time_path.name}, {TIMES_FOLDER}/"
                  + "".join(f", {path.name}" for path in outcome.figures))
-        removed = removed_line([], [], self.stale_figures)
-        return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote, *([removed] if removed else [])])
+        removed = ([f"removed what an earlier invocation made: figures not drawn again ({', '.join(self.stale_figures)})"]
+                   if self.stale_figures else [])  # (the words of a sweep's line, sweep.stale)
+        return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote, *removed])
