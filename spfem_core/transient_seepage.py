@@ -71,11 +71,20 @@ closer than that) is held at psi = 0, and released when the water the hold draws
 every iteration); a seepage face: the same rule with no flux.  A head may vary along its boundary
 (``HeadBoundary.offset_m``).
 
+**Unloading**: the water a reservoir leaves on the ground is a vertical load; where it changes by a depth
+dD of water, the total stress below changes by gamma_w dD and, for saturated soil that cannot drain at once,
+so does its pore pressure (Skempton's B-bar; the one-dimensional loading of consolidation theory).  The
+storage term becomes S_i (psi_i - psi_i^n - zeta dD_i) (``ReservoirBoundary.loading_efficiency`` zeta,
+dD_i the change over the step of the water standing above node i): at zero permeability a drawdown lowers
+the pressure head under the face by the water removed (the rapid-drawdown limit, B-bar = 1), at high
+permeability the flow relaxes it, and between them the two compete.  The stored water counts the same
+term (the water the unloaded skeleton draws in).
+
 **Initial state**: given heads (the steady solution), or hydrostatic from a water table,
 psi = y_wt - y, optionally not below -suction_limit (:func:`hydrostatic_head_m`).
 
 **Mass balance** (per metre of thickness, m2): the stored water V(t) = sum_i W_i + the storage term
-summed over the steps (sum_i S_i (psi_i^n+1 - psi_i^n)); each condition's inflow summed over the
+summed over the steps (sum_i S_i (psi_i^n+1 - psi_i^n - zeta dD_i)); each condition's inflow summed over the
 steps (at a held node the water the hold supplies, F_i + Q_i at the converged heads; at a released
 flux node Q_i).  The error of a step is its inflow less its storage change, computed from these
 sums independently of the residual.
@@ -161,11 +170,22 @@ class HeadBoundary:
 
 @dataclass(frozen=True)
 class ReservoirBoundary:
-    """A reservoir whose level is h(t): h = h(t) on its nodes at or below the level, a seepage face above."""
+    """A reservoir whose level is h(t): h = h(t) on its nodes at or below the level, a seepage face above.
+    With ``ground_above_m`` (n,), the height of the ground surface its water stands on vertically above each
+    node (+inf where none of its water stands), a change of the water's load on that ground changes the pore
+    pressure below by ``loading_efficiency`` times its depth of water (module doc, "Unloading")."""
 
     name: str
     nodes: np.ndarray
     level_m: History
+    ground_above_m: np.ndarray | None = None
+    loading_efficiency: float = 0.0
+
+    def load_head_m(self, time_s: float) -> np.ndarray | float:
+        """The loading efficiency times the depth of the reservoir's water standing above each node (m)."""
+        if self.ground_above_m is None or self.loading_efficiency == 0.0:
+            return 0.0
+        return self.loading_efficiency * np.maximum(self.level_m.at(time_s) - self.ground_above_m, 0.0)
 
 
 @dataclass(frozen=True)
@@ -353,6 +373,13 @@ class _Conditions:
             offset = getattr(boundary, "offset_m", None)
             if offset is not None and np.shape(offset) != (n,):
                 raise ValueError(f"{WHO}: boundary {boundary.name!r}: offset_m must hold one head per node ({n})")
+            if isinstance(boundary, ReservoirBoundary):
+                if boundary.ground_above_m is not None and np.shape(boundary.ground_above_m) != (n,):
+                    raise ValueError(f"{WHO}: boundary {boundary.name!r}: ground_above_m must hold one height per "
+                                     f"node ({n})")
+                if not 0.0 <= boundary.loading_efficiency <= 1.0:
+                    raise ValueError(f"{WHO}: boundary {boundary.name!r}: loading_efficiency must lie in [0, 1], "
+                                     f"got {boundary.loading_efficiency}")
         self.boundaries = problem.boundaries
         self.mine = [self.owner == i for i in range(len(problem.boundaries))]
 
@@ -361,6 +388,15 @@ class _Conditions:
         times = [b.head_m.times_s if isinstance(b, HeadBoundary) else b.level_m.times_s if isinstance(
             b, ReservoirBoundary) else b.flux_m_s.times_s for b in self.boundaries if not isinstance(b, SeepageFace)]
         return np.unique(np.concatenate(times)) if times else np.zeros(0)
+
+    def load_change_m(self, start_s: float, end_s: float) -> np.ndarray:
+        """(n,) the change of zeta times the reservoirs' water standing above each node over the step (module
+        doc, "Unloading")."""
+        change = np.zeros(self.y.size)
+        for boundary in self.boundaries:
+            if isinstance(boundary, ReservoirBoundary):
+                change += boundary.load_head_m(end_s) - boundary.load_head_m(start_s)
+        return change
 
     def at(self, start_s: float, end_s: float):
         """(target total head, NaN where free; may hold psi = 0; supplied inflow Q (mean over the step))."""
@@ -397,6 +433,7 @@ class _Step:
     saturation: np.ndarray
     kr: np.ndarray
     node_inflow: np.ndarray  # m2/s: F_i + Q_i at held nodes, Q_i at released ones
+    load_change_m: np.ndarray  # zeta dD_i: the unloading's share of the step's change of pressure head
     scale_m2: float  # sum |storage change| + dt sum |boundary flows|
     iterations: int
 
@@ -446,6 +483,7 @@ class _Solver:
         """The modified Picard iteration of one step (module doc); None when it does not converge."""
         s = self.settings
         target, may_hold, supplied = self.conditions.at(start_s, start_s + dt)
+        load_change = self.conditions.load_change_m(start_s, start_s + dt)
         fixed = np.isfinite(target)
         may_hold &= ~fixed
         held = held_old & may_hold
@@ -456,7 +494,7 @@ class _Solver:
         for iteration in range(s.max_iterations + 1):
             water, capacity, storage, saturation, kr = self.materials.state(psi)
             stiffness = self.system.assembled_data(kr)
-            stored = (water - water_old) + storage * (psi - psi_old)
+            stored = (water - water_old) + storage * (psi - psi_old - load_change)
             residual = stored / dt + self._on(self._stiffness, stiffness) @ (psi + self.y) - supplied
             held, switched = switch_atmospheric_nodes(held, may_hold, residual + supplied, supplied, psi,
                                                       s.head_tolerance_m)
@@ -466,7 +504,7 @@ class _Solver:
             if iteration > 0 and change <= s.head_tolerance_m and not switched and (
                     unbalanced <= s.balance_tolerance * scale):
                 inflow = np.where(every_held, residual + supplied, supplied)
-                return _Step(psi, held, water, storage, saturation, kr, inflow, float(scale), iteration)
+                return _Step(psi, held, water, storage, saturation, kr, inflow, load_change, float(scale), iteration)
             if iteration == s.max_iterations:
                 return None
             data = stiffness.copy()
@@ -500,7 +538,16 @@ REFACTOR_AFTER = 12
 def _preconditioned_cg(matrix: sparse.csc_matrix, rhs: np.ndarray, precondition, tolerance: float,
                        max_iterations: int) -> np.ndarray | None:
     """The conjugate-gradient solution of matrix x = rhs preconditioned by ``precondition`` (an SPD
-    approximation of its inverse), from x = 0; None when it has not converged in ``max_iterations``."""
+    approximation of its inverse), from x = 0; None when it has not converged in ``max_iterations``.
+    Factors made for a matrix far from this one can make the iterates overflow: that is
+    a solve that failed (None, and the caller factorizes again), not a warning."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _cg_iterations(matrix, rhs, precondition, tolerance, max_iterations)
+
+
+def _cg_iterations(matrix: sparse.csc_matrix, rhs: np.ndarray, precondition, tolerance: float,
+                   max_iterations: int) -> np.ndarray | None:
+    """:func:`_preconditioned_cg`'s iterations."""
     x = np.zeros_like(rhs)
     r = rhs.copy()
     bound = tolerance * float(np.linalg.norm(rhs))
@@ -597,7 +644,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
         cumulative = cumulative + rate * step
         water_in += step * float(np.sum(np.maximum(done.node_inflow, 0.0)))
         water_out += step * float(np.sum(np.maximum(-done.node_inflow, 0.0)))
-        step_storage = float(np.sum(done.storage * (done.psi - psi)))
+        step_storage = float(np.sum(done.storage * (done.psi - psi - done.load_change_m)))
         storage_term += step_storage
         step_error = float(np.sum(rate) * step - (np.sum(done.water) - np.sum(water) + step_storage))
         error += step_error

@@ -43,6 +43,8 @@ def _replace(text: str, old: str, new: str) -> str:
     ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
      "rain_history_h_mm_h = [[0.0, 10.0], [0.0, 5.0]]", "transient.boundary[0].rain_history_h_mm_h"),
     ("total_head_m = 3.0\n", "total_head_m = 3.0\nrain_mm_h = 1.0\n", "transient.boundary[1].rain_mm_h"),
+    ("total_head_m = 3.0\n", "total_head_m = 3.0\nloading_efficiency = 0.5\n",
+     "transient.boundary[1].loading_efficiency"),
     ('condition = "total_head"\n', 'condition = "reservoir"\n', "transient.boundary[1].total_head_m"),
     ("initial_water_table_m = 3.0\n", "", "transient.initial_water_table_m"),
     ("fos_interval_h = 6.0\n", "fos_interval_h = 60.0\n", "transient.fos_interval_h"),
@@ -261,3 +263,104 @@ def test_a_rain_history_and_a_reservoir_level_may_come_from_csv_files_beside_the
     with pytest.raises(StudyError) as error:
         load_study(tmp_path / "study.toml")
     assert error.value.field == "transient.boundary[0].rain_history_h_mm_h"
+
+
+def test_a_threshold_chart_of_an_earlier_invocation_is_among_the_sweeps_stale_figures(tmp_path):
+    """threshold.png, drawn by an earlier threshold sweep, goes when the sweep does not draw it again
+    (figures = false, or no longer a sweep over the time of the water); a user's picture of that name stays."""
+    from PIL import Image
+
+    from workflows.output.figures import pyplot, remove_stale_figures, save_figure
+    from workflows.sweep.stale import SWEEP_FIGURE_NAMES
+
+    plt = pyplot()
+    fig, _ = plt.subplots()
+    save_figure(fig, tmp_path / "threshold.png")
+    plt.close(fig)
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep={"threshold.png"}) == []
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == ["threshold.png"]
+    Image.new("RGB", (20, 20)).save(tmp_path / "threshold.png")
+    assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == []
+
+
+def test_the_fos_against_time_figure_of_an_earlier_invocation_goes_when_not_drawn_again(tmp_path):
+    """The small rain study at one time with figures, then with figures = false: fos_time.png is removed,
+    said in one line (it showed the earlier invocation's FOS)."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study, study_type
+
+    text = _replace(SMALL, "fos_interval_h = 6.0\n", "fos_times_h = [0.0]\n")
+    lines = []
+    for variant in (text, text + "\n[output]\nfigures = false\n"):
+        kind = study_type(parse_study(variant), tmp_path)
+        outcome = run_study(kind.study, tmp_path, RunOptions(workers=1), kind=kind)
+        lines.append(kind.report(outcome, False, None).lines[-1])
+        if variant == text:
+            assert (tmp_path / "fos_time.png").is_file()
+    assert lines[1] == "removed what an earlier invocation made: figures not drawn again (fos_time.png)"
+    assert not (tmp_path / "fos_time.png").exists() and (tmp_path / "fos_time.nc").is_file()
+
+
+def test_check_says_its_limit_equilibrium_circle_of_a_transient_study_is_dry(tmp_path):
+    """spfem-fos check draws its circle without the flow (it is not solved for the estimate): its line says so
+    rather than passing a dry estimate off as the slope's with its water."""
+    study = tmp_path / "study.toml"
+    study.write_text(SMALL)
+    result = CliRunner().invoke(check_app, [str(study), "--out", str(tmp_path / "c")])
+    assert result.exit_code == 0, result.output
+    [line] = [line for line in result.stdout.splitlines() if line.startswith("limit equilibrium")]
+    assert "dry (the flow of [transient] and its suction are not solved for this estimate)" in line
+
+
+def test_the_rapid_drawdown_line_is_the_full_reservoirs_pore_pressure_less_the_water_removed():
+    """B-bar = 1: under the uncovered face u = gamma_w (y_s - y) (zero on it), under the water left
+    gamma_w (L - y), under the crest the full reservoir's gamma_w (H - y); nowhere above the ground unponded."""
+    from verification.rain_and_drawdown import _rapid, rapid_line
+    from workflows.water.table import water_above_ground_warnings
+
+    polygon = ((0.0, 0.0), (32.0, 0.0), (12.0, 10.0), (0.0, 10.0))  # studies/drawdown.toml's slope
+    for level_m in (10.0, 7.5, 5.0, 0.0):
+        line = np.array(rapid_line(polygon, 10.0, level_m))
+        x = np.linspace(0.0, 32.0, 129)
+        ground_m = np.where(x <= 12.0, 10.0, 10.0 - (x - 12.0) / 2.0)
+        full_m, removed_m = 10.0, np.maximum(10.0 - np.maximum(ground_m, level_m), 0.0)  # water depth taken away
+        np.testing.assert_allclose(np.interp(x, line[:, 0], line[:, 1]), full_m - removed_m, atol=1e-12)
+        assert water_above_ground_warnings(_rapid(level_m)) == []
+
+
+@pytest.mark.slow
+def test_the_rapid_drawdown_limit_lies_on_bishops_least_circle_for_the_same_water(tmp_path):
+    """Fully drawn down (L / H = 1, no water left on the face): the strength reduction with the rapid line
+    within 3% of Bishop's least circle on the same pore pressures (0.871 and 0.857 measured at h = 0.5 m)."""
+    from verification.rain_and_drawdown import _rapid
+    from workflows.cases import RunOptions
+    from workflows.fos.critical_circle import critical_circle
+    from workflows.study_types import run_study
+
+    study = _rapid(0.0)
+    outcome = run_study(study, tmp_path, RunOptions(workers=2))
+    assert outcome.fos == pytest.approx(critical_circle(study).fos, rel=0.03)
+
+
+@pytest.mark.parametrize("ratio", [0.0, 0.1, 0.5, 0.9])
+def test_steady_rain_gives_lu_and_griffiths_suction_under_the_crest(ratio):
+    """The rain slope in Gardner's soil over a water table at its base, steady rain q = ratio K_s (h = 1 m): under
+    the crest, where the flow is vertical, the particles' pressure head within 0.05 m of Lu & Griffiths' (2004)
+    closed form (0.033 m measured at 0.01 K_s; no warning on the way) and their suction stress exp(alpha psi) gamma_w psi within 0.15 kPa
+    (0.077 kPa at 0.5 K_s)."""
+    from verification.rain_and_drawdown import (
+        SUCTION_COLUMN_X_M,
+        SUCTION_END_H,
+        _suction_study,
+        lu_griffiths_pressure_head_m,
+        study_permeability_mm_h,
+    )
+
+    study = _suction_study(ratio * study_permeability_mm_h())
+    water = transient_flow(study).water_at(SUCTION_END_H)
+    x, y = water.node_xy_m[:, 0], water.node_xy_m[:, 1]
+    column = x <= SUCTION_COLUMN_X_M + 1e-9
+    exact = lu_griffiths_pressure_head_m(y[column], ratio, 0.5)
+    np.testing.assert_allclose(water.pressure_head_m[column], exact, atol=0.05)
+    stress_exact_pa = 9810.0 * np.exp(0.5 * exact) * exact
+    np.testing.assert_allclose(water.pore_pressure_pa()[column], stress_exact_pa, atol=150.0)

@@ -11,12 +11,14 @@ import pytest
 
 from spfem_core.cloud import particles_in_polygon
 from spfem_core.flow_system import conductivity_tensor
+from spfem_core.geometry import surface_height_m
 from spfem_core.mesh import triangulate
 from spfem_core.seepage import FlowProblem, solve_steady_flow
 from spfem_core.soil_water import Gardner, VanGenuchten
 from spfem_core.transient_seepage import (
     HeadBoundary,
     History,
+    ReservoirBoundary,
     TransientProblem,
     TransientSettings,
     boundary_flux_weights_m,
@@ -210,6 +212,48 @@ def test_a_drawdown_leaves_more_water_in_a_less_permeable_bank():
         tables[k] = y[inside][psi[inside] >= 0.0].max()
         _closed(solution)
     assert tables[1e-7] - tables[1e-5] >= 1.0 and tables[1e-7] < 9.0
+
+
+def _sloped_bank_drawn_down(loading_efficiency: float, conductivity_m_s: float):
+    """A 4 m bank at 2:1 (crest 4 m long), saturated to its crest, its reservoir falling from the crest to the toe
+    in an hour, at h = 0.25 m: (particles, ground height above each, the solution at 1 h)."""
+    polygon = np.array([[0.0, 0.0], [12.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    xy = particles_in_polygon(polygon, 0.25)
+    elem = triangulate(xy, 0.25, 1.5).elem_nodes
+    ground_m = surface_height_m(polygon, xy[:, 0])
+    on_face = (xy[:, 0] > 4.0 - 1e-9) & (np.abs(xy[:, 1] - ground_m) < 1e-6)
+    level = History(np.array([0.0, HOUR_S]), np.array([4.0, 0.0]))
+    reservoir = ReservoirBoundary("reservoir", on_face, level, np.where(xy[:, 0] > 4.0, ground_m, np.inf),
+                                  loading_efficiency)
+    k = np.broadcast_to(conductivity_tensor(conductivity_m_s, conductivity_m_s, 0.0), (elem.shape[0], 2, 2))
+    problem = TransientProblem(xy, elem, k, np.zeros(elem.shape[0], dtype=np.int64),
+                               (VanGenuchten(0.05, 0.40, 0.5, 1.6, 1e-4),), (reservoir,), hydrostatic_head_m(xy, 4.0))
+    return xy, ground_m, solve_transient_flow(problem, [HOUR_S])
+
+
+def test_a_drawdown_unloads_the_pore_pressure_under_the_face_by_the_water_removed():
+    """A bank that cannot drain in the hour (K_s = 1e-12 m/s): with loading efficiency 1 the pressure head under
+    the uncovered face falls by the water removed above it, psi = y_s - y (the rapid-drawdown limit, B-bar = 1),
+    the crest's stays hydrostatic from 4 m; with 0 the flow alone keeps the full reservoir's 4 - y inside.  At
+    1e-6 m/s the water drains towards the face as well.  Balances closed."""
+    for efficiency, expected in ((1.0, lambda y, ground: ground - y), (0.0, lambda y, ground: 4.0 - y)):
+        xy, ground_m, solution = _sloped_bank_drawn_down(efficiency, 1e-12)
+        x, y = xy[:, 0], xy[:, 1]
+        psi = solution.pressure_head_m(xy)[-1]
+        inside = ~solution.node_held[-1] & (y < ground_m - 0.3)  # off the seepage face's boundary layer
+        under_face, under_crest = inside & (x > 4.5), inside & (x < 3.5)
+        np.testing.assert_allclose(psi[under_face], expected(y, ground_m)[under_face], atol=1e-3)
+        np.testing.assert_allclose(psi[under_crest], 4.0 - y[under_crest], atol=1e-3)
+        if efficiency == 0.0:
+            _closed(solution)
+        else:  # nothing drains (4e-10 m2 leaves): the error against the unloading's own storage change, S_s A |dpsi|
+            unloading_m2 = 1e-4 * 32.0 * float(np.mean(np.abs(psi - solution.pressure_head_m(xy)[0])))
+            assert abs(solution.balance_error_m2[-1]) <= BALANCE * unloading_m2
+    xy, ground_m, drained = _sloped_bank_drawn_down(1.0, 1e-6)
+    y = xy[:, 1]
+    under_face = ~drained.node_held[-1] & (xy[:, 0] > 4.5) & (y < ground_m - 0.3)
+    assert np.all(drained.pressure_head_m(xy)[-1][under_face] < ground_m[under_face] - y[under_face] + 1e-3)
+    _closed(drained)
 
 
 def test_a_step_that_cannot_converge_is_refused_with_the_time():

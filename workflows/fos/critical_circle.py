@@ -105,6 +105,8 @@ class _Section:
         self.water = "dry"
         if study.seepage is not None:
             self.water = "dry (the seepage of [seepage] is not solved for this estimate)"
+        elif study.transient is not None:
+            self.water = "dry (the flow of [transient] and its suction are not solved for this estimate)"
         else:
             lines, line_of = phreatic_lines(study, np.maximum(material, 0))
             for i, line in enumerate(lines):

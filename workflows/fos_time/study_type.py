@@ -12,7 +12,8 @@
 3. With ``stop_below_fos`` the study stops after the first time whose FOS is below it (the state of that
    case, its failed runs, is what a runout would start from).
 4. ``OUT/fos_time.nc`` (the FOS, its bracket, the runs and window of each time, with the rain and the
-   reservoir's level) and ``fos_time.png`` (the FOS against time above the rain or the level).
+   reservoir's level) and ``fos_time.png`` (the FOS against time above the rain or the level); a
+   ``fos_time.png`` of an earlier invocation not drawn again (``figures = false``) is removed.
 5. With ``runout_duration_s``, the slope that failed is followed after failure (``OUT/runout/``): the
    study of that time with a runout stage (its own strength, strength_factor 1) in place of the strength
    reduction, from its gravity state, the water of that time carried as through the searches.
@@ -29,9 +30,10 @@ from pathlib import Path
 from typing import Any
 
 from workflows.cases import Case, CaseTimings, Placement, Report, RunOptions, StudyType
-from workflows.fos_time.figures import draw_fos_time
+from workflows.fos_time.figures import FIGURE_NAME, draw_fos_time
 from workflows.fos_time.results import FILE_NAME, below, bracket, fos_time_dataset, time_fos_reaches, upper_values
 from workflows.memory_guard import check_memory
+from workflows.output.figures import remove_stale_figures
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
 from workflows.study import Study
 from workflows.study.reading import parse_study
@@ -72,6 +74,7 @@ class TransientStudy(StudyType):
     """A study of the FOS against time (module doc)."""
 
     label = "a study of the FOS against time"
+    stale_figures: list[str] = []  # fos_time.png of an earlier invocation not drawn again (figures = false), removed
 
     @property
     def placement(self) -> Placement:
@@ -180,6 +183,7 @@ class TransientStudy(StudyType):
         dataset = fos_time_dataset(self.study, self.flow, times, ordered, self.windows, stop)
         path = write_dataset(dataset, self.out_dir / FILE_NAME)
         figures = [draw_fos_time(self.study, dataset, self.flow, self.out_dir)] if self.study.output.figures else []
+        self.stale_figures = remove_stale_figures(self.out_dir, (FIGURE_NAME,), keep={p.name for p in figures})
         runout = None
         if self.study.transient.runout_duration_s is not None and below(ordered[case_id(times[-1])],
                                                                          self.study.transient.stop_below_fos):
@@ -232,4 +236,6 @@ class TransientStudy(StudyType):
                            + "".join(f"; {warning}" for warning in outcome.runout.warnings))
         wrote = (f"wrote {outcome.transient_path}, {outcome.fos_time_path.name}, {TIMES_FOLDER}/"
                  + "".join(f", {path.name}" for path in outcome.figures))
-        return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote])
+        removed = ([f"removed what an earlier invocation made: figures not drawn again ({', '.join(self.stale_figures)})"]
+                   if self.stale_figures else [])  # (the words of a sweep's line, sweep.stale)
+        return Report([header, verdict, *table, *stopped, balance_line(self.flow), wrote, *removed])

@@ -17,8 +17,9 @@ import netCDF4
 from workflows.output.figures import drawn_by_us
 from workflows.sweep.results import CASE_TEXT_NAME
 
-SWEEP_FIGURE_NAMES = ("fos_*.png", "runout_*.png")
-"""The design charts a sweep may draw (``sweep.figures``): those it did not draw this time are removed."""
+SWEEP_FIGURE_NAMES = ("fos_*.png", "runout_*.png", "threshold.png")
+"""The design charts a sweep may draw (``sweep.figures``, and the threshold's, ``fos_time.threshold``):
+those it did not draw this time are removed."""
 
 CASE_TEXT_HEADERS = ("# case ", "# realisation ")
 """How the ``case.toml`` of a sweep's case and of a realisation begin (``study.reading.sweep_cases``,

@@ -7,7 +7,9 @@ the water at one time that a case's particles carry.
 2. The conditions (``workflows.transient.table``), each entry on the mesh's boundary particles inside
    its box, a later one over an earlier one: rain (``FluxBoundary``: the edges both of whose ends it
    selects, half each, per horizontal length or per length of the edge; mm/h to m/s), a reservoir
-   (``ReservoirBoundary``), a seepage face, a total or pressure head (``HeadBoundary``).
+   (``ReservoirBoundary``, with the ground its water stands on within its box's abscissae, so that the
+   water's load as it falls unloads the pore pressure below by its ``loading_efficiency``), a seepage
+   face, a total or pressure head (``HeadBoundary``).
 3. The initial heads: hydrostatic below the initial water table (with the suction limit), or the
    steady flow of ``[seepage]``; then ``spfem_core.transient_seepage.solve_transient_flow`` to
    ``end_time_h``, saving the times of the FOS, ``water_at_h`` and ``saved_times`` evenly spaced.
@@ -26,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spfem_core.geometry import surface_height_m
 from spfem_core.mesh import boundary_edges, triangulate
 from spfem_core.seepage import conductivity_tensor
 from spfem_core.soil_water import Gardner, VanGenuchten
@@ -203,10 +206,14 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
             boundaries.append(FluxBoundary(entry.name, weights, rain_history(entry)))
         elif entry.condition == "reservoir":
             history = level_history(entry)
-            boundaries.append(ReservoirBoundary(entry.name, box, history))
             slack = POND_SLACK * geometry.finest_spacing_m
-            reservoirs.append((history, (-np.inf if entry.x_min_m is None else entry.x_min_m - slack,
-                                         np.inf if entry.x_max_m is None else entry.x_max_m + slack)))
+            span = (-np.inf if entry.x_min_m is None else entry.x_min_m - slack,
+                    np.inf if entry.x_max_m is None else entry.x_max_m + slack)
+            x = node_xy_m[:, 0]
+            ground_m = surface_height_m(np.asarray(geometry.polygon_m, dtype=float), x)
+            ground_m = np.where((x >= span[0]) & (x <= span[1]) & np.isfinite(ground_m), ground_m, np.inf)
+            boundaries.append(ReservoirBoundary(entry.name, box, history, ground_m, entry.loading_efficiency))
+            reservoirs.append((history, span))
         elif entry.condition == "seepage_face":
             boundaries.append(SeepageFace(entry.name, box))
         elif entry.condition == "total_head":
@@ -242,7 +249,8 @@ def _without(boundary, nodes: np.ndarray):
                             boundary.ponds)
     kept = boundary.nodes & ~nodes
     if isinstance(boundary, ReservoirBoundary):
-        return ReservoirBoundary(boundary.name, kept, boundary.level_m)
+        return ReservoirBoundary(boundary.name, kept, boundary.level_m, boundary.ground_above_m,
+                                 boundary.loading_efficiency)
     if isinstance(boundary, HeadBoundary):
         return HeadBoundary(boundary.name, kept, boundary.head_m, boundary.pressure, boundary.offset_m)
     return SeepageFace(boundary.name, kept)

@@ -37,7 +37,10 @@ NEEDS = {"total_head": ("total_head_m",), "reservoir": ("level_history_h_m",),
          "rain": ("rain_mm_h", "rain_history_h_mm_h")}
 """The fields each condition takes (rain: one of the two)."""
 ONLY_FOR = {"total_head_m": "total_head", "pressure_head_m": "pressure_head", "level_history_h_m": "reservoir",
-            "rain_mm_h": "rain", "rain_history_h_mm_h": "rain", "rain_direction": "rain"}
+            "rain_mm_h": "rain", "rain_history_h_mm_h": "rain", "rain_direction": "rain",
+            "loading_efficiency": "reservoir"}
+DEFAULTS = {"rain_direction": "horizontal", "loading_efficiency": 1.0}
+"""The fields of ONLY_FOR whose default is not None."""
 MM_H_TO_M_S = 1e-3 / 3600.0
 """1 mm/h in m/s."""
 HOUR_S = 3600.0
@@ -90,13 +93,17 @@ class TransientBoundary(Box):
     level_history_h_m: tuple | None = polyline(
         "h, m", "*condition = reservoir:* the level against time [[t_h, level_m], ...] (or a CSV file), linear "
         "between the points", default=None)
+    loading_efficiency: float = number(
+        "1", "*condition = reservoir:* the share of a change of the reservoir's water load on the ground that the "
+        "pore pressure below takes at once (Skempton's B-bar: 1 for saturated soil unloaded faster than it "
+        "drains, the rapid-drawdown assumption; 0: the flow alone changes it)", default=1.0, ge=0.0, le=1.0)
     total_head_m: float | None = number("m", "*condition = total_head:* the total head h", default=None)
     pressure_head_m: float | None = number("m", "*condition = pressure_head:* h - y (default 0: atmospheric)",
                                            default=None)
 
     def check(self):
         for name, condition in ONLY_FOR.items():
-            default = "horizontal" if name == "rain_direction" else None
+            default = DEFAULTS.get(name)
             if getattr(self, name) != default and self.condition != condition:
                 raise StudyError(name, f"does not apply to condition = {self.condition}")
         needed = NEEDS.get(self.condition, ())
