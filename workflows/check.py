@@ -26,16 +26,22 @@ time a P wave takes to cross the finest spacing, dt ~ h_min / V_p (equalised ine
 with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RESPONSE_TIMES`` for
 one that slides (at most ``duration_s``).  A search over the stage's range makes about
 ``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (random fields:
-``FIELD_WINDOW_RUNS``), a verdict-mode realisation one; a refinement study's levels cost in
-proportion to their particles and time steps (:func:`study_runs_s`).  The runs are shared by the
-workers, after the start-up (Python, the cluster, the gravity stage and the figures: ``STARTUP_S``).  The constants were measured on the
-reference slope on the machine the benchmarks ran on (docs/benchmarks.md, "Run-time estimate",
-with the command that compares the estimate with the measured time of every shipped study).
+``FIELD_WINDOW_RUNS``; a full search where the prediction does not see what the cases differ in:
+:func:`windows_miss`), a verdict-mode realisation one; a refinement study's levels cost in
+proportion to their particles and time steps (:func:`study_runs_s`).  The runs, and a sweep's
+gravity states with their water (:func:`worker_gravities`), are shared by the workers; the study's
+own process adds ``STARTUP_S`` (Python, the cluster, one gravity state, the figures) and what the
+workers wait for (:func:`client_s`): its water's solve and its limit-equilibrium estimates as check
+measures them here (:class:`ClientWork`), and for the FOS against time each time's gravity state
+and figures.  Every constant is measured with the command its docstring names (docs/benchmarks.md,
+"Run-time estimate", with the command that compares the estimate with the measured time of every
+shipped study).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,7 +54,7 @@ from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study
 from workflows.study.reading import sweep_cases
-from workflows.transient.flow import WaterAt
+from workflows.transient.flow import WaterAt, transient_flow
 
 STABLE_RESPONSE_TIMES = 3.0
 """Pseudo-time of a run that comes to rest, in response times (module doc)."""
@@ -63,10 +69,23 @@ STEP_OVERHEAD_S = 24e-6
 """One thread's time per step besides the particles' (records, the stop rule)."""
 
 RUN_OVERHEAD_S = 0.05
-"""A run's time besides its steps: the scene and first mesh on the worker, its file, the transfer."""
+"""A run's slot on a worker besides its steps: the scene and first mesh on the worker, its file, the
+transfer, and the wait of a search's next runs for the last ones ((2 E - C) / R of the quickstart:
+``python -m benchmarks.startup_parts``)."""
+
+GRAVITY_S_PER_PARTICLE = 70e-6
+"""A gravity state's time per particle (the elastic stage's direct solves, its scene and records;
+``python -m benchmarks.startup_parts --study reference_slope``, part "gravity")."""
+
+FIGURES_S = 1.0
+"""A case's figures (its SRF curve, the fields at two runs, the slip surface) once pyplot is loaded
+(``python -m benchmarks.startup_parts``, part "figures"): a study of the FOS against time draws them at
+each time."""
 
 FULL_SEARCH_RUNS = (6, 3)
-"""(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12)."""
+"""(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12); a
+window that misses grows by doubling and then refines as a full search does: it costs as much
+(drawdown 8.8 and seismic 10 runs per FOS, docs/benchmarks.md "Runs per answer")."""
 WINDOW_RUNS = (3, 1.6)
 """... of a search in a window about a predicted FOS (``fos.prediction``: a sweep's cases after the
 first, a probabilistic study's realisations in fos mode, a refinement study's levels after the first;
@@ -79,7 +98,20 @@ ADAPTIVE_LEVELS = 5
 high friction angles reach max_levels)."""
 
 STARTUP_S = 4.0
-"""Seconds of a study besides its SRF runs: Python, the cluster, the gravity stage, the figures."""
+"""Seconds of a study besides its SRF searches (W - E of the quickstart, ``python -m
+benchmarks.startup_parts``): Python and the imports, the numba cache, the cluster's start and close,
+the scene, one gravity state, the summary, figures and report."""
+
+
+@dataclass(frozen=True)
+class ClientWork:
+    """What ``check`` measures on this machine of the work a study does in its own process, once:
+    ``flow_s`` a solve of its water (the steady flow of ``[seepage]``, a transient flow to its last
+    time), ``estimate_s`` a limit-equilibrium estimate (``fos.critical_circle(quick=True)``, what each
+    predicted case asks)."""
+
+    flow_s: float = 0.0
+    estimate_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -93,10 +125,12 @@ class RunTimeEstimate:
     cases: int | None  # factors of safety the study computes (None: a refinement study's levels)
     workers: int
     study_s: float
+    full_searches: bool = False  # every case searched in full: its window would miss (:func:`windows_miss`)
 
 
-def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | None:
-    """The estimate of the module doc for a strength-reduction study (None for another) of ``scene``."""
+def run_time_estimate(study: Study, scene, workers: int, client: ClientWork = ClientWork()) -> RunTimeEstimate | None:
+    """The estimate of the module doc for a strength-reduction study (None for another) of ``scene``,
+    with the ``client`` work check measured."""
     stage = study.strength_reduction
     if stage is None:
         return None
@@ -111,14 +145,68 @@ def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | No
 
     stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
     cases = case_count(study)
-    study_s = STARTUP_S + study_runs_s(study, stable_s, failed_s, n_particles, time_step_s) / max(workers, 1)
-    return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s)
+    gravities = worker_gravities(study)
+    workers_s = (study_runs_s(study, stable_s, failed_s, n_particles, time_step_s)
+                 + max(gravities - 1, 0) * n_particles * GRAVITY_S_PER_PARTICLE + gravities * client.flow_s)
+    study_s = STARTUP_S + client_s(study, n_particles, time_step_s, step_s, client) + workers_s / max(workers, 1)
+    return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s, windows_miss(study))
+
+
+def client_s(study: Study, n_particles: int, time_step_s: float, step_s: float, client: ClientWork) -> float:
+    """The study's own process's work besides ``STARTUP_S``, which the workers wait for: its water's
+    solve (a sweep's cases solve theirs with their gravity states, on the workers: :func:`worker_gravities`),
+    its limit-equilibrium estimates (a sweep's cases, a probabilistic study's realisations of random
+    variables in fos mode; one for realisations of fields alone), and for the FOS against time each
+    time's gravity state and figures, and the runout of the time that failed (its steps on the threads
+    of this process)."""
+    total = (0.0 if study.sweep is not None else client.flow_s) + estimates(study) * client.estimate_s
+    transient = study.transient
+    if transient is not None and transient.against_time:
+        times = len(transient.fos_times())
+        total += times * (n_particles * GRAVITY_S_PER_PARTICLE + (FIGURES_S if study.output.figures else 0.0))
+        if transient.runout_duration_s is not None:
+            total += transient.runout_duration_s / time_step_s * step_s
+    return total
+
+
+def estimates(study: Study) -> int:
+    """The limit-equilibrium estimates a study's predictions ask of its process (``fos.prediction``, one
+    per section, soil, water and loads): a sweep's cases, a fos-mode probabilistic study's realisations
+    (one per study when only a random field varies), none otherwise."""
+    if study.refinement is not None or (study.transient is not None and study.transient.against_time):
+        return 0
+    studies = len(sweep_cases(study)) if study.sweep is not None else 1
+    if study.probabilistic is not None:
+        if study.probabilistic.compute == "verdict":
+            return 0
+        return studies * (study.probabilistic.realisations if study.probabilistic.variables else 1)
+    return studies if study.sweep is not None else 0
+
+
+def worker_gravities(study: Study) -> int:
+    """The gravity states a sweep's workers relax, each with its water's solve (the first one's relaxation
+    is in ``STARTUP_S``): one per distinct ``fos.keys.gravity_key`` of its cases (the cases that share
+    one share it); none for other studies (their own process relaxes theirs)."""
+    if study.sweep is None or study.probabilistic is not None:
+        return 0
+    from workflows.fos.keys import gravity_key
+
+    return len({gravity_key(case.study) for case in sweep_cases(study)})
+
+
+def windows_miss(study: Study) -> bool:
+    """Whether a sweep's cases differ in what the limit-equilibrium estimate does not see
+    (``fos.critical_circle.NOT_SEEN``): the prediction then misses, and each case costs a full search."""
+    from workflows.fos.critical_circle import NOT_SEEN
+
+    return study.sweep is not None and any(axis.path.startswith(NOT_SEEN) for axis in study.sweep.axes)
 
 
 def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: int, time_step_s: float) -> float:
     """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
-    refinement study's first level; windowed searches for the cases after the first; one run per
-    realisation in verdict mode; a refinement study's levels at their own particles and time steps."""
+    refinement study's first level; windowed searches for the cases after the first (full ones where
+    the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a refinement
+    study's levels at their own particles and time steps."""
     def search(runs: tuple[float, float], scale: float = 1.0) -> float:
         return scale * (runs[0] * stable_s + runs[1] * failed_s)
 
@@ -131,7 +219,7 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
         later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
         studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full
         return studies * search(FULL_SEARCH_RUNS) + (cases - studies) * search(later)
-    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(WINDOW_RUNS)
+    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(FULL_SEARCH_RUNS if windows_miss(study) else WINDOW_RUNS)
 
 
 def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: float) -> float:
@@ -204,6 +292,8 @@ class StudyCheck:
                          f"a run about {_seconds(e.stable_run_s)} (at rest) to {_seconds(e.failed_run_s)} (sliding) "
                          "on one core")
             what = ("levels of refinement" if e.cases is None else "one FOS" if e.cases == 1
+                    else f"{e.cases} factors of safety, each searched in full (their predictions do not see what "
+                         "the cases differ in)" if e.full_searches
                     else f"{e.cases} factors of safety, searched about their predicted values after the first")
             lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
@@ -222,6 +312,28 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
+def client_work(study: Study, flow) -> ClientWork:
+    """The :class:`ClientWork` of ``study`` measured here: its water's solve as check made it (``flow``),
+    for the FOS against time the transient flow solved again to its last time, as the run solves it;
+    one limit-equilibrium estimate timed when the study's predictions ask for any (:func:`estimates`)."""
+    flow_s = 0.0
+    if isinstance(flow, WaterAt) and study.transient.against_time:
+        start = time.perf_counter()
+        transient_flow(study, until_h=study.transient.end_time_h)
+        flow_s = time.perf_counter() - start
+    elif flow is not None:
+        flow_s = flow.flow_wall_time_s if isinstance(flow, WaterAt) else flow.wall_time_s
+    estimate_s = 0.0
+    if estimates(study):
+        start = time.perf_counter()
+        try:
+            critical_circle(study, quick=True)
+        except (ValueError, IndexError, ZeroDivisionError):  # (the prediction then has none: as costly)
+            pass
+        estimate_s = time.perf_counter() - start
+    return ClientWork(flow_s, estimate_s)
+
+
 SECTION_FIGURE = "section.png"
 """The picture ``spfem-fos check`` draws in the output folder."""
 
@@ -238,8 +350,9 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
+    client = client_work(study, flow) if study.strength_reduction is not None else ClientWork()
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
-                      run_time_estimate(study, scene, options.workers), path, flow, critical,
+                      run_time_estimate(study, scene, options.workers, client), path, flow, critical,
                       (tuple(domain_warnings(study, critical)) if critical is not None else ())
                       + tuple(random_field_notes(study)))
 
