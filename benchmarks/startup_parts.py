@@ -21,7 +21,9 @@ summary's SRF search elapsed E and its runs' worker time C (``time_srf_runs_elap
 ``time_srf_runs_worker_s``) and its runs R, so that
 
     fixed = W - E                     (everything but the search: ``workflows.check.STARTUP_S``)
-    per run = (2 E - C) / R           (a run's slot on a worker besides its steps: ``RUN_OVERHEAD_S``)
+    per run = (2 E - C) / R           (a run's slot on a worker besides its steps: a lone search's,
+                                       the quickstart's, ``LONE_RUN_OVERHEAD_S``; many cases' searches
+                                       at once, ``--study sweep_strength``, ``RUN_OVERHEAD_S``)
 
 and the runs' steps S with C / S against ``STEP_OVERHEAD_S + N SECONDS_PER_PARTICLE_STEP``.  Each
 row the least of the repeats.  The figures of a case once pyplot is loaded (``fos.figures.draw_figures``
@@ -90,7 +92,8 @@ def parts_once(study_path: Path) -> dict[str, float]:
 
 
 def study_once(study_path: Path) -> dict[str, float]:
-    """The study run as a user runs it: W, E, C, R and the runs' steps (module doc)."""
+    """The study run as a user runs it: W, E, C, R and the runs' steps (module doc; a study of many
+    cases: E from the first run's start to the last one's end, over every case's summary.nc)."""
     with tempfile.TemporaryDirectory() as out:
         start = time.perf_counter()
         done = subprocess.run([sys.executable, "-m", "workflows.cli", str(study_path), "--out", out, "--quiet",
@@ -98,11 +101,18 @@ def study_once(study_path: Path) -> dict[str, float]:
         wall_s = time.perf_counter() - start
         if done.returncode != 0:
             raise SystemExit(done.stderr[-2000:])
-        with xr.open_dataset(Path(out) / "summary.nc") as ds:
-            return {"wall": wall_s, "search elapsed": float(ds.attrs["time_srf_runs_elapsed_s"]),
-                    "runs' worker time": float(ds.attrs["time_srf_runs_worker_s"]), "runs": int(ds.sizes["srf"]),
-                    "steps": int(ds["n_steps"].sum()), "particles": int(ds.attrs["n_particles"]),
-                    "gravity (in the run)": float(ds.attrs["time_gravity_s"])}
+        starts, ends, found = [], [], {"wall": wall_s, "runs' worker time": 0.0, "runs": 0, "steps": 0, "particles": 0}
+        for summary in sorted(Path(out).rglob("summary.nc")):
+            with xr.open_dataset(summary) as ds:
+                began, took = ds["run_start"].values, ds["wall_time"].values
+                starts.append(float(began.min()))
+                ends.append(float((began + took).max()))
+                found["runs' worker time"] += float(took.sum())
+                found["runs"] += int(ds.sizes["srf"])
+                found["steps"] += int(ds["n_steps"].sum())
+                found["particles"] = int(ds.attrs["n_particles"])
+        found["search elapsed"] = max(ends) - min(starts)
+        return found
 
 
 def figures_s(study_path: Path) -> float:
@@ -155,10 +165,17 @@ def estimates_on_the_wall(study_path: Path, repeats: int) -> None:
 
 
 def main(argv=None) -> int:
-    from workflows.check import FIGURES_S, RUN_OVERHEAD_S, SECONDS_PER_PARTICLE_STEP, STARTUP_S, STEP_OVERHEAD_S
+    from workflows.check import (
+        FIGURES_S,
+        LONE_RUN_OVERHEAD_S,
+        RUN_OVERHEAD_S,
+        SECONDS_PER_PARTICLE_STEP,
+        STARTUP_S,
+        STEP_OVERHEAD_S,
+    )
 
     parser = argparse.ArgumentParser(prog="python -m benchmarks.startup_parts", description=__doc__.splitlines()[0])
-    parser.add_argument("--study", default="quickstart", help="a single strength-reduction study of studies/")
+    parser.add_argument("--study", default="quickstart", help="a strength-reduction study of studies/")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--estimates", metavar="STUDY", help="the study's walls with and without its estimates")
     args = parser.parse_args(argv)
@@ -179,12 +196,13 @@ def main(argv=None) -> int:
     step_s = min(r["runs' worker time"] / r["steps"] for r in runs)
     model_step_s = STEP_OVERHEAD_S + least["particles"] * SECONDS_PER_PARTICLE_STEP
     print(f"\nthe study on {WORKERS} workers: wall {least['wall']:.2f} s, search {least['search elapsed']:.2f} s, "
-          f"{least['runs']} runs of {least['steps']} steps in all, {least['particles']} particles; gravity in the "
-          f"run {least['gravity (in the run)']:.2f} s")
+          f"{least['runs']} runs of {least['steps']} steps in all, {least['particles']} particles")
     print(f"fixed = W - E: {fixed_s:.2f} s (STARTUP_S {STARTUP_S})")
-    print(f"per run = (2 E - C) / R: {per_run_s:.3f} s (RUN_OVERHEAD_S {RUN_OVERHEAD_S})")
+    print(f"per run = (2 E - C) / R: {per_run_s:.3f} s (a lone search's, LONE_RUN_OVERHEAD_S {LONE_RUN_OVERHEAD_S}; "
+          f"many cases' searches at once, RUN_OVERHEAD_S {RUN_OVERHEAD_S})")
     print(f"a step: {step_s * 1e6:.1f} us measured, {model_step_s * 1e6:.1f} us by the model")
-    print(f"figures of a case: {min(figures_s(study_path) for _ in range(args.repeats)):.2f} s (FIGURES_S {FIGURES_S})")
+    if (ROOT / "studies" / f"{args.study}.toml").read_text().find("[sweep]") < 0:
+        print(f"figures of a case: {min(figures_s(study_path) for _ in range(args.repeats)):.2f} s (FIGURES_S {FIGURES_S})")
     return 0
 
 

@@ -250,3 +250,14 @@ def test_the_fos_against_time_counts_each_times_gravity_state_figures_and_runout
                                                              study.strength_reduction.duration_s) / estimate.time_step_s)
     runout_s = study.transient.runout_duration_s / estimate.time_step_s * step_s
     assert estimate.study_s == pytest.approx(STARTUP_S + 2.0 + times * each_time_s + runout_s + searches_s)
+
+
+def test_the_point_estimate_method_counts_its_two_to_the_n_points():
+    """Before: a point-estimate study was estimated at its ``realisations`` (the most searches it may
+    make), 25 here, where it makes the 2^n = 4 of Rosenblueth's points."""
+    from workflows.check import case_count
+
+    text = (QUICKSTART.read_text() + '\n[probabilistic]\nmethod = "point_estimate"\nrealisations = 25\ncompute = "fos"\n'
+            + _variable("materials.soil.cohesion_pa", "normal", "cov = 0.1")
+            + _variable("materials.soil.friction_deg", "normal", "cov = 0.05"))
+    assert case_count(parse_study(text)) == 4

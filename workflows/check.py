@@ -69,9 +69,13 @@ STEP_OVERHEAD_S = 24e-6
 """One thread's time per step besides the particles' (records, the stop rule)."""
 
 RUN_OVERHEAD_S = 0.05
-"""A run's slot on a worker besides its steps: the scene and first mesh on the worker, its file, the
-transfer, and the wait of a search's next runs for the last ones ((2 E - C) / R of the quickstart:
-``python -m benchmarks.startup_parts``)."""
+"""A run's slot on a worker besides its steps when many cases' searches keep the workers busy (a sweep,
+a probabilistic study): the scene and first mesh on the worker, its file, the transfer ((2 E - C) / R
+of ``python -m benchmarks.startup_parts --study sweep_strength``)."""
+LONE_RUN_OVERHEAD_S = 0.05
+"""... of a lone search (a single study, each time of the FOS against time, each level of a refinement
+study): besides the above, the workers' wait while the search decides its next runs from its last
+((2 E - C) / R of ``python -m benchmarks.startup_parts``, the quickstart)."""
 
 GRAVITY_S_PER_PARTICLE = 70e-6
 """A gravity state's time per particle (the elastic stage's direct solves, its scene and records;
@@ -206,9 +210,13 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
     """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
     refinement study's first level; windowed searches for the cases after the first (full ones where
     the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a refinement
-    study's levels at their own particles and time steps."""
+    study's levels at their own particles and time steps.  A lone search's runs (a single study, the
+    FOS against time, refinement levels: one search at a time) take ``LONE_RUN_OVERHEAD_S`` each."""
+    lone = study.refinement is not None or study.sweep is None and study.probabilistic is None
+    wait_s = LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S if lone else 0.0
+
     def search(runs: tuple[float, float], scale: float = 1.0) -> float:
-        return scale * (runs[0] * stable_s + runs[1] * failed_s)
+        return scale * (runs[0] * stable_s + runs[1] * failed_s) + (runs[0] + runs[1]) * wait_s
 
     if study.refinement is not None:
         return _refinement_runs_s(study, search, n_particles, time_step_s)
@@ -248,14 +256,18 @@ def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: floa
 
 
 def case_count(study: Study) -> int | None:
-    """The factors of safety a study computes: one, a sweep's cases, the realisations, the times of the FOS
-    against time (at most: it may stop early); None for a refinement study (a factor at each of its levels)."""
+    """The factors of safety a study computes: one, a sweep's cases, the realisations (the point estimate
+    method's 2^n points; FORM's and subset simulation's at most: they stop when converged), the times
+    of the FOS against time (at most: it may stop early); None for a refinement study (a factor at each
+    of its levels)."""
     if study.refinement is not None:
         return None
     if study.transient is not None and study.transient.against_time:
         return len(study.transient.fos_times())
     if study.probabilistic is not None:  # (with [sweep]: a probabilistic study per case)
-        return study.probabilistic.realisations * (len(sweep_cases(study)) if study.sweep is not None else 1)
+        table = study.probabilistic
+        each = min(2 ** len(table.variables), table.realisations) if table.method == "point_estimate" else table.realisations
+        return each * (len(sweep_cases(study)) if study.sweep is not None else 1)
     if study.sweep is not None:
         return len(sweep_cases(study))
     return 1
