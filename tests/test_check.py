@@ -14,6 +14,7 @@ from workflows.check import (
     FIGURES_S,
     FULL_SEARCH_RUNS,
     GRAVITY_S_PER_PARTICLE,
+    LONE_RUN_OVERHEAD_S,
     RUN_OVERHEAD_S,
     STARTUP_S,
     WINDOW_RUNS,
@@ -71,8 +72,9 @@ def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
 
 def test_the_estimate_follows_its_model():
     """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
-    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a sweep of k cases costs one full
-    search and k - 1 searches in predicted windows; a verdict-mode realisation one run."""
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps, LONE_RUN_OVERHEAD_S in a lone search;
+    a sweep of k cases costs one full search and k - 1 searches in predicted windows; a verdict-mode
+    realisation one run."""
     study = load_study(QUICKSTART)
     scene = build_scene(study)
     estimate = run_time_estimate(study, scene, workers=2)
@@ -85,7 +87,8 @@ def test_the_estimate_follows_its_model():
     assert RUN_OVERHEAD_S < estimate.stable_run_s < estimate.failed_run_s
     full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
     window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
-    assert estimate.study_s == pytest.approx(STARTUP_S + full_s / 2)
+    lone_wait_s = sum(FULL_SEARCH_RUNS) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)  # a single study's lone search
+    assert estimate.study_s == pytest.approx(STARTUP_S + (full_s + lone_wait_s) / 2)
     swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
                         'values = [8e3, 10e3, 12e3]\n')  # (one gravity state: an elastic stage ignores the strength)
     assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + (full_s + 2 * window_s) / 2)
@@ -244,7 +247,8 @@ def test_the_fos_against_time_counts_each_times_gravity_state_figures_and_runout
     times = len(study.transient.fos_times())
     full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
     window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
-    searches_s = (full_s + (times - 1) * window_s) / 2
+    lone_wait_s = (sum(FULL_SEARCH_RUNS) + (times - 1) * sum(WINDOW_RUNS)) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    searches_s = (full_s + (times - 1) * window_s + lone_wait_s) / 2
     each_time_s = scene.n_particles * GRAVITY_S_PER_PARTICLE + (FIGURES_S if study.output.figures else 0.0)
     step_s = (estimate.stable_run_s - RUN_OVERHEAD_S) / (min(3.0 * estimate.response_time_s,
                                                              study.strength_reduction.duration_s) / estimate.time_step_s)

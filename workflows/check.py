@@ -68,23 +68,27 @@ SECONDS_PER_PARTICLE_STEP = 76e-9
 STEP_OVERHEAD_S = 24e-6
 """One thread's time per step besides the particles' (records, the stop rule)."""
 
-RUN_OVERHEAD_S = 0.05
+RUN_OVERHEAD_S = 0.14
 """A run's slot on a worker besides its steps when many cases' searches keep the workers busy (a sweep,
-a probabilistic study): the scene and first mesh on the worker, its file, the transfer ((2 E - C) / R
-of ``python -m benchmarks.startup_parts --study sweep_strength``)."""
-LONE_RUN_OVERHEAD_S = 0.05
+a probabilistic study): the scene and first mesh on the worker, its file, the transfer.  (2 E - C) / R
+of studies/sweep_strength.toml, E its wall at load <= 1 (10.4 s, docs/benchmarks.md "Run-time
+estimate", 2026-12-05) less ``STARTUP_S`` and its 9 estimates (0.2 s each), C its 29,373 steps by the
+step model: derived, not measured alone (``python -m benchmarks.startup_parts --study sweep_strength``
+measures it, on an idle machine; it gave 0.71 s at load 9, when the lone search's below gave 0.78 s)."""
+LONE_RUN_OVERHEAD_S = 0.32
 """... of a lone search (a single study, each time of the FOS against time, each level of a refinement
-study): besides the above, the workers' wait while the search decides its next runs from its last
-((2 E - C) / R of ``python -m benchmarks.startup_parts``, the quickstart)."""
+study): besides the above, the workers' wait while the search decides its next runs from its last.
+(2 E - C) / R of the quickstart, 0.32 s at load 0.3-1 (``python -m benchmarks.startup_parts``)."""
 
 GRAVITY_S_PER_PARTICLE = 70e-6
-"""A gravity state's time per particle (the elastic stage's direct solves, its scene and records;
-``python -m benchmarks.startup_parts --study reference_slope``, part "gravity")."""
+"""A gravity state's time per particle: the elastic stage's direct solves (0.05 s at 669 particles, 0.13
+s at 2,536, 0.49 s at 6,927: ``python -m benchmarks.relaxation_steps``, docs/benchmarks.md "Steps to a
+quasi-static state"; with its scene: part "gravity" of ``python -m benchmarks.startup_parts``)."""
 
-FIGURES_S = 1.0
-"""A case's figures (its SRF curve, the fields at two runs, the slip surface) once pyplot is loaded
-(``python -m benchmarks.startup_parts``, part "figures"): a study of the FOS against time draws them at
-each time."""
+FIGURES_S = 0.6
+"""A case's figures (its SRF curve, the fields at two runs, the slip surface) once pyplot is loaded: the
+processor time of drawing them (0.57 s; ``python -m benchmarks.startup_parts``, "figures of a case",
+whose wall was 1.5-2.6 s at load 9), a study of the FOS against time draws them at each time."""
 
 FULL_SEARCH_RUNS = (6, 3)
 """(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12); a
@@ -101,10 +105,12 @@ ADAPTIVE_LEVELS = 5
 """Levels an adaptive refinement study is expected to make (the quickstart's slope: 5; steep slopes at
 high friction angles reach max_levels)."""
 
-STARTUP_S = 4.0
-"""Seconds of a study besides its SRF searches (W - E of the quickstart, ``python -m
-benchmarks.startup_parts``): Python and the imports, the numba cache, the cluster's start and close,
-the scene, one gravity state, the summary, figures and report."""
+STARTUP_S = 4.7
+"""Seconds of a study besides its SRF searches: Python and the imports, the numba cache, the cluster's
+start and close, the scene, one gravity state, the summary, figures and report.  W - E of the
+quickstart: W 6.4 s at load 0.2-1 (``python -m benchmarks.check_estimate``), E 1.7 s, its search at
+load 0.3-1 (``python -m benchmarks.startup_parts`` prints both, and the parts: imports 1.6 s, the
+cluster's start 2.0 s, the numba cache 0.26 s, the gravity state 0.18 s, the least of 3 at load 9)."""
 
 
 @dataclass(frozen=True)
