@@ -115,7 +115,7 @@ cluster's start 2.0 s, the numba cache 0.26 s, the gravity state 0.18 s, the lea
 
 @dataclass(frozen=True)
 class ClientWork:
-    """What ``check`` measures on this machine of the work a study does in its own process, once:
+    """What ``check`` measures on this machine (processor time) of the work a study does in its own process, once:
     ``flow_s`` a solve of its water (the steady flow of ``[seepage]``, a transient flow to its last
     time), ``estimate_s`` a limit-equilibrium estimate (``fos.critical_circle(quick=True)``, what each
     predicted case asks)."""
@@ -297,6 +297,7 @@ class StudyCheck:
     flow: object = None  # the steady flow of [seepage] (``workflows.seepage.flow.StudyFlow``), or None
     critical: CriticalCircle | None = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
     warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings), field notes
+    client: ClientWork = ClientWork()  # the study's own work as check measured it (:func:`client_work`)
 
     def lines(self) -> list[str]:
         """What the command prints."""
@@ -330,25 +331,25 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
-def client_work(study: Study, flow) -> ClientWork:
-    """The :class:`ClientWork` of ``study`` measured here: its water's solve as check made it (``flow``),
-    for the FOS against time the transient flow solved again to its last time, as the run solves it;
-    one limit-equilibrium estimate timed when the study's predictions ask for any (:func:`estimates`)."""
-    flow_s = 0.0
+def client_work(study: Study, flow, scene_s: float) -> ClientWork:
+    """The :class:`ClientWork` of ``study`` measured here, in processor time (its wall on an idle machine,
+    as every constant of the estimate: a loaded machine slows the study and check alike): its water's
+    solve as check made it (``scene_s``, the scene's build with its ``flow``), for the FOS against time
+    the transient flow solved again to its last time, as the run solves it; one limit-equilibrium
+    estimate when the study's predictions ask for any (:func:`estimates`)."""
+    flow_s = scene_s if flow is not None else 0.0
     if isinstance(flow, WaterAt) and study.transient.against_time:
-        start = time.perf_counter()
+        start = time.process_time()
         transient_flow(study, until_h=study.transient.end_time_h)
-        flow_s = time.perf_counter() - start
-    elif flow is not None:
-        flow_s = flow.flow_wall_time_s if isinstance(flow, WaterAt) else flow.wall_time_s
+        flow_s = time.process_time() - start
     estimate_s = 0.0
     if estimates(study):
-        start = time.perf_counter()
+        start = time.process_time()
         try:
             critical_circle(study, quick=True)
         except (ValueError, IndexError, ZeroDivisionError):  # (the prediction then has none: as costly)
             pass
-        estimate_s = time.perf_counter() - start
+        estimate_s = time.process_time() - start
     return ClientWork(flow_s, estimate_s)
 
 
@@ -362,15 +363,17 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
     kind.check(options)
     kind.check_every_case()
+    start_s = time.process_time()
     scene, flow = scene_and_flow(study)
+    scene_s = time.process_time() - start_s
     monitor_particles(study, scene)
     new_simulation(study, scene)
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
-    client = client_work(study, flow) if study.strength_reduction is not None else ClientWork()
+    client = client_work(study, flow, scene_s) if study.strength_reduction is not None else ClientWork()
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
                       run_time_estimate(study, scene, options.workers, client), path, flow, critical,
                       (tuple(domain_warnings(study, critical)) if critical is not None else ())
-                      + tuple(random_field_notes(study)))
+                      + tuple(random_field_notes(study)), client)
 
