@@ -23,7 +23,7 @@ summary's SRF search elapsed E and its runs' worker time C (``time_srf_runs_elap
     fixed = W - E                     (everything but the search: ``workflows.check.STARTUP_S``)
     per run = (2 E - C) / R           (a run's slot on a worker besides its steps: a lone search's,
                                        the quickstart's, ``LONE_RUN_OVERHEAD_S``; many cases' searches
-                                       at once, ``--study sweep_strength``, ``RUN_OVERHEAD_S``)
+                                       at once, ``--study sweep_strength``, ``SEARCH_RUN_OVERHEAD_S``)
 
 and the runs' steps S with C / S against ``STEP_OVERHEAD_S + N SECONDS_PER_PARTICLE_STEP``.  Each
 row the least of the repeats.  The figures of a case once pyplot is loaded (``fos.figures.draw_figures``
@@ -168,7 +168,7 @@ def main(argv=None) -> int:
     from workflows.check import (
         FIGURES_S,
         LONE_RUN_OVERHEAD_S,
-        RUN_OVERHEAD_S,
+        SEARCH_RUN_OVERHEAD_S,
         SECONDS_PER_PARTICLE_STEP,
         STARTUP_S,
         STEP_OVERHEAD_S,
@@ -199,7 +199,7 @@ def main(argv=None) -> int:
           f"{least['runs']} runs of {least['steps']} steps in all, {least['particles']} particles")
     print(f"fixed = W - E: {fixed_s:.2f} s (STARTUP_S {STARTUP_S})")
     print(f"per run = (2 E - C) / R: {per_run_s:.3f} s (a lone search's, LONE_RUN_OVERHEAD_S {LONE_RUN_OVERHEAD_S}; "
-          f"many cases' searches at once, RUN_OVERHEAD_S {RUN_OVERHEAD_S})")
+          f"many cases' searches at once, SEARCH_RUN_OVERHEAD_S {SEARCH_RUN_OVERHEAD_S})")
     print(f"a step: {step_s * 1e6:.1f} us measured, {model_step_s * 1e6:.1f} us by the model")
     if (ROOT / "studies" / f"{args.study}.toml").read_text().find("[sweep]") < 0:
         drawn = [figures_s(study_path) for _ in range(args.repeats)]

@@ -16,6 +16,7 @@ from workflows.check import (
     GRAVITY_S_PER_PARTICLE,
     LONE_RUN_OVERHEAD_S,
     RUN_OVERHEAD_S,
+    SEARCH_RUN_OVERHEAD_S,
     STARTUP_S,
     WINDOW_RUNS,
     ClientWork,
@@ -72,9 +73,9 @@ def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
 
 def test_the_estimate_follows_its_model():
     """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
-    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps, LONE_RUN_OVERHEAD_S in a lone search;
-    a sweep of k cases costs one full search and k - 1 searches in predicted windows; a verdict-mode
-    realisation one run."""
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps, LONE_RUN_OVERHEAD_S in a lone search,
+    SEARCH_RUN_OVERHEAD_S in many cases' searches; a sweep of k cases costs one full search and k - 1
+    searches in predicted windows; a verdict-mode realisation one run."""
     study = load_study(QUICKSTART)
     scene = build_scene(study)
     estimate = run_time_estimate(study, scene, workers=2)
@@ -91,10 +92,12 @@ def test_the_estimate_follows_its_model():
     assert estimate.study_s == pytest.approx(STARTUP_S + (full_s + lone_wait_s) / 2)
     swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
                         'values = [8e3, 10e3, 12e3]\n')  # (one gravity state: an elastic stage ignores the strength)
-    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + (full_s + 2 * window_s) / 2)
+    search_wait_s = (sum(FULL_SEARCH_RUNS) + 2 * sum(WINDOW_RUNS)) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(
+        STARTUP_S + (full_s + 2 * window_s + search_wait_s) / 2)
     measured = ClientWork(estimate_s=0.25)  # its three limit-equilibrium estimates, in the study's process
     assert run_time_estimate(swept, scene, 2, measured).study_s == pytest.approx(
-        STARTUP_S + 3 * 0.25 + (full_s + 2 * window_s) / 2)
+        STARTUP_S + 3 * 0.25 + (full_s + 2 * window_s + search_wait_s) / 2)
     verdicts = parse_study((REPO / "studies" / "probabilistic_undrained.toml").read_text())
     verdict_scene = build_scene(verdicts)
     one = run_time_estimate(verdicts, verdict_scene, workers=2)
@@ -218,7 +221,9 @@ def test_a_sweep_the_limit_equilibrium_estimate_is_blind_to_counts_full_searches
                           '\n[sweep]\n[[sweep.axes]]\npath = "loads.seismic.horizontal_coefficient"\n'
                           'values = [0.0, 0.1, 0.2]\n')
     gravities_s = 2 * scene.n_particles * GRAVITY_S_PER_PARTICLE  # three states, the first in STARTUP_S
-    assert run_time_estimate(seismic, scene, workers=2).study_s == pytest.approx(STARTUP_S + (3 * full_s + gravities_s) / 2)
+    search_wait_s = 3 * sum(FULL_SEARCH_RUNS) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    assert run_time_estimate(seismic, scene, workers=2).study_s == pytest.approx(
+        STARTUP_S + (3 * full_s + search_wait_s + gravities_s) / 2)
 
 
 def test_the_water_a_study_solves_is_counted_as_check_measured_it(tmp_path):

@@ -68,13 +68,18 @@ SECONDS_PER_PARTICLE_STEP = 76e-9
 STEP_OVERHEAD_S = 24e-6
 """One thread's time per step besides the particles' (records, the stop rule)."""
 
-RUN_OVERHEAD_S = 0.14
-"""A run's slot on a worker besides its steps when many cases' searches keep the workers busy (a sweep,
-a probabilistic study): the scene and first mesh on the worker, its file, the transfer.  (2 E - C) / R
-of studies/sweep_strength.toml, E its wall at load <= 1 (10.4 s, docs/benchmarks.md "Run-time
-estimate", 2026-12-05) less ``STARTUP_S`` and its 9 estimates (0.2 s each), C its 29,373 steps by the
-step model: derived, not measured alone (``python -m benchmarks.startup_parts --study sweep_strength``
-measures it, on an idle machine; it gave 0.71 s at load 9, when the lone search's below gave 0.78 s)."""
+RUN_OVERHEAD_S = 0.05
+"""A run's slot on a worker besides its steps where the workers never wait for a decision (verdict-mode
+realisations, one run each): the scene and first mesh on the worker, its file, the transfer (the value
+of the earlier fit, on which probabilistic_undrained's estimate was 0.93 of its wall at load <= 1)."""
+SEARCH_RUN_OVERHEAD_S = 0.14
+"""... in one of many cases' searches (a sweep, a probabilistic study in fos mode): besides the above,
+the waits of the generations (a case handed out once the ones it is predicted from concluded).
+(2 E - C) / R of studies/sweep_strength.toml, E its wall at load <= 1 (10.4 s, docs/benchmarks.md
+"Run-time estimate", 2026-12-05) less ``STARTUP_S`` and its 9 estimates (0.2 s each), C its 29,373
+steps by the step model: derived, not measured alone (``python -m benchmarks.startup_parts --study
+sweep_strength`` measures it on an idle machine; it gave 0.71 s at load 9, when the lone search's
+below gave 0.78 s)."""
 LONE_RUN_OVERHEAD_S = 0.32
 """... of a lone search (a single study, each time of the FOS against time, each level of a refinement
 study): besides the above, the workers' wait while the search decides its next runs from its last.
@@ -216,10 +221,11 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
     """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
     refinement study's first level; windowed searches for the cases after the first (full ones where
     the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a refinement
-    study's levels at their own particles and time steps.  A lone search's runs (a single study, the
-    FOS against time, refinement levels: one search at a time) take ``LONE_RUN_OVERHEAD_S`` each."""
+    study's levels at their own particles and time steps.  A search's runs wait for its decisions: a
+    lone search's (a single study, the FOS against time, refinement levels: one search at a time) take
+    ``LONE_RUN_OVERHEAD_S`` each, those of many cases' searches ``SEARCH_RUN_OVERHEAD_S``."""
     lone = study.refinement is not None or study.sweep is None and study.probabilistic is None
-    wait_s = LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S if lone else 0.0
+    wait_s = (LONE_RUN_OVERHEAD_S if lone else SEARCH_RUN_OVERHEAD_S) - RUN_OVERHEAD_S
 
     def search(runs: tuple[float, float], scale: float = 1.0) -> float:
         return scale * (runs[0] * stable_s + runs[1] * failed_s) + (runs[0] + runs[1]) * wait_s
