@@ -11,10 +11,15 @@ from pathlib import Path
 import pytest
 
 from workflows.check import (
+    FIGURES_S,
     FULL_SEARCH_RUNS,
+    GRAVITY_S_PER_PARTICLE,
+    LONE_RUN_OVERHEAD_S,
     RUN_OVERHEAD_S,
+    SEARCH_RUN_OVERHEAD_S,
     STARTUP_S,
     WINDOW_RUNS,
+    ClientWork,
     run_time_estimate,
 )
 from workflows.output.figures import drawn_by_us
@@ -68,8 +73,9 @@ def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
 
 def test_the_estimate_follows_its_model():
     """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
-    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a sweep of k cases costs one full
-    search and k - 1 searches in predicted windows; a verdict-mode realisation one run."""
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps, LONE_RUN_OVERHEAD_S in a lone search,
+    SEARCH_RUN_OVERHEAD_S in many cases' searches; a sweep of k cases costs one full search and k - 1
+    searches in predicted windows; a verdict-mode realisation one run."""
     study = load_study(QUICKSTART)
     scene = build_scene(study)
     estimate = run_time_estimate(study, scene, workers=2)
@@ -82,10 +88,16 @@ def test_the_estimate_follows_its_model():
     assert RUN_OVERHEAD_S < estimate.stable_run_s < estimate.failed_run_s
     full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
     window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
-    assert estimate.study_s == pytest.approx(STARTUP_S + full_s / 2)
+    lone_wait_s = sum(FULL_SEARCH_RUNS) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)  # a single study's lone search
+    assert estimate.study_s == pytest.approx(STARTUP_S + (full_s + lone_wait_s) / 2)
     swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
-                        'values = [8e3, 10e3, 12e3]\n')
-    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(STARTUP_S + (full_s + 2 * window_s) / 2)
+                        'values = [8e3, 10e3, 12e3]\n')  # (one gravity state: an elastic stage ignores the strength)
+    search_wait_s = (sum(FULL_SEARCH_RUNS) + 2 * sum(WINDOW_RUNS)) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    assert run_time_estimate(swept, scene, workers=2).study_s == pytest.approx(
+        STARTUP_S + (full_s + 2 * window_s + search_wait_s) / 2)
+    measured = ClientWork(estimate_s=0.25)  # its three limit-equilibrium estimates, in the study's process
+    assert run_time_estimate(swept, scene, 2, measured).study_s == pytest.approx(
+        STARTUP_S + 3 * 0.25 + (full_s + 2 * window_s + search_wait_s) / 2)
     verdicts = parse_study((REPO / "studies" / "probabilistic_undrained.toml").read_text())
     verdict_scene = build_scene(verdicts)
     one = run_time_estimate(verdicts, verdict_scene, workers=2)
@@ -194,3 +206,67 @@ def test_a_sweep_of_probabilistic_studies_counts_every_cases_realisations():
 
     study = load_study(REPO / "studies" / "probabilistic_undrained_cov.toml")
     assert case_count(study) == study.probabilistic.realisations * len(sweep_cases(study)) > 100
+
+
+def test_a_sweep_the_limit_equilibrium_estimate_is_blind_to_counts_full_searches_and_its_gravity_states():
+    """Before: studies/seismic.toml was estimated at 0.48 of its measured time, studies/drawdown.toml at
+    0.38: their cases differ in a seismic load, in ponded water, which the estimate the windows rest on
+    does not see (``fos.critical_circle.NOT_SEEN``); each window missed and each case made a full
+    search (8.8 and 10 runs per FOS), and each case relaxed its own gravity state on the workers."""
+    study = load_study(QUICKSTART)
+    scene = build_scene(study)
+    one = run_time_estimate(study, scene, workers=2)
+    full_s = FULL_SEARCH_RUNS[0] * one.stable_run_s + FULL_SEARCH_RUNS[1] * one.failed_run_s
+    seismic = parse_study(QUICKSTART.read_text() + '\n[loads.seismic]\nhorizontal_coefficient = 0.0\n'
+                          '\n[sweep]\n[[sweep.axes]]\npath = "loads.seismic.horizontal_coefficient"\n'
+                          'values = [0.0, 0.1, 0.2]\n')
+    gravities_s = 2 * scene.n_particles * GRAVITY_S_PER_PARTICLE  # three states, the first in STARTUP_S
+    search_wait_s = 3 * sum(FULL_SEARCH_RUNS) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    assert run_time_estimate(seismic, scene, workers=2).study_s == pytest.approx(
+        STARTUP_S + (3 * full_s + search_wait_s + gravities_s) / 2)
+
+
+def test_the_water_a_study_solves_is_counted_as_check_measured_it(tmp_path):
+    """Before: studies/seepage_perched.toml was estimated at 0.34 of its measured time: its steady flow
+    (most of the study) was not counted.  Check solves the same flow as the run, in a process like the
+    run's own: its processor time is the estimate's."""
+    from workflows.cases import RunOptions
+    from workflows.check import check_study
+    from workflows.study_types import study_type
+
+    study = load_study(REPO / "studies" / "seepage_dam.toml")
+    found = check_study(study, study_type(study, tmp_path), tmp_path, RunOptions(workers=2))
+    assert found.client.flow_s > 0.0 and found.client.estimate_s == 0.0  # (a single study makes no prediction)
+    scene = build_scene(study)
+    dry = run_time_estimate(study, scene, workers=2)
+    assert found.estimate.study_s == pytest.approx(dry.study_s + found.client.flow_s)
+
+
+def test_the_fos_against_time_counts_each_times_gravity_state_figures_and_runout():
+    """Before: a study of the FOS against time (studies/rain.toml) was estimated as a sweep of its
+    times: each time's gravity state and figures, made in the study's process between the times'
+    searches, and the runout of the time that failed were not counted."""
+    study = load_study(REPO / "studies" / "rain.toml")
+    scene = build_scene(study)
+    estimate = run_time_estimate(study, scene, workers=2, client=ClientWork(flow_s=2.0))
+    times = len(study.transient.fos_times())
+    full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
+    window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
+    lone_wait_s = (sum(FULL_SEARCH_RUNS) + (times - 1) * sum(WINDOW_RUNS)) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
+    searches_s = (full_s + (times - 1) * window_s + lone_wait_s) / 2
+    each_time_s = scene.n_particles * GRAVITY_S_PER_PARTICLE + (FIGURES_S if study.output.figures else 0.0)
+    step_s = (estimate.stable_run_s - RUN_OVERHEAD_S) / (min(3.0 * estimate.response_time_s,
+                                                             study.strength_reduction.duration_s) / estimate.time_step_s)
+    runout_s = study.transient.runout_duration_s / estimate.time_step_s * step_s
+    assert estimate.study_s == pytest.approx(STARTUP_S + 2.0 + times * each_time_s + runout_s + searches_s)
+
+
+def test_the_point_estimate_method_counts_its_two_to_the_n_points():
+    """Before: a point-estimate study was estimated at its ``realisations`` (the most searches it may
+    make), 25 here, where it makes the 2^n = 4 of Rosenblueth's points."""
+    from workflows.check import case_count
+
+    text = (QUICKSTART.read_text() + '\n[probabilistic]\nmethod = "point_estimate"\nrealisations = 25\ncompute = "fos"\n'
+            + _variable("materials.soil.cohesion_pa", "normal", "cov = 0.1")
+            + _variable("materials.soil.friction_deg", "normal", "cov = 0.05"))
+    assert case_count(parse_study(text)) == 4

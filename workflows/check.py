@@ -26,16 +26,22 @@ time a P wave takes to cross the finest spacing, dt ~ h_min / V_p (equalised ine
 with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RESPONSE_TIMES`` for
 one that slides (at most ``duration_s``).  A search over the stage's range makes about
 ``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (random fields:
-``FIELD_WINDOW_RUNS``), a verdict-mode realisation one; a refinement study's levels cost in
-proportion to their particles and time steps (:func:`study_runs_s`).  The runs are shared by the
-workers, after the start-up (Python, the cluster, the gravity stage and the figures: ``STARTUP_S``).  The constants were measured on the
-reference slope on the machine the benchmarks ran on (docs/benchmarks.md, "Run-time estimate",
-with the command that compares the estimate with the measured time of every shipped study).
+``FIELD_WINDOW_RUNS``; a full search where the prediction does not see what the cases differ in:
+:func:`windows_miss`), a verdict-mode realisation one; a refinement study's levels cost in
+proportion to their particles and time steps (:func:`study_runs_s`).  The runs, and a sweep's
+gravity states with their water (:func:`worker_gravities`), are shared by the workers; the study's
+own process adds ``STARTUP_S`` (Python, the cluster, one gravity state, the figures) and what the
+workers wait for (:func:`client_s`): its water's solve and its limit-equilibrium estimates as check
+measures them here (:class:`ClientWork`), and for the FOS against time each time's gravity state
+and figures.  Every constant is measured with the command its docstring names (docs/benchmarks.md,
+"Run-time estimate", with the command that compares the estimate with the measured time of every
+shipped study).
 """
 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,7 +54,7 @@ from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
 from workflows.study import Study
 from workflows.study.reading import sweep_cases
-from workflows.transient.flow import WaterAt
+from workflows.transient.flow import WaterAt, transient_flow
 
 STABLE_RESPONSE_TIMES = 3.0
 """Pseudo-time of a run that comes to rest, in response times (module doc)."""
@@ -63,10 +69,36 @@ STEP_OVERHEAD_S = 24e-6
 """One thread's time per step besides the particles' (records, the stop rule)."""
 
 RUN_OVERHEAD_S = 0.05
-"""A run's time besides its steps: the scene and first mesh on the worker, its file, the transfer."""
+"""A run's slot on a worker besides its steps where the workers never wait for a decision (verdict-mode
+realisations, one run each): the scene and first mesh on the worker, its file, the transfer (the value
+of the earlier fit, on which probabilistic_undrained's estimate was 0.93 of its wall at load <= 1)."""
+SEARCH_RUN_OVERHEAD_S = 0.14
+"""... in one of many cases' searches (a sweep, a probabilistic study in fos mode): besides the above,
+the waits of the generations (a case handed out once the ones it is predicted from concluded).
+(2 E - C) / R of studies/sweep_strength.toml, E its wall at load <= 1 (10.4 s, docs/benchmarks.md
+"Run-time estimate", 2026-12-05) less ``STARTUP_S`` and its 9 estimates (0.2 s each), C its 29,373
+steps by the step model: derived, not measured alone (``python -m benchmarks.startup_parts --study
+sweep_strength`` measures it on an idle machine; it gave 0.71 s at load 9, when the lone search's
+below gave 0.78 s)."""
+LONE_RUN_OVERHEAD_S = 0.32
+"""... of a lone search (a single study, each time of the FOS against time, each level of a refinement
+study): besides the above, the workers' wait while the search decides its next runs from its last.
+(2 E - C) / R of the quickstart, 0.32 s at load 0.3-1 (``python -m benchmarks.startup_parts``)."""
+
+GRAVITY_S_PER_PARTICLE = 70e-6
+"""A gravity state's time per particle: the elastic stage's direct solves (0.05 s at 669 particles, 0.13
+s at 2,536, 0.49 s at 6,927: ``python -m benchmarks.relaxation_steps``, docs/benchmarks.md "Steps to a
+quasi-static state"; with its scene: part "gravity" of ``python -m benchmarks.startup_parts``)."""
+
+FIGURES_S = 0.6
+"""A case's figures (its SRF curve, the fields at two runs, the slip surface) once pyplot is loaded: the
+processor time of drawing them (0.57 s; ``python -m benchmarks.startup_parts``, "figures of a case",
+whose wall was 1.5-2.6 s at load 9), a study of the FOS against time draws them at each time."""
 
 FULL_SEARCH_RUNS = (6, 3)
-"""(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12)."""
+"""(stable, failed) runs of a search over the stage's SRF range (the shipped studies make 8 to 12); a
+window that misses grows by doubling and then refines as a full search does: it costs as much
+(drawdown 8.8 and seismic 10 runs per FOS, docs/benchmarks.md "Runs per answer")."""
 WINDOW_RUNS = (3, 1.6)
 """... of a search in a window about a predicted FOS (``fos.prediction``: a sweep's cases after the
 first, a probabilistic study's realisations in fos mode, a refinement study's levels after the first;
@@ -78,8 +110,23 @@ ADAPTIVE_LEVELS = 5
 """Levels an adaptive refinement study is expected to make (the quickstart's slope: 5; steep slopes at
 high friction angles reach max_levels)."""
 
-STARTUP_S = 4.0
-"""Seconds of a study besides its SRF runs: Python, the cluster, the gravity stage, the figures."""
+STARTUP_S = 4.7
+"""Seconds of a study besides its SRF searches: Python and the imports, the numba cache, the cluster's
+start and close, the scene, one gravity state, the summary, figures and report.  W - E of the
+quickstart: W 6.4 s at load 0.2-1 (``python -m benchmarks.check_estimate``), E 1.7 s, its search at
+load 0.3-1 (``python -m benchmarks.startup_parts`` prints both, and the parts: imports 1.6 s, the
+cluster's start 2.0 s, the numba cache 0.26 s, the gravity state 0.18 s, the least of 3 at load 9)."""
+
+
+@dataclass(frozen=True)
+class ClientWork:
+    """What ``check`` measures on this machine (processor time) of the work a study does in its own process, once:
+    ``flow_s`` a solve of its water (the steady flow of ``[seepage]``, a transient flow to its last
+    time), ``estimate_s`` a limit-equilibrium estimate (``fos.critical_circle(quick=True)``, what each
+    predicted case asks)."""
+
+    flow_s: float = 0.0
+    estimate_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -93,10 +140,12 @@ class RunTimeEstimate:
     cases: int | None  # factors of safety the study computes (None: a refinement study's levels)
     workers: int
     study_s: float
+    full_searches: bool = False  # every case searched in full: its window would miss (:func:`windows_miss`)
 
 
-def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | None:
-    """The estimate of the module doc for a strength-reduction study (None for another) of ``scene``."""
+def run_time_estimate(study: Study, scene, workers: int, client: ClientWork = ClientWork()) -> RunTimeEstimate | None:
+    """The estimate of the module doc for a strength-reduction study (None for another) of ``scene``,
+    with the ``client`` work check measured."""
     stage = study.strength_reduction
     if stage is None:
         return None
@@ -111,16 +160,75 @@ def run_time_estimate(study: Study, scene, workers: int) -> RunTimeEstimate | No
 
     stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
     cases = case_count(study)
-    study_s = STARTUP_S + study_runs_s(study, stable_s, failed_s, n_particles, time_step_s) / max(workers, 1)
-    return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s)
+    gravities = worker_gravities(study)
+    workers_s = (study_runs_s(study, stable_s, failed_s, n_particles, time_step_s)
+                 + max(gravities - 1, 0) * n_particles * GRAVITY_S_PER_PARTICLE + gravities * client.flow_s)
+    study_s = STARTUP_S + client_s(study, n_particles, time_step_s, step_s, client) + workers_s / max(workers, 1)
+    return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s, windows_miss(study))
+
+
+def client_s(study: Study, n_particles: int, time_step_s: float, step_s: float, client: ClientWork) -> float:
+    """The study's own process's work besides ``STARTUP_S``, which the workers wait for: its water's
+    solve (a sweep's cases solve theirs with their gravity states, on the workers: :func:`worker_gravities`),
+    its limit-equilibrium estimates (a sweep's cases, a probabilistic study's realisations of random
+    variables in fos mode; one for realisations of fields alone), and for the FOS against time each
+    time's gravity state and figures, and the runout of the time that failed (its steps on the threads
+    of this process)."""
+    total = (0.0 if study.sweep is not None else client.flow_s) + estimates(study) * client.estimate_s
+    transient = study.transient
+    if transient is not None and transient.against_time:
+        times = len(transient.fos_times())
+        total += times * (n_particles * GRAVITY_S_PER_PARTICLE + (FIGURES_S if study.output.figures else 0.0))
+        if transient.runout_duration_s is not None:
+            total += transient.runout_duration_s / time_step_s * step_s
+    return total
+
+
+def estimates(study: Study) -> int:
+    """The limit-equilibrium estimates a study's predictions ask of its process (``fos.prediction``, one
+    per section, soil, water and loads): a sweep's cases, a fos-mode probabilistic study's realisations
+    (one per study when only a random field varies), none otherwise."""
+    if study.refinement is not None or (study.transient is not None and study.transient.against_time):
+        return 0
+    studies = len(sweep_cases(study)) if study.sweep is not None else 1
+    if study.probabilistic is not None:
+        if study.probabilistic.compute == "verdict":
+            return 0
+        return studies * (study.probabilistic.realisations if study.probabilistic.variables else 1)
+    return studies if study.sweep is not None else 0
+
+
+def worker_gravities(study: Study) -> int:
+    """The gravity states a sweep's workers relax, each with its water's solve (the first one's relaxation
+    is in ``STARTUP_S``): one per distinct ``fos.keys.gravity_key`` of its cases (the cases that share
+    one share it); none for other studies (their own process relaxes theirs)."""
+    if study.sweep is None or study.probabilistic is not None:
+        return 0
+    from workflows.fos.keys import gravity_key
+
+    return len({gravity_key(case.study) for case in sweep_cases(study)})
+
+
+def windows_miss(study: Study) -> bool:
+    """Whether a sweep's cases differ in what the limit-equilibrium estimate does not see
+    (``fos.critical_circle.NOT_SEEN``): the prediction then misses, and each case costs a full search."""
+    from workflows.fos.critical_circle import NOT_SEEN
+
+    return study.sweep is not None and any(axis.path.startswith(NOT_SEEN) for axis in study.sweep.axes)
 
 
 def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: int, time_step_s: float) -> float:
     """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
-    refinement study's first level; windowed searches for the cases after the first; one run per
-    realisation in verdict mode; a refinement study's levels at their own particles and time steps."""
+    refinement study's first level; windowed searches for the cases after the first (full ones where
+    the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a refinement
+    study's levels at their own particles and time steps.  A search's runs wait for its decisions: a
+    lone search's (a single study, the FOS against time, refinement levels: one search at a time) take
+    ``LONE_RUN_OVERHEAD_S`` each, those of many cases' searches ``SEARCH_RUN_OVERHEAD_S``."""
+    lone = study.refinement is not None or study.sweep is None and study.probabilistic is None
+    wait_s = (LONE_RUN_OVERHEAD_S if lone else SEARCH_RUN_OVERHEAD_S) - RUN_OVERHEAD_S
+
     def search(runs: tuple[float, float], scale: float = 1.0) -> float:
-        return scale * (runs[0] * stable_s + runs[1] * failed_s)
+        return scale * (runs[0] * stable_s + runs[1] * failed_s) + (runs[0] + runs[1]) * wait_s
 
     if study.refinement is not None:
         return _refinement_runs_s(study, search, n_particles, time_step_s)
@@ -131,7 +239,7 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
         later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
         studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full
         return studies * search(FULL_SEARCH_RUNS) + (cases - studies) * search(later)
-    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(WINDOW_RUNS)
+    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(FULL_SEARCH_RUNS if windows_miss(study) else WINDOW_RUNS)
 
 
 def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: float) -> float:
@@ -160,14 +268,18 @@ def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: floa
 
 
 def case_count(study: Study) -> int | None:
-    """The factors of safety a study computes: one, a sweep's cases, the realisations, the times of the FOS
-    against time (at most: it may stop early); None for a refinement study (a factor at each of its levels)."""
+    """The factors of safety a study computes: one, a sweep's cases, the realisations (the point estimate
+    method's 2^n points; FORM's and subset simulation's at most: they stop when converged), the times
+    of the FOS against time (at most: it may stop early); None for a refinement study (a factor at each
+    of its levels)."""
     if study.refinement is not None:
         return None
     if study.transient is not None and study.transient.against_time:
         return len(study.transient.fos_times())
     if study.probabilistic is not None:  # (with [sweep]: a probabilistic study per case)
-        return study.probabilistic.realisations * (len(sweep_cases(study)) if study.sweep is not None else 1)
+        table = study.probabilistic
+        each = min(2 ** len(table.variables), table.realisations) if table.method == "point_estimate" else table.realisations
+        return each * (len(sweep_cases(study)) if study.sweep is not None else 1)
     if study.sweep is not None:
         return len(sweep_cases(study))
     return 1
@@ -191,6 +303,7 @@ class StudyCheck:
     flow: object = None  # the steady flow of [seepage] (``workflows.seepage.flow.StudyFlow``), or None
     critical: CriticalCircle | None = None  # the critical circle of a limit-equilibrium search (fos.critical_circle), if any
     warnings: tuple[str, ...] = ()  # the domain too short for it (fos.critical_circle.domain_warnings), field notes
+    client: ClientWork = ClientWork()  # the study's own work as check measured it (:func:`client_work`)
 
     def lines(self) -> list[str]:
         """What the command prints."""
@@ -204,6 +317,8 @@ class StudyCheck:
                          f"a run about {_seconds(e.stable_run_s)} (at rest) to {_seconds(e.failed_run_s)} (sliding) "
                          "on one core")
             what = ("levels of refinement" if e.cases is None else "one FOS" if e.cases == 1
+                    else f"{e.cases} factors of safety, each searched in full (their predictions do not see what "
+                         "the cases differ in)" if e.full_searches
                     else f"{e.cases} factors of safety, searched about their predicted values after the first")
             lines.append(f"the study: about {_seconds(e.study_s)} ({what}, on {e.workers} worker{'s' * (e.workers > 1)})")
         if self.flow is not None:
@@ -222,6 +337,28 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
+def client_work(study: Study, flow, scene_s: float) -> ClientWork:
+    """The :class:`ClientWork` of ``study`` measured here, in processor time (its wall on an idle machine,
+    as every constant of the estimate: a loaded machine slows the study and check alike): its water's
+    solve as check made it (``scene_s``, the scene's build with its ``flow``), for the FOS against time
+    the transient flow solved again to its last time, as the run solves it; one limit-equilibrium
+    estimate when the study's predictions ask for any (:func:`estimates`)."""
+    flow_s = scene_s if flow is not None else 0.0
+    if isinstance(flow, WaterAt) and study.transient.against_time:
+        start = time.process_time()
+        transient_flow(study, until_h=study.transient.end_time_h)
+        flow_s = time.process_time() - start
+    estimate_s = 0.0
+    if estimates(study):
+        start = time.process_time()
+        try:
+            critical_circle(study, quick=True)
+        except (ValueError, IndexError, ZeroDivisionError):  # (the prediction then has none: as costly)
+            pass
+        estimate_s = time.process_time() - start
+    return ClientWork(flow_s, estimate_s)
+
+
 SECTION_FIGURE = "section.png"
 """The picture ``spfem-fos check`` draws in the output folder."""
 
@@ -232,14 +369,17 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     circle of a limit-equilibrium search (``fos.critical_circle``), and the run estimated."""
     kind.check(options)
     kind.check_every_case()
+    start_s = time.process_time()
     scene, flow = scene_and_flow(study)
+    scene_s = time.process_time() - start_s
     monitor_particles(study, scene)
     new_simulation(study, scene)
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
+    client = client_work(study, flow, scene_s) if study.strength_reduction is not None else ClientWork()
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
-                      run_time_estimate(study, scene, options.workers), path, flow, critical,
+                      run_time_estimate(study, scene, options.workers, client), path, flow, critical,
                       (tuple(domain_warnings(study, critical)) if critical is not None else ())
-                      + tuple(random_field_notes(study)))
+                      + tuple(random_field_notes(study)), client)
 

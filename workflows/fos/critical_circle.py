@@ -43,6 +43,10 @@ DEPTHS = 10
 POLISHED = 3
 MARGIN_PER_HEIGHT = 0.1
 """The domain is short when the critical circle comes closer than this many slope heights to a side."""
+NOT_SEEN = ("water.pond", "loads.seismic", "loads.strip", "loads.line", "seepage", "transient")
+"""The study fields this search does not take into account (sweep paths start with them): ponded water,
+the seismic and surface loads, a computed flow (steady or transient: it is searched dry, or with the
+study's piezometric lines).  Cases that differ in them differ in their FOS, not in this estimate."""
 
 
 @dataclass(frozen=True)
