@@ -21,6 +21,12 @@ counts as fixed in the unbalanced-force sums; the resisting impulse's work is th
 Particle masses m are fixed at the start and never recomputed.  The inertia m_i is m, except in a
 density-scaled relaxation of a graded cloud (``simulation.Simulation.relax``), where it is larger
 for the finer particles; the weight is always m g.
+
+A scene pays nothing for what it does not use: given no rows of inertia or of slip supports (an
+array of length 0, as no walls), the leapfrog reads the masses as the inertia, or reads no slip row
+(``stepper.advance`` passes none when ``state.StepParameters.plain_leapfrog`` says so).  The
+branch stays in the compiled code, taken the same way for every particle: without it numba's
+optimiser would be free to form dt / m once per particle, which rounds differently.
 """
 
 from __future__ import annotations
@@ -63,7 +69,8 @@ def leapfrog(
 ):
     """Advance velocities and positions one step (module doc).
 
-    ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with the slots of
+    ``node_force`` holds f_int + f_stab on entry; ``node_inertia`` and ``node_slip`` without
+    rows: the inertia is the mass, no slip support (module doc).  Fills ``out`` with the slots of
     ``state.LEAPFROG_OUT`` (the largest speed squared, the unbalanced and applied forces squared,
     the damping power, the energy the walls removed, the particles touching a wall); the sums are
     taken in fixed chunks of particles (``jit``), on threads unless ``n_threads`` is None
@@ -112,6 +119,8 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
                    damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out):
     """:func:`leapfrog` of particles start..end-1, their sums in ``out`` (its layout)."""
     use_walls = wall_xy.shape[0] > 0
+    use_slip = node_slip.shape[0] > 0  # no rows: no slip support (module doc)
+    use_inertia = node_inertia.shape[0] > 0  # no rows: the inertia is the mass
     max_speed_sq = 0.0
     unbalanced_sq = 0.0
     applied_sq = 0.0
@@ -119,10 +128,10 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
     contact_loss = 0.0
     n_contact = 0
     for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
-        m = node_inertia[k]
+        m = node_inertia[k] if use_inertia else node_mass[k]
         v_start_x = node_v[k, 0]
         v_start_y = node_v[k, 1]
-        slip_side = node_slip[k, SLIP_SIDE]
+        slip_side = node_slip[k, SLIP_SIDE] if use_slip else 0.0
         for d in range(2):
             weight = node_mass[k] * gravity[d]
             f = node_force[k, d] + weight
