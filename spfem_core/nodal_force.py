@@ -17,7 +17,7 @@ import numpy as np
 from numba import prange
 
 from spfem_core.jit import fill_zero, inner_kernel, kernel, parallel_inner_kernel
-from spfem_core.smoothing import scaled_gradients
+from spfem_core.smoothing import doubled_scaled_gradients
 from spfem_core.stabilisation import bond_force
 from spfem_core.state import XX, XY, YY
 
@@ -84,17 +84,20 @@ def bond_forces_threaded(node_xy, node_v, node_L, node_area, node_material_row, 
 
 @inner_kernel
 def add_element_forces(node_xy, elem_nodes, node_stress, start, end, node_force):
-    """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1 (A_e b_I, A_e c_I
-    from the coordinates, ``smoothing.scaled_gradients``)."""
-    third = 1.0 / 3.0
+    """node_force[I] -= A_e B_I^e^T sigma_bar_e for the elements start..end-1, formed as
+    (2 A_e B_I^e)^T (sigma_bar_e / 2): twice the gradients from the coordinates
+    (``smoothing.doubled_scaled_gradients``) and half the mean stress, whose 1/2 joins the mean's
+    1/3.  Halving is exact in floating point, so the products are those of A_e b_I sigma_bar_e to
+    the bit, with six multiplications fewer per element."""
+    sixth = 1.0 / 6.0  # 1/3 halved, exactly
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = np.uint64(elem_nodes[e, 0])
         j = np.uint64(elem_nodes[e, 1])
         k = np.uint64(elem_nodes[e, 2])
-        sxx = (node_stress[i, XX] + node_stress[j, XX] + node_stress[k, XX]) * third
-        syy = (node_stress[i, YY] + node_stress[j, YY] + node_stress[k, YY]) * third
-        sxy = (node_stress[i, XY] + node_stress[j, XY] + node_stress[k, XY]) * third
-        bi, bj, bk, ci, cj, ck = scaled_gradients(node_xy, i, j, k)
+        sxx = (node_stress[i, XX] + node_stress[j, XX] + node_stress[k, XX]) * sixth
+        syy = (node_stress[i, YY] + node_stress[j, YY] + node_stress[k, YY]) * sixth
+        sxy = (node_stress[i, XY] + node_stress[j, XY] + node_stress[k, XY]) * sixth
+        bi, bj, bk, ci, cj, ck = doubled_scaled_gradients(node_xy, i, j, k)
         node_force[i, 0] -= bi * sxx + ci * sxy
         node_force[i, 1] -= bi * sxy + ci * syy
         node_force[j, 0] -= bj * sxx + cj * sxy

@@ -23,14 +23,21 @@ from spfem_core.state import L_XX, L_XY, L_YX, L_YY
 
 
 @inline_kernel
-def scaled_gradients(node_xy, i, j, k):
-    """(A b_i, A b_j, A b_k, A c_i, A c_j, A c_k) of the triangle i, j, k (counter-clockwise): the
-    shape-function gradients times its area, A b_I = (y_J - y_K) / 2 and A c_I = (x_K - x_J) / 2
+def doubled_scaled_gradients(node_xy, i, j, k):
+    """(2 A b_i, 2 A b_j, 2 A b_k, 2 A c_i, 2 A c_j, 2 A c_k) of the triangle i, j, k (counter-clockwise):
+    the shape-function gradients times twice its area, 2 A b_I = y_J - y_K and 2 A c_I = x_K - x_J
     for I, J, K in cyclic order; no division, so an inverted triangle gives finite values."""
     xi, yi = node_xy[i, 0], node_xy[i, 1]
     xj, yj = node_xy[j, 0], node_xy[j, 1]
     xk, yk = node_xy[k, 0], node_xy[k, 1]
-    return (0.5 * (yj - yk), 0.5 * (yk - yi), 0.5 * (yi - yj), 0.5 * (xk - xj), 0.5 * (xi - xk), 0.5 * (xj - xi))
+    return (yj - yk, yk - yi, yi - yj, xk - xj, xi - xk, xj - xi)
+
+
+@inline_kernel
+def scaled_gradients(node_xy, i, j, k):
+    """(A b_i, A b_j, A b_k, A c_i, A c_j, A c_k): half of :func:`doubled_scaled_gradients`."""
+    bi, bj, bk, ci, cj, ck = doubled_scaled_gradients(node_xy, i, j, k)
+    return (0.5 * bi, 0.5 * bj, 0.5 * bk, 0.5 * ci, 0.5 * cj, 0.5 * ck)
 
 
 @kernel
