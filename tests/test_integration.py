@@ -70,3 +70,11 @@ def test_a_stage_steps_without_the_rows_only_while_it_has_no_slip_support_and_no
     assert not stage_loop._plain_leapfrog(sim)  # the column's base slides on the soil's strength
     sim.set_supports(Supports.of(sim.n_particles, fixed, np.zeros((sim.n_particles, 2))))
     assert stage_loop._plain_leapfrog(sim)
+
+
+def test_the_leapfrog_refuses_inertia_without_slip_rows():
+    n = 2
+    with pytest.raises(ValueError, match="together"):
+        leapfrog(np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 2)), np.zeros((n, 2)), np.ones(n), np.ones(n),
+                 np.zeros((n, 2), dtype=bool), np.zeros((n, 2)), np.zeros((0, 3)), np.zeros(2), 0.0, DT_S,
+                 np.zeros((0, 4)), np.zeros(0), 0.05, np.zeros(n, dtype=np.int64), np.zeros(LEAPFROG_OUT_WIDTH), None)
