@@ -66,20 +66,25 @@ def update_stress(
     n_node = node_stress.shape[0]
     n_chunk = n_chunks(n_node)
     chunk_work = np.zeros(n_chunk)
-    chunk_unregistered = np.empty(n_chunk, dtype=np.int64)
+    unregistered = NO_UNREGISTERED_MODEL
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
+        chunk_unregistered = np.empty(n_chunk, dtype=np.int64)
         update_stress_threaded(node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model,
                                mat_lambda, mat_shear, mat_params, dt, chunk_work, chunk_unregistered)
-    else:  # the same chunks
+        for chunk in range(n_chunk):
+            if unregistered == NO_UNREGISTERED_MODEL:
+                unregistered = chunk_unregistered[chunk]
+    else:  # the same chunks, and no array for the codes
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
-            chunk_work[chunk], chunk_unregistered[chunk] = update_stress_range(
+            chunk_work[chunk], code = update_stress_range(
                 node_L, node_area, node_stress, node_plastic_strain, node_material_row, mat_model, mat_lambda,
                 mat_shear, mat_params, dt, start, end)
-    for chunk in range(n_chunk):
-        if chunk_unregistered[chunk] != NO_UNREGISTERED_MODEL:
-            raise ValueError("constitutive.update_stress_range has no branch for the material model of code",
-                             chunk_unregistered[chunk])
+            if unregistered == NO_UNREGISTERED_MODEL:
+                unregistered = code
+    if unregistered != NO_UNREGISTERED_MODEL:
+        raise ValueError("constitutive.update_stress_range has no branch for the material model of code",
+                         unregistered)
     plastic_work = 0.0
     for chunk in range(n_chunk):  # a loop of its own: the sum compiles as it always has (the same bits)
         plastic_work += chunk_work[chunk]
@@ -117,7 +122,7 @@ def update_stress_range(
         lyx = node_L[k, L_YX]
         lyy = node_L[k, L_YY]
         rotate_jaumann(node_stress, k, lxy, lyx, dt)
-        row = node_material_row[k]
+        row = np.uint64(node_material_row[k])  # unsigned: no negative-index wraparound code
         dxx = lxx * dt
         dyy = lyy * dt
         dxy = 0.5 * (lxy + lyx) * dt

@@ -21,6 +21,11 @@ counts as fixed in the unbalanced-force sums; the resisting impulse's work is th
 Particle masses m are fixed at the start and never recomputed.  The inertia m_i is m, except in a
 density-scaled relaxation of a graded cloud (``simulation.Simulation.relax``), where it is larger
 for the finer particles; the weight is always m g.
+
+A scene pays nothing for what it does not use: given no rows of inertia and of slip supports
+(arrays of length 0, as for no walls; ``stepper.advance`` passes them when
+``state.StepParameters.plain_leapfrog`` says so), the leapfrog runs :func:`leapfrog_range_plain`,
+which reads the masses as the inertia and no slip row, and steps to the same bits.
 """
 
 from __future__ import annotations
@@ -63,7 +68,8 @@ def leapfrog(
 ):
     """Advance velocities and positions one step (module doc).
 
-    ``node_force`` holds f_int + f_stab on entry.  Fills ``out`` with the slots of
+    ``node_force`` holds f_int + f_stab on entry; ``node_inertia`` and ``node_slip`` both without
+    rows: the inertia is the mass and there is no slip support (module doc).  Fills ``out`` with the slots of
     ``state.LEAPFROG_OUT`` (the largest speed squared, the unbalanced and applied forces squared,
     the damping power, the energy the walls removed, the particles touching a wall); the sums are
     taken in fixed chunks of particles (``jit``), on threads unless ``n_threads`` is None
@@ -76,17 +82,25 @@ def leapfrog(
     on a floor, a loss proportional to dt that never happened.
     """
     n_node = node_xy.shape[0]
+    plain = node_inertia.shape[0] == 0
+    if plain != (node_slip.shape[0] == 0):
+        raise ValueError("leapfrog: the inertia and the slip rows are given together or not at all")
     n_chunk = n_chunks(n_node)
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                          node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out)
+                          node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, plain, chunk_out)
     else:  # the same chunks
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
-            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                           node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
-                           chunk_out[chunk])
+            if plain:
+                leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity,
+                                     damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
+                                     chunk_out[chunk])
+            else:
+                leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                               node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
+                               chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
         fastest = chunk_out[chunk, LEAPFROG_MAX_SPEED_SQ]
@@ -97,14 +111,20 @@ def leapfrog(
 
 @parallel_inner_kernel
 def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
-                      damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out):
-    """:func:`leapfrog_range` of every chunk of particles on threads, the sums in ``chunk_out``
-    (kept apart: a function with a parallel loop costs about 3 us a call even when it runs no thread)."""
+                      damping, dt, wall_xy, wall_friction, reach, node_contact, plain, chunk_out):
+    """:func:`leapfrog_range` (:func:`leapfrog_range_plain` if ``plain``) of every chunk of particles on
+    threads, the sums in ``chunk_out`` (kept apart: a function with a parallel loop costs about 3 us a
+    call even when it runs no thread)."""
     n_node = node_xy.shape[0]
     for chunk in prange(chunk_out.shape[0]):
         start, end = chunk_bounds(chunk, n_node)
-        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
-                       damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
+        if plain:
+            leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity,
+                                 damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
+        else:
+            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                           node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
+                           chunk_out[chunk])
 
 
 @inner_kernel
@@ -169,6 +189,69 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
                 if dvn != 0.0 or wx != vx or wy != vy:
                     # work of the wall's impulse m (w - v) over the step, at the leapfrog mid-step
                     # velocity (v^{n-1/2} + v^{n+1/2}) / 2: zero for a particle resting on it
+                    contact_loss -= 0.5 * m * ((wx - vx) * (v_start_x + wx) + (wy - vy) * (v_start_y + wy))
+                    node_contact[k] = 1
+                    n_contact += 1
+                    vx = wx
+                    vy = wy
+                    node_v[k, 0] = vx
+                    node_v[k, 1] = vy
+        node_xy[k, 0] += dt * vx
+        node_xy[k, 1] += dt * vy
+        node_u[k, 0] += dt * vx
+        node_u[k, 1] += dt * vy
+        max_speed_sq = larger_or_nan(max_speed_sq, vx * vx + vy * vy)
+    out[LEAPFROG_MAX_SPEED_SQ] = max_speed_sq
+    out[LEAPFROG_UNBALANCED_FORCE_SQ] = unbalanced_sq
+    out[LEAPFROG_APPLIED_FORCE_SQ] = applied_sq
+    out[LEAPFROG_DAMPING_POWER] = damping_power
+    out[LEAPFROG_CONTACT_LOSS] = contact_loss
+    out[LEAPFROG_CONTACTS] = n_contact
+
+
+@inner_kernel
+def leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
+                         wall_xy, wall_friction, reach, node_contact, start, end, out):
+    """:func:`leapfrog_range` of a scene without slip supports whose inertia is the mass: the same
+    steps, without reading either (``tests/test_integration.py`` holds the two to the same bits).
+    The free direction divides by the mass read where it divides, as :func:`leapfrog_range` divides
+    by the inertia: with one mass for both directions numba's optimiser forms dt / m once per
+    particle, which rounds differently."""
+    use_walls = wall_xy.shape[0] > 0
+    max_speed_sq = 0.0
+    unbalanced_sq = 0.0
+    applied_sq = 0.0
+    damping_power = 0.0
+    contact_loss = 0.0
+    n_contact = 0
+    for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
+        m = node_mass[k]
+        v_start_x = node_v[k, 0]
+        v_start_y = node_v[k, 1]
+        for d in range(2):
+            weight = m * gravity[d]
+            f = node_force[k, d] + weight
+            v_old = node_v[k, d]
+            if node_fixed[k, d]:
+                v_new = node_fixed_v[k, d]
+            else:
+                f_damp = 0.0
+                if damping > 0.0:
+                    f_damp = -damping * abs(f) * sign0(v_old)
+                    damping_power += f_damp * v_old
+                unbalanced_sq += f * f
+                applied_sq += weight * weight
+                v_new = v_old + dt * (f + f_damp) / node_mass[k]
+            node_v[k, d] = v_new
+        vx = node_v[k, 0]
+        vy = node_v[k, 1]
+        if use_walls:
+            node_contact[k] = 0
+            if not (node_fixed[k, 0] or node_fixed[k, 1]):
+                wx, wy, dvn = wall_contact_velocity(
+                    node_xy[k, 0], node_xy[k, 1], vx, vy, dt, wall_xy, wall_friction, reach
+                )
+                if dvn != 0.0 or wx != vx or wy != vy:
                     contact_loss -= 0.5 * m * ((wx - vx) * (v_start_x + wx) + (wy - vy) * (v_start_y + wy))
                     node_contact[k] = 1
                     n_contact += 1

@@ -18,8 +18,11 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from spfem_core.jit import fill_zero, inline_kernel, inner_kernel, kernel, parallel_inner_kernel
+from spfem_core.jit import FOUR, ONE, TWO, fill_zero, inline_kernel, inner_kernel, kernel, parallel_inner_kernel
 from spfem_core.state import L_XX, L_XY, L_YX, L_YY
+
+FLAT_L_XX, FLAT_L_XY, FLAT_L_YX, FLAT_L_YY = (np.uint64(c) for c in (L_XX, L_XY, L_YX, L_YY))
+"""The gradient's columns as unsigned offsets into a flat row (``jit`` module doc)."""
 
 
 @inline_kernel
@@ -94,13 +97,15 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, node_L, node_area):
     with signed area <= 0, max |sym L_e|^2) of these elements."""
     n_inverted = 0
     max_rate_sq = 0.0
+    xy, velocity, gradient = node_xy.reshape(-1), node_v.reshape(-1), node_L.reshape(-1)  # flat rows (jit doc)
     for e in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         i = np.uint64(elem_nodes[e, 0])
         j = np.uint64(elem_nodes[e, 1])
         k = np.uint64(elem_nodes[e, 2])
-        xi, yi = node_xy[i, 0], node_xy[i, 1]
-        xj, yj = node_xy[j, 0], node_xy[j, 1]
-        xk, yk = node_xy[k, 0], node_xy[k, 1]
+        i2, j2, k2 = i * TWO, j * TWO, k * TWO  # the rows of i, j, k in the (n, 2) arrays
+        xi, yi = xy[i2], xy[i2 + ONE]
+        xj, yj = xy[j2], xy[j2 + ONE]
+        xk, yk = xy[k2], xy[k2 + ONE]
         two_area = (xj - xi) * (yk - yi) - (xk - xi) * (yj - yi)
         if two_area <= 0.0:
             n_inverted += 1
@@ -113,9 +118,9 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, node_L, node_area):
         cj = (xi - xk) * inv
         ck = (xj - xi) * inv
         area = 0.5 * two_area
-        vxi, vyi = node_v[i, 0], node_v[i, 1]
-        vxj, vyj = node_v[j, 0], node_v[j, 1]
-        vxk, vyk = node_v[k, 0], node_v[k, 1]
+        vxi, vyi = velocity[i2], velocity[i2 + ONE]
+        vxj, vyj = velocity[j2], velocity[j2 + ONE]
+        vxk, vyk = velocity[k2], velocity[k2 + ONE]
         lxx = vxi * bi + vxj * bj + vxk * bk
         lxy = vxi * ci + vxj * cj + vxk * ck
         lyx = vyi * bi + vyj * bj + vyk * bk
@@ -126,9 +131,10 @@ def smooth_elements(node_xy, node_v, elem_nodes, start, end, node_L, node_area):
             max_rate_sq = rate_sq
         w = area / 3.0
         for n in (i, j, k):
+            row = n * FOUR  # the row of n in the (n, 4) gradients
             node_area[n] += w
-            node_L[n, L_XX] += w * lxx
-            node_L[n, L_XY] += w * lxy
-            node_L[n, L_YX] += w * lyx
-            node_L[n, L_YY] += w * lyy
+            gradient[row + FLAT_L_XX] += w * lxx
+            gradient[row + FLAT_L_XY] += w * lxy
+            gradient[row + FLAT_L_YX] += w * lyx
+            gradient[row + FLAT_L_YY] += w * lyy
     return n_inverted, max_rate_sq

@@ -32,6 +32,8 @@ direction combine into one factor, without a square root:
 
 from __future__ import annotations
 
+import numpy as np
+
 from spfem_core.jit import inline_kernel
 from spfem_core.state import L_XX, L_XY, L_YX, L_YY
 
@@ -55,8 +57,8 @@ def bond_force(node_xy, node_v, node_L, node_area, node_material_row, mat_youngs
              + (node_L[i, L_YX] * x0x + node_L[i, L_YY] * x0y - dvy) * dy)
     err_j = ((node_L[j, L_XX] * x0x + node_L[j, L_XY] * x0y - dvx) * dx
              + (node_L[j, L_YX] * x0x + node_L[j, L_YY] * x0y - dvy) * dy)
-    ea_i = mat_youngs[node_material_row[i]] * node_area[i]
-    ea_j = mat_youngs[node_material_row[j]] * node_area[j]
+    ea_i = mat_youngs[np.uint64(node_material_row[i])] * node_area[i]  # unsigned: no wraparound code
+    ea_j = mat_youngs[np.uint64(node_material_row[j])] * node_area[j]
     factor = half_beta_dt * (ea_i * err_i + ea_j * err_j) / (length_sq * max(length0_sq, min_bond_sq))
     fx = factor * dx
     fy = factor * dy
