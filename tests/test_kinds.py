@@ -211,3 +211,21 @@ def test_every_field_declares_its_kind_as_one_object_that_checks_parses_and_show
         POLYLINE.parse(Spec(POLYLINE), [[0.0, 0.0], [0.0, 1.0]])
     assert (NUMBER.shown, POLYLINE.shown, POLYLINE.allowed(Spec(POLYLINE))) == (
         "float", "`[[x, y], ...]` or file", ">= 2 points, x increasing")
+
+
+def test_every_flow_rule_is_one_object_of_its_registry():
+    """``flow_rule`` names an object of ``FLOW_RULES``, which tells the core's strength reduction whether
+    the dilation follows the reduced friction; a name outside it is refused with the line it always gave."""
+    from workflows.stages.flow_rules import FLOW_RULES
+
+    class Table:
+        def with_strength_reduction(self, srf, associated=False):
+            return srf, associated
+
+    assert list(FLOW_RULES) == ["associated", "as_declared"]
+    stage = parse_study(QUICKSTART).strength_reduction
+    assert stage.dilation_rule is FLOW_RULES["associated"] and stage.reduced(Table(), 1.5) == (1.5, True)
+    declared = parse_study(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nflow_rule = "as_declared"'))
+    assert declared.strength_reduction.reduced(Table(), 1.5) == (1.5, False)
+    assert refusal(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nflow_rule = "normal"')) == (
+        'stages[1].flow_rule: must be one of "associated", "as_declared", got "normal"')
