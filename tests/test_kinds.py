@@ -229,3 +229,18 @@ def test_every_flow_rule_is_one_object_of_its_registry():
     assert declared.strength_reduction.reduced(Table(), 1.5) == (1.5, False)
     assert refusal(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nflow_rule = "normal"')) == (
         'stages[1].flow_rule: must be one of "associated", "as_declared", got "normal"')
+
+
+def test_a_nested_table_is_a_field_kind_that_the_reader_and_the_reference_visit():
+    """``FieldKind.visit`` sends a value, one nested table and an array of tables each to its own method of
+    the visitor (the study reader and the reference walk the tables so, never comparing kinds)."""
+    from workflows.fields import FIELD_KINDS, Spec
+
+    class Visitor:
+        value = staticmethod(lambda spec, extra: ("value", extra))
+        table = staticmethod(lambda spec, extra: ("table", extra))
+        tables = staticmethod(lambda spec, extra: ("tables", extra))
+
+    visited = {name: kind.visit(Visitor, Spec(kind), 1) for name, kind in FIELD_KINDS.items()}
+    assert visited.pop("table") == ("table", 1) and visited.pop("tables") == ("tables", 1)
+    assert set(visited.values()) == {("value", 1)}
