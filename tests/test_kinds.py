@@ -231,6 +231,50 @@ def test_every_flow_rule_is_one_object_of_its_registry():
         'stages[1].flow_rule: must be one of "associated", "as_declared", got "normal"')
 
 
+PROBABILISTIC = ('\n[probabilistic]\nrealisations = 4\nmethod = "{method}"\ncompute = "{compute}"\n\n'
+                 '[[probabilistic.variables]]\npath = "materials.soil.friction_deg"\ndistribution = "normal"\n'
+                 'std = 1.0\n')
+
+
+def test_a_probabilistic_method_is_one_object_mapped_to_the_study_type_that_plans_its_rounds(tmp_path):
+    """``method`` names an object of ``METHODS`` (its checks, its draw) and ``compute`` one of
+    ``COMPUTATIONS``; every method has the study type that plans its rounds, which ``study_type`` picks."""
+    from workflows.probabilistic.design_points import DesignPointStudy
+    from workflows.probabilistic.kinds import COMPUTATIONS, METHODS
+    from workflows.probabilistic.study_type import ProbabilisticStudy
+    from workflows.probabilistic.subset_study import SubsetStudy
+    from workflows.study_types import METHOD_STUDY_TYPES, study_type
+
+    assert set(METHOD_STUDY_TYPES) == set(METHODS.values())
+    expected = {"monte_carlo": ProbabilisticStudy, "latin_hypercube": ProbabilisticStudy, "form": DesignPointStudy,
+                "point_estimate": DesignPointStudy, "subset_simulation": SubsetStudy}
+    for name, kind in expected.items():
+        text = QUICKSTART + PROBABILISTIC.format(method=name, compute="fos")
+        if name == "subset_simulation":
+            text = text.replace("realisations = 4", "realisations = 600")
+        study = parse_study(text)
+        assert study.probabilistic.method_kind is METHODS[name]
+        assert study.probabilistic.computation is COMPUTATIONS["fos"]
+        assert type(study_type(study, tmp_path)) is kind
+
+    class Sampler:
+        def monte_carlo(self, seed, indices):
+            return "monte_carlo", seed, list(indices)
+
+        def latin_hypercube(self, seed, count):
+            return "latin_hypercube", seed, count
+
+    assert METHODS["monte_carlo"].draw(Sampler(), 7, 3) == ("monte_carlo", 7, [0, 1, 2])
+    assert METHODS["latin_hypercube"].draw(Sampler(), 7, 3) == ("latin_hypercube", 7, 3)
+    assert [method.placed for method in METHODS.values()] == [False, False, True, True, True]
+    assert [c.searches for c in COMPUTATIONS.values()] == [False, True]
+    assert refusal(QUICKSTART + PROBABILISTIC.format(method="form", compute="verdict")) == (
+        'probabilistic.compute: form takes the FOS of each point: give compute = "fos"')
+    assert refusal(QUICKSTART + PROBABILISTIC.format(method="point_estimate", compute="fos").replace(
+        "realisations = 4", "realisations = 1")) == (
+        "probabilistic.realisations: point_estimate with 1 variables needs at least 2 FOS searches (2^n points), got 1")
+
+
 def test_a_nested_table_is_a_field_kind_that_the_reader_and_the_reference_visit():
     """``FieldKind.visit`` sends a value, one nested table and an array of tables each to its own method of
     the visitor (the study reader and the reference walk the tables so, never comparing kinds)."""

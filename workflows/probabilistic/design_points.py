@@ -148,10 +148,6 @@ class DesignPointStudy(ProbabilisticStudy):
         self.finished = False
         self.round_start = 0
 
-    @staticmethod
-    def applies_to(study: Study) -> bool:
-        return study.probabilistic is not None and study.probabilistic.method in ("form", "point_estimate")
-
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
         table = self.study.probabilistic

@@ -66,10 +66,6 @@ class SubsetStudy(DesignPointStudy):
         self.chains: list[list[int]] = []  # the current level's chains: their states (point numbers)
         self.threshold = math.nan
 
-    @staticmethod
-    def applies_to(study: Study) -> bool:
-        return study.probabilistic is not None and study.probabilistic.method == "subset_simulation"
-
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
         table = self.study.probabilistic
