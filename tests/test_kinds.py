@@ -239,15 +239,16 @@ PROBABILISTIC = ('\n[probabilistic]\nrealisations = 4\nmethod = "{method}"\ncomp
 def test_a_probabilistic_method_is_one_object_mapped_to_the_study_type_that_plans_its_rounds(tmp_path):
     """``method`` names an object of ``METHODS`` (its checks, its draw) and ``compute`` one of
     ``COMPUTATIONS``; every method has the study type that plans its rounds, which ``study_type`` picks."""
-    from workflows.probabilistic.design_points import DesignPointStudy
+    from workflows.probabilistic.form_study import FormStudy
     from workflows.probabilistic.kinds import COMPUTATIONS, METHODS
+    from workflows.probabilistic.point_estimate_study import PointEstimateStudy
     from workflows.probabilistic.study_type import ProbabilisticStudy
     from workflows.probabilistic.subset_study import SubsetStudy
     from workflows.study_types import METHOD_STUDY_TYPES, study_type
 
     assert set(METHOD_STUDY_TYPES) == set(METHODS.values())
-    expected = {"monte_carlo": ProbabilisticStudy, "latin_hypercube": ProbabilisticStudy, "form": DesignPointStudy,
-                "point_estimate": DesignPointStudy, "subset_simulation": SubsetStudy}
+    expected = {"monte_carlo": ProbabilisticStudy, "latin_hypercube": ProbabilisticStudy, "form": FormStudy,
+                "point_estimate": PointEstimateStudy, "subset_simulation": SubsetStudy}
     for name, kind in expected.items():
         text = QUICKSTART + PROBABILISTIC.format(method=name, compute="fos")
         if name == "subset_simulation":

@@ -11,9 +11,10 @@ the first of :data:`STUDY_TYPES` that takes it:
   (:data:`METHOD_STUDY_TYPES`, by ``probabilistic.kinds.METHODS``):
   - ``probabilistic.study_type.ProbabilisticStudy``: ``monte_carlo`` or ``latin_hypercube``, a case per
     realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
-  - ``probabilistic.design_points.DesignPointStudy``: ``method = "form"`` or ``"point_estimate"``, a
-    case per point it places (FORM's iterations in rounds), and ``probabilistic.nc``
-    with beta or the FOS's moments;
+  - ``probabilistic.form_study.FormStudy``: ``method = "form"``, a case per point it places,
+    FORM's iterations in rounds, and ``probabilistic.nc`` with beta and the design point;
+  - ``probabilistic.point_estimate_study.PointEstimateStudy``: ``method = "point_estimate"``, its
+    2^n points in one round, and ``probabilistic.nc`` with the FOS's moments;
   - ``probabilistic.subset_study.SubsetStudy``: ``method = "subset_simulation"``, level after level of
     Markov chains on the FOS (rounds), and ``probabilistic.nc`` with pf and its coefficient of variation;
 - ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
@@ -41,8 +42,9 @@ from pathlib import Path
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.fos_time.study_type import TransientStudy
 from workflows.output.folder_lock import folder_lock, study_digest
-from workflows.probabilistic.design_points import DesignPointStudy
+from workflows.probabilistic.form_study import FormStudy
 from workflows.probabilistic.kinds import METHODS, Method
+from workflows.probabilistic.point_estimate_study import PointEstimateStudy
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.subset_study import SubsetStudy
 from workflows.probabilistic.sweep import ProbabilisticSweep
@@ -59,7 +61,7 @@ STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy,
 takes any study); a probabilistic study's is then the one of :data:`METHOD_STUDY_TYPES`."""
 METHOD_STUDY_TYPES: dict[Method, type[ProbabilisticStudy]] = {
     METHODS["monte_carlo"]: ProbabilisticStudy, METHODS["latin_hypercube"]: ProbabilisticStudy,
-    METHODS["form"]: DesignPointStudy, METHODS["point_estimate"]: DesignPointStudy,
+    METHODS["form"]: FormStudy, METHODS["point_estimate"]: PointEstimateStudy,
     METHODS["subset_simulation"]: SubsetStudy,
 }
 """The study type that plans the rounds of each probabilistic method (``[probabilistic] method``)."""
