@@ -39,6 +39,7 @@ STUDY_READER = "workflows.study"
 DECLARATIONS = (
     "workflows.fields", "workflows.box", "workflows.engineering_units",  # the kit a table is made of
     "workflows.distributions", "workflows.random_field.correlation",  # the kinds of random value a table names
+    "workflows.probabilistic.kinds",  # the methods and computations [probabilistic] names
     "workflows.study", "workflows.study.*",  # the study's own tables, its reading and reference
     "workflows.materials", "workflows.materials.*", "workflows.loads", "workflows.loads.*",  # a module per kind
     "workflows.stages", "workflows.stages.*",  # a module per stage kind (not its runner: RUNNERS)

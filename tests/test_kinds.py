@@ -211,3 +211,81 @@ def test_every_field_declares_its_kind_as_one_object_that_checks_parses_and_show
         POLYLINE.parse(Spec(POLYLINE), [[0.0, 0.0], [0.0, 1.0]])
     assert (NUMBER.shown, POLYLINE.shown, POLYLINE.allowed(Spec(POLYLINE))) == (
         "float", "`[[x, y], ...]` or file", ">= 2 points, x increasing")
+
+
+def test_every_flow_rule_is_one_object_of_its_registry():
+    """``flow_rule`` names an object of ``FLOW_RULES``, which tells the core's strength reduction whether
+    the dilation follows the reduced friction; a name outside it is refused with the line it always gave."""
+    from workflows.stages.flow_rules import FLOW_RULES
+
+    class Table:
+        def with_strength_reduction(self, srf, associated=False):
+            return srf, associated
+
+    assert list(FLOW_RULES) == ["associated", "as_declared"]
+    stage = parse_study(QUICKSTART).strength_reduction
+    assert stage.dilation_rule is FLOW_RULES["associated"] and stage.reduced(Table(), 1.5) == (1.5, True)
+    declared = parse_study(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nflow_rule = "as_declared"'))
+    assert declared.strength_reduction.reduced(Table(), 1.5) == (1.5, False)
+    assert refusal(QUICKSTART.replace("srf_step = 0.1", 'srf_step = 0.1\nflow_rule = "normal"')) == (
+        'stages[1].flow_rule: must be one of "associated", "as_declared", got "normal"')
+
+
+PROBABILISTIC = ('\n[probabilistic]\nrealisations = 4\nmethod = "{method}"\ncompute = "{compute}"\n\n'
+                 '[[probabilistic.variables]]\npath = "materials.soil.friction_deg"\ndistribution = "normal"\n'
+                 'std = 1.0\n')
+
+
+def test_a_probabilistic_method_is_one_object_mapped_to_the_study_type_that_plans_its_rounds(tmp_path):
+    """``method`` names an object of ``METHODS`` (its checks, its draw) and ``compute`` one of
+    ``COMPUTATIONS``; every method has the study type that plans its rounds, which ``study_type`` picks."""
+    from workflows.probabilistic.form_study import FormStudy
+    from workflows.probabilistic.kinds import COMPUTATIONS, METHODS
+    from workflows.probabilistic.point_estimate_study import PointEstimateStudy
+    from workflows.probabilistic.study_type import ProbabilisticStudy
+    from workflows.probabilistic.subset_study import SubsetStudy
+    from workflows.study_types import METHOD_STUDY_TYPES, study_type
+
+    assert set(METHOD_STUDY_TYPES) == set(METHODS.values())
+    expected = {"monte_carlo": ProbabilisticStudy, "latin_hypercube": ProbabilisticStudy, "form": FormStudy,
+                "point_estimate": PointEstimateStudy, "subset_simulation": SubsetStudy}
+    for name, kind in expected.items():
+        text = QUICKSTART + PROBABILISTIC.format(method=name, compute="fos")
+        if name == "subset_simulation":
+            text = text.replace("realisations = 4", "realisations = 600")
+        study = parse_study(text)
+        assert study.probabilistic.method_kind is METHODS[name]
+        assert study.probabilistic.computation is COMPUTATIONS["fos"]
+        assert type(study_type(study, tmp_path)) is kind
+
+    class Sampler:
+        def monte_carlo(self, seed, indices):
+            return "monte_carlo", seed, list(indices)
+
+        def latin_hypercube(self, seed, count):
+            return "latin_hypercube", seed, count
+
+    assert METHODS["monte_carlo"].draw(Sampler(), 7, 3) == ("monte_carlo", 7, [0, 1, 2])
+    assert METHODS["latin_hypercube"].draw(Sampler(), 7, 3) == ("latin_hypercube", 7, 3)
+    assert [method.placed for method in METHODS.values()] == [False, False, True, True, True]
+    assert [c.searches for c in COMPUTATIONS.values()] == [False, True]
+    assert refusal(QUICKSTART + PROBABILISTIC.format(method="form", compute="verdict")) == (
+        'probabilistic.compute: form takes the FOS of each point: give compute = "fos"')
+    assert refusal(QUICKSTART + PROBABILISTIC.format(method="point_estimate", compute="fos").replace(
+        "realisations = 4", "realisations = 1")) == (
+        "probabilistic.realisations: point_estimate with 1 variables needs at least 2 FOS searches (2^n points), got 1")
+
+
+def test_a_nested_table_is_a_field_kind_that_the_reader_and_the_reference_visit():
+    """``FieldKind.visit`` sends a value, one nested table and an array of tables each to its own method of
+    the visitor (the study reader and the reference walk the tables so, never comparing kinds)."""
+    from workflows.fields import FIELD_KINDS, Spec
+
+    class Visitor:
+        value = staticmethod(lambda spec, extra: ("value", extra))
+        table = staticmethod(lambda spec, extra: ("table", extra))
+        tables = staticmethod(lambda spec, extra: ("tables", extra))
+
+    visited = {name: kind.visit(Visitor, Spec(kind), 1) for name, kind in FIELD_KINDS.items()}
+    assert visited.pop("table") == ("table", 1) and visited.pop("tables") == ("tables", 1)
+    assert set(visited.values()) == {("value", 1)}

@@ -153,8 +153,10 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
                session=None, on_case=None, feed: CaseFeed | None = None):
     """Every case's gravity and SRF search on one cluster (``fos.engine``)."""
     from spfem_core.warmup import warm_up  # dask and the core: once the study is known to be valid
+    from workflows.fos.case_search import CaseSearch
     from workflows.fos.cluster import dask_session
-    from workflows.fos.engine import CaseSearch, Engine
+    from workflows.fos.dask_runs import DaskRuns
+    from workflows.fos.engine import Engine
     from workflows.fos.summary import conclude_case
     from workflows.fos.task import RunPolicy
 
@@ -182,7 +184,7 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         engine_start = time.perf_counter()
         if placement.figures:
             import_pyplot_in_background()
-        engine = Engine(session, searches_of(cases), progress, start_unix_s, force=options.force, more=more,
+        engine = Engine(DaskRuns(session), searches_of(cases), progress, start_unix_s, force=options.force, more=more,
                         to_come=None if feed is None else feed.to_come)
         for search in engine.run():
             if own and engine.all_concluded:

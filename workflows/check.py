@@ -234,7 +234,7 @@ def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: in
         return _refinement_runs_s(study, search, n_particles, time_step_s)
     cases = case_count(study)
     if study.probabilistic is not None:
-        if study.probabilistic.compute == "verdict":
+        if not study.probabilistic.computation.searches:
             return cases * stable_s
         later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
         studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full

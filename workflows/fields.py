@@ -323,6 +323,12 @@ class FieldKind:
         """What the message of a missing required field adds (a table's kind)."""
         return ""
 
+    def visit(self, visitor, spec: Spec, *args):
+        """What ``visitor`` does with a field of this kind: ``visitor.value`` with a value, ``visitor.table``
+        with one nested table, ``visitor.tables`` with an array of tables, each called with ``spec`` and
+        ``args`` (how the study reader and the reference walk the tables)."""
+        return visitor.value(spec, *args)
+
 
 _BOUND_KEYWORDS = {">": "exclusiveMinimum", ">=": "minimum", "<": "exclusiveMaximum", "<=": "maximum"}
 
@@ -468,6 +474,9 @@ class Table(FieldKind):
     def missing(self, key):
         return f" (a [{key}] table)"
 
+    def visit(self, visitor, spec, *args):
+        return visitor.table(spec, *args)
+
 
 class Tables(FieldKind):
     """An array of tables ``[[name]]`` (built by the study reader)."""
@@ -479,6 +488,9 @@ class Tables(FieldKind):
 
     def missing(self, key):
         return f" (at least one [[{key}]] table)"
+
+    def visit(self, visitor, spec, *args):
+        return visitor.tables(spec, *args)
 
 
 NUMBER, NUMBERS, VALUES, INTEGER, TEXT, BOOLEAN = Number(), Numbers(), Values(), Integer(), Text(), Boolean()

@@ -7,13 +7,16 @@ the first of :data:`STUDY_TYPES` that takes it:
 - ``fos_time.study_type.TransientStudy``: a study of the FOS against time (``[transient]`` with
   ``fos_times_h`` or ``fos_interval_h``), a case per time, one after another, ``fos_time.nc``;
 
-- ``probabilistic.study_type.ProbabilisticStudy``: a study with ``[probabilistic]``, a case per
-  realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
-- ``probabilistic.design_points.DesignPointStudy``: ``[probabilistic]`` with ``method = "form"`` or
-  ``"point_estimate"``, a case per point it places (FORM's iterations in rounds), and ``probabilistic.nc``
-  with beta or the FOS's moments;
-- ``probabilistic.subset_study.SubsetStudy``: ``method = "subset_simulation"``, level after level of
-  Markov chains on the FOS (rounds), and ``probabilistic.nc`` with pf and its coefficient of variation;
+- a study with ``[probabilistic]``: the type that plans the rounds of its method
+  (:data:`METHOD_STUDY_TYPES`, by ``probabilistic.kinds.METHODS``):
+  - ``probabilistic.study_type.ProbabilisticStudy``: ``monte_carlo`` or ``latin_hypercube``, a case per
+    realisation of its random variables (run as a sweep's), and ``probabilistic.nc`` with pf;
+  - ``probabilistic.form_study.FormStudy``: ``method = "form"``, a case per point it places,
+    FORM's iterations in rounds, and ``probabilistic.nc`` with beta and the design point;
+  - ``probabilistic.point_estimate_study.PointEstimateStudy``: ``method = "point_estimate"``, its
+    2^n points in one round, and ``probabilistic.nc`` with the FOS's moments;
+  - ``probabilistic.subset_study.SubsetStudy``: ``method = "subset_simulation"``, level after level of
+    Markov chains on the FOS (rounds), and ``probabilistic.nc`` with pf and its coefficient of variation;
 - ``refinement.study_type.RefinementStudy``: a study with ``[refinement]``, a case per particle
   spacing, each after the one before (rounds: ``StudyType.next_cases``), and ``refinement.nc``;
 - ``single.SingleStudy``: any other, one case in the output folder.
@@ -39,7 +42,9 @@ from pathlib import Path
 from workflows.cases import RunOptions, StudyType, run_cases
 from workflows.fos_time.study_type import TransientStudy
 from workflows.output.folder_lock import folder_lock, study_digest
-from workflows.probabilistic.design_points import DesignPointStudy
+from workflows.probabilistic.form_study import FormStudy
+from workflows.probabilistic.kinds import METHODS, Method
+from workflows.probabilistic.point_estimate_study import PointEstimateStudy
 from workflows.probabilistic.study_type import ProbabilisticStudy
 from workflows.probabilistic.subset_study import SubsetStudy
 from workflows.probabilistic.sweep import ProbabilisticSweep
@@ -51,11 +56,15 @@ from workflows.study import Study, StudyError
 from workflows.sweep.nested import NestedSweep, SweepSummary
 from workflows.sweep.study_type import SweepStudy
 
-STUDY_TYPES: tuple[type[StudyType], ...] = (SubsetStudy, DesignPointStudy, ProbabilisticStudy, RefinementStudy,
-                                              TransientStudy,
-                                              SingleStudy)
+STUDY_TYPES: tuple[type[StudyType], ...] = (ProbabilisticStudy, RefinementStudy, TransientStudy, SingleStudy)
 """Every type of a study without ``[sweep]``, asked in this order whether a study is of it (the last
-takes any study)."""
+takes any study); a probabilistic study's is then the one of :data:`METHOD_STUDY_TYPES`."""
+METHOD_STUDY_TYPES: dict[Method, type[ProbabilisticStudy]] = {
+    METHODS["monte_carlo"]: ProbabilisticStudy, METHODS["latin_hypercube"]: ProbabilisticStudy,
+    METHODS["form"]: FormStudy, METHODS["point_estimate"]: PointEstimateStudy,
+    METHODS["subset_simulation"]: SubsetStudy,
+}
+"""The study type that plans the rounds of each probabilistic method (``[probabilistic] method``)."""
 SWEPT: dict[type[StudyType], SweepSummary] = {ProbabilisticStudy: ProbabilisticSweep(), RefinementStudy: RefinedSweep()}
 """What a sweep of each type that makes cases of its own writes (``sweep.nested.SweepSummary``)."""
 
@@ -64,6 +73,8 @@ def study_type(study: Study, out_dir: str | Path) -> StudyType:
     """The type of ``study`` (module doc), writing under ``out_dir``; StudyError for a sweep of a type
     without its entry in :data:`SWEPT`."""
     kind = next(kind for kind in STUDY_TYPES if kind.applies_to(study))
+    if study.probabilistic is not None:
+        kind = METHOD_STUDY_TYPES[study.probabilistic.method_kind]
     if study.sweep is None:
         return kind(study, Path(out_dir))
     if kind is SingleStudy:  # a sweep's cases are single studies: computed together as its own

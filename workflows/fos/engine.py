@@ -29,9 +29,14 @@ workers busy with all of them at once, with no barrier between cases:
    used only if the search then asks for it.  A guess gives way (is stopped) as soon as a
    queued run needs its worker;
 6. a run tells the client as soon as its largest displacement passes the failure displacement
-   (a dask Event the client polls every ``SIGNAL_POLL_S`` while it waits): the run will end
+   (a dask Event the client polls every ``dask_runs.SIGNAL_POLL_S`` while it waits): the run will end
    failed, so the runs and guesses above it are stopped (``SrfSearch.deferred``: asked for again
    only if it diverges instead) and the freed worker guesses the refinement below it.
+
+Which runs go to the workers, in what order, and when a case is decided (steps 2-6) is
+``workflows.fos.planner``'s, which knows nothing of dask; the futures, their Events and the values every
+worker holds are ``workflows.fos.dask_runs``'s; this module is the loop, the cases coming in and handed
+back, their gravity states (step 1) and their files.
 
 The runs a case uses, and its FOS, do not depend on the number of workers, on where its gravity
 ran, or on the other cases; runs of earlier cases go first, so cases finish roughly in order.
@@ -44,19 +49,11 @@ that neither the memory nor a pass of the loop grows with the number of cases.
 
 from __future__ import annotations
 
-import enum
-import functools
-import math
 import time
-import uuid
-from collections import Counter
-from dataclasses import dataclass, field
 from pathlib import Path
 
-from distributed import Client, Event, wait
-
 from spfem_core.divergence import DivergenceError
-from spfem_core.snapshot import StressState
+from workflows.fos.case_search import CaseSearch, has_flow
 from workflows.fos.gravity import (
     GravityResult,
     gravity_paths,
@@ -66,119 +63,33 @@ from workflows.fos.gravity import (
     why_not_reused,
     write_gravity,
 )
-from workflows.fos.keys import gravity_key, run_key
-from workflows.fos.run_store import remove_stale_runs, run_file_name, stored_run, write_run
+from workflows.fos.planner import Planner, TaskKind, Ticket
+from workflows.fos.run_store import remove_stale_runs, run_file_name, write_run
 from workflows.fos.search import SrfSearch
-from workflows.fos.task import RunPolicy, RunRecord, SrfRunResult, held, run_srf
-from workflows.fos.verdict import DIVERGED, displacement_floor_m, failure_displacement_m
+from workflows.fos.verdict import displacement_floor_m, failure_displacement_m
 from workflows.output.writing import make_output_folder
 from workflows.progress import Progress
-from workflows.scene import scene_and_flow, water_flow
+from workflows.scene import scene_and_flow
 from workflows.seepage.flow import flow_inputs
 from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
-from workflows.study import Study, StudyError
+from workflows.study import StudyError
 from workflows.study.reading import case_error
-
-
-@dataclass
-class CaseSearch:
-    """One strength-reduction case in the engine: its study and folder, gravity, search and runs."""
-
-    index: int
-    study: Study
-    out_dir: Path
-    label: str = ""  # how messages name the case ("" for a single study)
-    gravity_here: bool = False  # compute its gravity in this process (step 1)
-    gravity_dir: Path | None = None  # where its gravity files are (default out_dir; cases may share one)
-    write_gravity: bool = True  # False: its gravity state is never written (recomputed if needed again)
-    policy: RunPolicy = field(default_factory=RunPolicy)  # what its runs keep, and when they end
-    gravity: StressState | None = None  # once known
-    flow: object = None  # its steady flow (``workflows.seepage.flow.StudyFlow``), once solved: for its runs and figures
-    gravity_reused: bool = False
-    gravity_wall_s: float = 0.0
-    n_particles: int = 0
-    search: SrfSearch | None = None
-    runs: dict[float, RunRecord] = field(default_factory=dict)  # srf -> the run's record
-    unwritten: list[SrfRunResult] = field(default_factory=list)  # written on the next pass
-    unwritten_gravity: GravityResult | None = None  # written on the next pass
-    reused_runs: int = 0
-    n_guessed: int = 0
-    n_guesses_used: int = 0
-    io_s: float = 0.0
-    error: DivergenceError | None = None  # the gravity stage diverged: no search
-    concluded: bool = False
-    started_s: float = 0.0  # wall clock (perf_counter) when its search could begin
-    shared: tuple = ()  # (study, the futures of its gravity state and steady flow on the workers) for its runs
-    plan_again: bool = True  # something its search plans on has changed since it was last asked
-    planned_parallel: int = 0  # the search's n_parallel when it was last asked
-    window: tuple[float, float, float] | None = None  # (low, high, step) its search starts in (fos.prediction)
-
-    def __post_init__(self):
-        if self.gravity_dir is None:
-            self.gravity_dir = self.out_dir
-
-    @functools.cached_property
-    def gkey(self) -> str:
-        return gravity_key(self.study)
-
-    def key(self, srf: float) -> str:
-        """The run key of its run at ``srf`` (``workflows.fos.keys``)."""
-        return run_key(self.study, srf, self.policy.stop_at_failure)
-
-    @property
-    def single_run(self) -> bool:
-        """Its search makes one run (srf_min = srf_max): nothing to cancel, nothing to plan on early."""
-        stage = self.study.strength_reduction
-        return stage.srf_min == stage.srf_max
-
-    def say(self, text: str) -> str:
-        return f"{self.label}: {text}" if self.label else text
-
-
-def has_flow(study: Study) -> bool:
-    """Whether the study's water comes from a flow (``[seepage]`` or ``[transient]``) its runs share."""
-    return study.seepage is not None or study.transient is not None
-
 
 CASES_PER_WORKER = 4
 """With cases that come as there is room (``Engine.more``), this many unconcluded cases per worker:
 enough that a worker never waits for the next case to be made (one runs, one waits on it, step 3)."""
 
-SIGNAL_POLL_S = 0.2
-"""While waiting for a task, the client checks this often whether a running run has passed the
-failure displacement (module doc, step 6): one scheduler round trip per running run."""
-
-
-class TaskKind(enum.Enum):
-    """What a submitted task is for."""
-
-    GRAVITY = "gravity"  # a case's gravity state
-    RUN = "run"  # an SRF run the search asked for
-    GUESS = "guess"  # an SRF run started ahead of the search (step 5)
-
-
-@dataclass
-class _Task:
-    """A submitted (or queued) task: what it is for."""
-
-    case: CaseSearch
-    kind: TaskKind
-    srf: float = math.nan
-    key: str = ""
-    event: str = ""  # the Event that stops the run
-    failing_event: str = ""  # the Event the run sets once it has passed the failure displacement
-
 
 class Engine:
-    """The loop of the module doc over ``cases`` on the client of ``session`` (a
-    ``workflows.fos.cluster.DaskSession``, asked for its client only once the cases placed in this
-    process have their gravity); :meth:`run` yields every case as soon as its search is done."""
+    """The loop of the module doc over ``cases``, its tasks moved by ``runs`` (a
+    ``workflows.fos.dask_runs.DaskRuns``, connected only once the cases placed in this process have
+    their gravity); :meth:`run` yields every case as soon as its search is done."""
 
-    def __init__(self, session, cases: list[CaseSearch], progress: Progress, start_unix_s: float,
+    def __init__(self, runs, cases: list[CaseSearch], progress: Progress, start_unix_s: float,
                  force: bool = False, more=None, to_come=None):
-        self.session = session
-        self.client: Client | None = None
+        self.runs = runs
+        self.planner = Planner(runs, progress, start_unix_s, force)
         self.cases = list(cases)  # the cases not handed back yet
         self.more = more  # up to n more cases (a callable), or None: no more come
         self.to_come = to_come or (lambda: 0)  # how many more will come
@@ -187,63 +98,12 @@ class Engine:
         self.written_gravity_of: dict[str, CaseSearch] = {}  # gravity key -> a case handed back that wrote its state
         self.replayed_of: dict[str, CaseSearch] = {}  # gravity key -> a case handed back that its files concluded
         self.progress = progress
-        self.start_unix_s = start_unix_s
         self.force = force
         self.n_workers = 1
-        self.token = uuid.uuid4().hex[:12]
-        self.tasks: dict = {}  # future -> _Task
-        self.guesses: dict = {}  # (case index, srf) -> future of a guess still running
-        self.guesses_done: dict = {}  # (case index, srf) -> SrfRunResult
         self.gravity_waiting: dict[str, list[CaseSearch]] = {}  # gravity key -> cases waiting for its task
-        self.queue: list[_Task] = []  # runs asked for, not yet submitted (step 3)
         self.just_concluded: list[CaseSearch] = []  # handed back at the end of the pass
-        self.n_submitted = 0
         self.stored_states: dict = {}  # (gravity folder, gravity key) -> the StressState on disk, or None
         self.gravity_written: dict[str, Path] = {}  # gravity key -> the folder this invocation wrote its files in
-        self.scattered: dict = {}  # gravity key -> the future of that gravity state on every worker
-        self.flows: dict = {}  # the inputs of a steady flow (seepage.flow.flow_inputs) -> its future on every worker
-
-    # ------------------------------------------------------------------ submitting
-    def _submit(self, function, *args, priority: int, **kwargs):
-        self.n_submitted += 1
-        return self.client.submit(function, *args, priority=priority, pure=False, **kwargs)
-
-    def _submit_run(self, case: CaseSearch, srf: float, key: str, kind: TaskKind):
-        """A run task.  A case that makes one run gets no Events: it has nothing to stop or plan on
-        early, and each Event costs its run a scheduler round trip per stop-rule check."""
-        if not case.shared:
-            if case.gkey not in self.scattered:  # once per gravity state, whatever the cases sharing it
-                self.scattered[case.gkey] = self._on_every_worker(case.gravity, f"gravity-state-{case.gkey}")
-            flow = None
-            if has_flow(case.study):  # the client's flow: the workers do not solve it again
-                inputs = flow_inputs(case.study)
-                if inputs not in self.flows:
-                    case.flow = water_flow(case.study) if case.flow is None else case.flow
-                    self.flows[inputs] = self._on_every_worker(case.flow, f"steady-flow-{case.gkey}-{len(self.flows)}")
-                flow = self.flows[inputs]
-            case.shared = (case.study, self.scattered[case.gkey], flow)
-        name = f"{key}-{self.token}-{self.n_submitted + 1}"
-        event, failing = ("", "") if case.single_run else (f"spfem-fos-cancel-{name}", f"spfem-fos-failing-{name}")
-        study, gravity, flow = case.shared
-        future = self._submit(run_srf, study, gravity, srf, cancel_event=event or None, run_key=key,
-                              gravity_key=case.gkey, failing_event=failing or None, policy=case.policy, flow=flow,
-                              key=f"srf-{srf:.4f}-{name}", priority=-case.index)
-        self.tasks[future] = _Task(case, kind, srf, key, event, failing)
-        return future
-
-    def _on_every_worker(self, value, name: str):
-        """``value`` as a task's result replicated to every worker (``fos.task.held``)."""
-        future = self.client.submit(held, value, pure=False, priority=2_000_000, key=f"{name}-{self.token}")
-        wait([future])
-        self.client.replicate([future])  # on every worker now: runs go wherever a worker is free
-        return future
-
-    def _cancel(self, future) -> None:
-        """Stop a run at its next check (its worker is free then) and forget it."""
-        task = self.tasks.pop(future)
-        if task.event:
-            Event(task.event, client=self.client).set()
-        future.cancel()
 
     # ------------------------------------------------------------------ gravity (step 1)
     def _stored_state(self, case: CaseSearch):
@@ -316,9 +176,7 @@ class Engine:
             if waiting is not None:  # the same gravity state is on its way for an earlier case
                 waiting.append(case)
                 return
-            future = self._submit(run_gravity, case.study.source_text, flow=case.flow, priority=1_000_000 - case.index,
-                                  key=f"gravity-{case.gkey}-{self.token}-{case.index}")
-            self.tasks[future] = _Task(case, TaskKind.GRAVITY)
+            self.planner.start(Ticket(case, TaskKind.GRAVITY))
             self.gravity_waiting[case.gkey] = [case]
             return
         self._prepare_search(case)
@@ -334,11 +192,12 @@ class Engine:
         case.flow = result.flow  # solved with the gravity state (here or by its worker): not again here
         case.n_particles, case.gravity_wall_s = result.n_particles, result.wall_time_s if computed else 0.0
 
-    def _gravity_result(self, case: CaseSearch, future) -> None:
-        """The gravity task of ``case`` returned: every case waiting for its key goes on."""
+    def _gravity_result(self, ticket: Ticket) -> None:
+        """The gravity task of a case returned: every case waiting for its key goes on."""
+        case = ticket.case
         waiting = self.gravity_waiting.pop(case.gkey)
         try:
-            result = future.result()
+            result = self.runs.result(ticket)
         except StudyError as error:  # the scene of a sweep's case
             if not case.label:
                 raise
@@ -369,23 +228,8 @@ class Engine:
                                 failure_m=failure_displacement_m(case.study), window=case.window)
 
     def _replay(self, case: CaseSearch) -> bool:
-        """Feed the search the runs it asks for while every one of them is on disk; True (the case
-        concluded, no gravity needed) if that finishes it.  Otherwise the search stands where the
-        first missing run is asked for, and the loop plans from there once the gravity is known."""
-        if self.force:
-            return False
-        search = case.search
-        while True:
-            planned = search.next_values()
-            if not planned:
-                break
-            stored = [stored_run(case.out_dir / run_file_name(srf), case.key(srf), case.policy) for srf in planned]
-            if any(record is None for record in stored):
-                return False
-            for record in stored:
-                search.started(record.srf)
-                self._reused(case, record)
-        if search.pending:
+        """The case concluded from its runs on disk alone (``Planner.replay``), no gravity needed."""
+        if not self.planner.replay(case):
             return False
         case.n_particles = max((record.n_particles for record in case.runs.values()), default=0)
         case.started_s = time.perf_counter()
@@ -396,72 +240,6 @@ class Engine:
         """The case's gravity is known: its search can run."""
         case.started_s = time.perf_counter()
         case.plan_again = True
-
-    @staticmethod
-    def _reused(case: CaseSearch, record: RunRecord) -> None:
-        """A started run of the case found on disk, made by an earlier invocation."""
-        case.runs[record.srf] = record
-        case.reused_runs += 1
-        case.search.finished(record.outcome)
-
-    def _finished(self, case: CaseSearch, result: SrfRunResult) -> None:
-        record = result.record_since(self.start_unix_s)
-        case.plan_again = True
-        case.runs[record.srf] = record
-        case.unwritten.append(result)
-        case.search.finished(record.outcome)
-        if record.status == DIVERGED:
-            self.progress.message(case.say(f"warning: SRF {record.srf:g} diverged: {record.status_reason}"))
-
-    def _pending(self) -> Counter:
-        """Case index -> its runs and gravity task not finished yet: running or queued."""
-        counts = Counter(t.case.index for t in self.tasks.values() if t.kind in (TaskKind.RUN, TaskKind.GRAVITY))
-        counts.update(t.case.index for t in self.queue)
-        return counts
-
-    def _cancel_guesses(self, case: CaseSearch) -> None:
-        """Stop the case's guesses still running."""
-        for (index, srf), future in list(self.guesses.items()):
-            if index == case.index:
-                self._cancel(future)
-                del self.guesses[(index, srf)]
-
-    def _plan(self, case: CaseSearch, n_parallel: int, n_pending: int) -> None:
-        """Ask the case's search for values until something runs or it has nothing more to ask;
-        hand the case back when its search is done.  ``n_pending``: its runs (and gravity task)
-        running or queued when the pass began."""
-        search = case.search
-        search.n_parallel = case.planned_parallel = n_parallel
-        case.plan_again = False
-        while True:
-            planned = search.next_values()
-            for srf in planned:
-                search.started(srf)
-                guess = (case.index, srf)
-                if guess in self.guesses_done:  # a guess that came true, already finished
-                    case.n_guesses_used += 1
-                    self._finished(case, self.guesses_done.pop(guess))
-                    continue
-                if guess in self.guesses:  # a guess that came true, still running
-                    case.n_guesses_used += 1
-                    self.tasks[self.guesses.pop(guess)].kind = TaskKind.RUN
-                    n_pending += 1
-                    continue
-                key = case.key(srf)
-                stored = stored_run(case.out_dir / run_file_name(srf), key, case.policy)
-                if stored is not None:
-                    self._reused(case, stored)
-                    continue
-                self.queue.append(_Task(case, TaskKind.RUN, srf, key))
-                n_pending += 1
-            if planned:  # the decision the case's guesses were made for is taken: stop the unused ones
-                self._cancel_guesses(case)
-            if n_pending or not planned:
-                break  # waiting for runs, or done
-        if not n_pending:
-            self._cancel_guesses(case)  # no decision left to guess ahead of
-            self._write(case)
-            self._concluded(case)
 
     def _concluded(self, case: CaseSearch) -> None:
         case.concluded = True
@@ -482,87 +260,6 @@ class Engine:
         case.unwritten.clear()
         case.io_s += time.perf_counter() - start
 
-    def _cancel_above_failures(self) -> None:
-        """Stop the runs and guesses that can no longer move their case's knee: above a failed run,
-        or above a run known to fail (step 6); their workers are free for runs that can."""
-        for future, task in list(self.tasks.items()):
-            if task.kind is TaskKind.GRAVITY or task.case.single_run or not task.case.search.above_failure(task.srf):
-                continue
-            self._cancel(future)
-            task.case.plan_again = True
-            if task.kind is TaskKind.RUN:
-                task.case.search.withdraw(task.srf)
-            else:
-                self.guesses.pop((task.case.index, task.srf), None)
-        if any(not task.case.single_run for task in self.queue):
-            for task in list(self.queue):
-                if not task.case.single_run and task.case.search.above_failure(task.srf):
-                    task.case.search.withdraw(task.srf)
-                    task.case.plan_again = True
-                    self.queue.remove(task)
-
-    def _failures_signalled(self) -> bool:
-        """Tell each case's search which of its running runs have passed the failure displacement
-        since the last look; whether any has."""
-        news = False
-        for task in list(self.tasks.values()):
-            search = task.case.search
-            if task.kind is not TaskKind.RUN or not task.failing_event or task.srf in search.failing:
-                continue
-            if Event(task.failing_event, client=self.client).is_set():
-                search.passed_failure(task.srf)
-                task.case.plan_again = True
-                news = True
-        return news
-
-    def _wait(self) -> list:
-        """The tasks that finished, once one has; [] as soon as a running run is known to fail
-        (module doc, step 6), so that the loop plans again.  A cluster left without workers ends
-        the study (``DaskSession.check_workers``): dask would wait for one forever."""
-        while True:
-            try:
-                finished, _ = wait(list(self.tasks), timeout=SIGNAL_POLL_S, return_when="FIRST_COMPLETED")
-                return list(finished)
-            except TimeoutError:
-                if self._failures_signalled():
-                    return []
-                self.session.check_workers()
-
-    def _dispatch(self) -> None:
-        """Submit queued runs to free workers, earlier cases and lower SRF first (step 3); a
-        running guess is stopped when a queued run needs its worker.  The run of a case of one run
-        (a realisation) may also wait on a busy worker, one per worker: nothing stops or reorders it,
-        and the worker starts it without waiting for the client to hear of the last one."""
-        self.queue.sort(key=lambda task: (task.case.index, task.srf))
-        while self.queue:
-            ahead = self.n_workers if self.queue[0].case.single_run else 0
-            if len(self.tasks) >= self.n_workers + ahead:
-                guesses = [f for f, t in self.tasks.items() if t.kind is TaskKind.GUESS]
-                if not guesses:
-                    return
-                task = self.tasks[guesses[-1]]
-                self._cancel(guesses[-1])
-                self.guesses.pop((task.case.index, task.srf), None)
-            task = self.queue.pop(0)
-            self._submit_run(task.case, task.srf, task.key, TaskKind.RUN)
-
-    def _guess(self, active: list[CaseSearch]) -> None:
-        """Guesses on idle workers, for cases with one undecided run (module doc, step 5)."""
-        idle = self.n_workers - len(self.tasks) if not self.queue else 0
-        for case in active:
-            if idle <= 0:
-                return
-            if case.gravity is None:
-                continue
-            known = {srf for (index, srf) in list(self.guesses) + list(self.guesses_done) if index == case.index}
-            for srf in [f for f in case.search.speculative_values(idle + len(known)) if f not in known][:idle]:
-                key = case.key(srf)
-                if stored_run(case.out_dir / run_file_name(srf), key, case.policy) is not None:
-                    continue  # on disk already: reused when asked for
-                self.guesses[(case.index, srf)] = self._submit_run(case, srf, key, TaskKind.GUESS)
-                case.n_guessed += 1
-                idle -= 1
-
     # ------------------------------------------------------------------ the loop
     def run(self):
         """Run every case (module doc); yield each one as soon as its search is done (or its gravity
@@ -573,26 +270,18 @@ class Engine:
             if case.gravity_here and case.gkey not in relaxed:  # once per key: _start shares it with the others
                 self._gravity_here(case)
                 relaxed.add(case.gkey)
-        self.client = self.session.client()
-        self.n_workers = max(1, sum(self.client.nthreads().values()))
+        self.n_workers = self.runs.connect()
         for case in self.cases:
             self._start(case)
+        planner = self.planner
         idle_passes = 0
         while True:
             self._take_more()
+            for case in planner.plan([case for case in self.cases if not case.concluded]):
+                self._write(case)
+                self._concluded(case)
             active = [case for case in self.cases if not case.concluded]
-            pending = self._pending()
-            n_parallel = max(1, math.ceil(self.n_workers / max(len(active), 1)))
-            for case in active:  # a case whose search has learnt nothing new would ask for nothing new
-                if case.gravity is None or case.error is not None:
-                    continue
-                if case.plan_again or not pending[case.index] or case.planned_parallel != n_parallel:
-                    self._plan(case, n_parallel, pending[case.index])
-            self._cancel_above_failures()
-            self._dispatch()
-            active = [case for case in self.cases if not case.concluded]
-            if active:
-                self._guess(active)
+            planner.start_runs(active)
             for case in self.cases:  # the workers are busy with the next runs meanwhile
                 if case.unwritten or case.unwritten_gravity is not None:
                     self._write(case)
@@ -600,30 +289,27 @@ class Engine:
                                 self.n_handed_back + len(self.cases) + self.to_come())
             self._report_runs(active)
             if not active and self.more is None:
-                for future in list(self.tasks):
-                    self._cancel(future)
+                planner.stop_all()
             yield from self._hand_back()
             if not active and self.more is None:
                 return
             if not active:
                 continue  # more cases come on the next pass
-            if not self.tasks:  # runs were dropped from the queue above a failure: plan again
+            if not planner.in_flight:  # runs were dropped from the queue above a failure: plan again
                 idle_passes += 1
                 if idle_passes > 3:
                     raise RuntimeError("spfem-fos engine: cases are waiting with no task running (a bug)")
                 continue
             idle_passes = 0
-            for future in self._wait():
-                task = self.tasks.pop(future, None)
-                if task is None:
-                    continue  # cancelled meanwhile
-                if task.kind is TaskKind.GRAVITY:
-                    self._gravity_result(task.case, future)
-                elif task.kind is TaskKind.RUN:
-                    self._finished(task.case, future.result())  # a task's exception stops the study
+            for ticket in self.runs.wait(lambda: planner.failures_signalled(self.runs.has_passed_failure)):
+                if not planner.landed(ticket):
+                    continue  # stopped meanwhile
+                if ticket.kind is TaskKind.GRAVITY:
+                    self._gravity_result(ticket)
+                elif ticket.kind is TaskKind.RUN:
+                    planner.run_finished(ticket.case, self.runs.result(ticket))  # a task's exception stops the study
                 else:
-                    self.guesses.pop((task.case.index, task.srf), None)
-                    self.guesses_done[(task.case.index, task.srf)] = future.result()
+                    planner.guess_finished(ticket, self.runs.result(ticket))
 
     @property
     def all_concluded(self) -> bool:
@@ -670,21 +356,20 @@ class Engine:
         case still here shares them (a written one stays known for the cases to come)."""
         self.n_handed_back += 1
         self.runs_handed_back += len(case.runs)
+        release_gravity = False
         if case.gravity is not None and case.write_gravity:
             self.written_gravity_of.setdefault(case.gkey, case)
         elif case.gravity is None and case.write_gravity and case.error is None:  # concluded from its files alone
             self.replayed_of.setdefault(case.gkey, case)
         elif all(other.gkey != case.gkey for other in self.cases) and case.gkey not in self.gravity_waiting:
-            self.scattered.pop(case.gkey, None)
-        if has_flow(case.study):
-            inputs = flow_inputs(case.study)
-            if all(flow_inputs(other.study) != inputs for other in self.cases):
-                self.flows.pop(inputs, None)
-        case.shared = ()
+            release_gravity = True
+        release_flow = has_flow(case.study) and all(flow_inputs(other.study) != flow_inputs(case.study)
+                                                    for other in self.cases)
+        self.runs.forget(case, gravity=release_gravity, flow=release_flow)
 
     def _report_runs(self, active: list[CaseSearch]) -> None:
         done = self.runs_handed_back + sum(len(case.runs) for case in self.cases)
-        pending = sum(1 for task in self.tasks.values() if task.kind is TaskKind.RUN)
+        pending = self.planner.n_running
         finished = [case for case in self.cases if case.concluded and case.error is None]
         n_finished = self.n_handed_back + len(finished)
         per_case = ((self.runs_handed_back + sum(len(c.runs) for c in finished)) / n_finished if n_finished

@@ -59,7 +59,7 @@ class FosOutcome:
 
 
 def conclude_case(case, progress, wall_start: float, figures: bool, summary_file: bool = True) -> FosOutcome:
-    """The FOS and its report from a case's runs (``case`` a ``workflows.fos.engine.CaseSearch`` whose
+    """The FOS and its report from a case's runs (``case`` a ``workflows.fos.case_search.CaseSearch`` whose
     search is done): its messages, ``summary.nc`` (unless ``summary_file`` is False: a case of one run,
     whose run file holds all of it) and, with ``figures``, the figures."""
     study, out_dir, search, runs = case.study, case.out_dir, case.search, case.runs

@@ -22,6 +22,7 @@ import xarray as xr
 
 from workflows.output.figures import pyplot, save_figure
 from workflows.particles import cloud
+from workflows.probabilistic.kinds import COMPUTATIONS
 from workflows.probabilistic.reliability import failure_probability
 from workflows.random_field.table import SEEPAGE_PROPERTY
 from workflows.scene import field_values
@@ -46,7 +47,7 @@ def draw_probabilistic_figures(out_dir: Path, ds: xr.Dataset, study=None, slip_l
     if "slip_envelope_x" in ds and study is not None:
         paths.append(slip_envelope(out_dir / "slip_envelope.png", ds, study, slip_lines))
     fos = ds["fos"].values
-    if ds.attrs["compute"] == "fos" and np.isfinite(fos).sum() >= 3:
+    if COMPUTATIONS[ds.attrs["compute"]].searches and np.isfinite(fos).sum() >= 3:
         paths.append(fos_distribution(out_dir / "fos_distribution.png", ds))
         if "fos_rank_correlation" in ds:
             paths.append(sensitivity(out_dir / "sensitivity.png", ds))

@@ -42,7 +42,7 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
     ds["case_folder"] = var["case_folder"](np.array([case.case_id for case in cases], dtype=object))
     records = [runs[case.case_id] for case in cases]
     ds["max_displacement"] = var["max_displacement"](np.array(
-        [max((r.max_displacement_m for r in each), default=np.nan) if table.compute == "verdict" else np.nan
+        [max((r.max_displacement_m for r in each), default=np.nan) if not table.computation.searches else np.nan
          for each in records]))
     ds["n_runs"] = var["n_runs"](np.array([len(each) for each in records], dtype=np.int64))
     ds["n_steps"] = var["n_steps"](np.array([sum(r.n_steps for r in each) for each in records], dtype=np.int64))
@@ -57,7 +57,7 @@ def probabilistic_dataset(study, cases, results: dict, verdicts: list[str], outc
     fos = ds["fos"].values
     found = np.isfinite(fos)
     attrs = {}
-    if table.compute == "fos" and found.sum() >= 3:
+    if table.computation.searches and found.sum() >= 3:
         ds = ds.assign_coords(random_variable=("random_variable", np.array(labels, dtype=object),
                                                {"long_name": "random variable"}))
         ranks = [float(stats.spearmanr(ds[label].values[found], fos[found]).statistic) for label in labels]

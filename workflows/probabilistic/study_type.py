@@ -56,6 +56,7 @@ from workflows.fos.prediction import Generations, WindowPredictor
 from workflows.memory_guard import check_memory
 from workflows.output.figures import remove_stale_figures
 from workflows.output.writing import make_output_folder, write_dataset, write_text_if_changed
+from workflows.probabilistic.kinds import Computation
 from workflows.probabilistic.reliability import failure_probability
 from workflows.probabilistic.sampling import Marginal, Sampler
 from workflows.random_field.table import spread_problem
@@ -107,7 +108,7 @@ class Realisations:
         self.study = study
         raw = _loads(study.source_text)
         raw.pop("probabilistic", None)
-        if table.compute == "verdict":
+        if not table.computation.searches:  # one run, at the factor
             stage = study.strength_reduction.name
             for name in ("srf_min", "srf_max"):
                 node, key, _ = resolve_sweep_path(raw, f"stages.{stage}.{name}")
@@ -179,9 +180,7 @@ class Realisations:
             sampler = Sampler(marginals, None if table.correlation is None else np.array(table.correlation, float))
         except ValueError as error:
             raise StudyError("probabilistic.correlation", str(error)) from None
-        if table.method == "latin_hypercube":
-            return sampler.latin_hypercube(table.seed, self.count)
-        return sampler.monte_carlo(table.seed, range(self.count))
+        return table.method_kind.draw(sampler, table.seed, self.count)
 
     def _check_draws(self) -> None:
         """Every draw against its field's range (in the unit of its path): StudyError naming the first
@@ -274,9 +273,9 @@ class ProbabilisticOutcome:
         return line
 
 
-def realisation_verdict(result: CaseResult, compute: str, factor: float) -> str:
+def realisation_verdict(result: CaseResult, computation: Computation, factor: float) -> str:
     """STABLE, FAILED or UNDECIDED: the run at ``factor`` (verdict) or the FOS against it (fos)."""
-    if compute == "verdict":
+    if not computation.searches:
         return {ABOVE: STABLE, BELOW: FAILED}.get(result.status, UNDECIDED)
     if result.status == FOUND:
         return FAILED if result.fos < factor else STABLE
@@ -320,7 +319,7 @@ class ProbabilisticStudy(SweepStudy):
         self.study_of: dict[str, Study] = {}  # case id -> its study, until it concludes
         self.generation_windows: tuple[Generations, WindowPredictor] | None = None  # fos mode: (Generations, WindowPredictor) of the realisations' searches
         self.n_concluded = 0
-        if study.probabilistic.compute == "verdict":  # one run per realisation: its run file is its summary
+        if not study.probabilistic.computation.searches:  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
             self.placement = dataclasses.replace(self.placement, rounds=True)
@@ -420,7 +419,7 @@ class ProbabilisticStudy(SweepStudy):
         """Up to ``count`` more realisations of this round, each made and its ``case.toml`` written (module
         doc, step 2); in fos mode, generation by generation, each searched in a window about its predicted
         FOS (``fos.prediction``: from the realisations of the earlier generations)."""
-        if self.study.probabilistic.compute == "fos":
+        if self.study.probabilistic.computation.searches:
             if self.generation_windows is None:
                 self.generation_windows = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
             generations, _ = self.generation_windows
@@ -485,7 +484,7 @@ class ProbabilisticStudy(SweepStudy):
 
         table = self.study.probabilistic
         first = case.position[0] < table.keep_fields_first
-        policy = RunPolicy(fields="all" if first else table.keep_fields, stop_at_failure=table.compute == "verdict")
+        policy = RunPolicy(fields="all" if first else table.keep_fields, stop_at_failure=not table.computation.searches)
         if self.shared_gravity:
             return dataclasses.replace(case, gravity_dir=self.out_dir / GRAVITY_FOLDER, runs=policy)
         return dataclasses.replace(case, write_gravity=False, runs=policy)
@@ -504,10 +503,10 @@ class ProbabilisticStudy(SweepStudy):
             if getattr(self, "_mechanisms", None) is not None and hasattr(slip, "x_m") and case_id in self.study_of:
                 self._mechanisms.add(self.study_of[case_id], slip.x_m, slip.y_m, fos)
         result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
-        verdict = realisation_verdict(result, table.compute, table.factor)
+        verdict = realisation_verdict(result, table.computation, table.factor)
         tally[verdict] += 1
         index = int(case_id[len(CASE_PREFIX):])
-        if (table.compute == "fos" and table.keep_fields == "failed" and verdict != FAILED
+        if (table.computation.searches and table.keep_fields == "failed" and verdict != FAILED
                 and index >= table.keep_fields_first and not outcome.diverged):
             from workflows.fos.run_store import run_file_name, without_particle_fields  # dask: only when FOS cases run
 
@@ -569,7 +568,7 @@ class ProbabilisticStudy(SweepStudy):
             outcome = outcomes[row.case_id]
             results[row.case_id] = (diverged_result(f"the gravity stage diverged: {outcome.error}", 0)
                                     if outcome.diverged else case_result(outcome.result))
-        verdicts = [realisation_verdict(results[row.case_id], table.compute, table.factor) for row in rows]
+        verdicts = [realisation_verdict(results[row.case_id], table.computation, table.factor) for row in rows]
         n_failed, n_undecided = verdicts.count(FAILED), verdicts.count(UNDECIDED)
         decided = len(verdicts) - n_undecided
         pf, low, high = failure_probability(n_failed, decided) if decided else (math.nan, math.nan, math.nan)
@@ -577,7 +576,7 @@ class ProbabilisticStudy(SweepStudy):
         found = fos[np.isfinite(fos)]
         result = ProbabilisticOutcome(self.out_dir, self.out_dir / RESULT_NAME, len(verdicts), n_failed, n_undecided,
                                       pf, low, high)
-        if table.compute == "fos" and len(found) >= 2:
+        if table.computation.searches and len(found) >= 2:
             result.fos_mean, result.fos_std = float(found.mean()), float(found.std(ddof=1))
         runs = [record for outcome in outcomes.values() for record in outcome.runs]
         made = [record for record in runs if record.started_s == record.started_s]  # NaN: reused
@@ -619,8 +618,7 @@ class ProbabilisticStudy(SweepStudy):
         if quiet:
             return Report([outcome.verdict])
         table = self.study.probabilistic
-        how = (f"the run at F = {table.factor:g}" if table.compute == "verdict"
-               else f"its FOS against F = {table.factor:g}")
+        how = table.computation.how(table.factor)
         return Report([outcome.verdict,
                        f"{outcome.n_realisations} realisations ({table.method.replace('_', ' ')}, seed {table.seed}), "
                        f"each judged by {how}; {outcome.runs_made} SRF runs made, wall time "

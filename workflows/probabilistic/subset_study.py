@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -65,10 +66,6 @@ class SubsetStudy(DesignPointStudy):
         self.levels: list[dict] = []  # each finished level: its samples' FOS, threshold, fraction, gamma
         self.chains: list[list[int]] = []  # the current level's chains: their states (point numbers)
         self.threshold = math.nan
-
-    @staticmethod
-    def applies_to(study: Study) -> bool:
-        return study.probabilistic is not None and study.probabilistic.method == "subset_simulation"
 
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
@@ -224,6 +221,11 @@ class SubsetStudy(DesignPointStudy):
                      p0=table.p0, samples_per_level=n, subset_levels=len(levels),
                      subset_accepted_share=result.accepted_share, subset_stop_reason=result.stop_reason)
         return ds
+
+    def _figure(self, ds) -> Path:
+        from workflows.probabilistic.design_point_figures import draw_subset_simulation  # matplotlib: on use
+
+        return draw_subset_simulation(self.out_dir, ds, self.study.probabilistic.factor)
 
     def report(self, outcome: SubsetOutcome, quiet: bool, study_file) -> Report:  # type: ignore[override]
         report = super().report(outcome, quiet, study_file)

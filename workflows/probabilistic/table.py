@@ -7,15 +7,13 @@ from dataclasses import dataclass
 
 from workflows.distributions import DISTRIBUTIONS, Distribution, listed
 from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
+from workflows.probabilistic.kinds import COMPUTATIONS, METHODS, Computation, Method, methods_text
 from workflows.random_field.table import spread_problem
 
 MAX_REALISATIONS = 100_000
 KEEP_FIELDS = ("failed", "all", "none")
 BOUNDED = ", ".join(name for name, kind in DISTRIBUTIONS.items() if kind.bounded)
 """The distributions that take bounds low and high."""
-METHODS = ("monte_carlo", "latin_hypercube", "form", "point_estimate", "subset_simulation")
-DESIGN_POINT_METHODS = ("form", "point_estimate", "subset_simulation")
-"""Methods that place their points (``workflows.probabilistic.design_points``) instead of sampling them."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -73,17 +71,13 @@ class Probabilistic(Record):
         "correlation matrix of the variables themselves, in their order (rows of numbers, symmetric, ones on "
         "the diagonal); default uncorrelated", default=None,
     )
-    method: str = text("`monte_carlo`, `latin_hypercube` (stratified; drawn for its count: extending it is a "
-                       "new design), `form` (the reliability index by FORM on the FOS: random variables, "
-                       "compute = \"fos\"), `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
-                       "a screen) or `subset_simulation` (a small pf by levels of Markov chains on the FOS: random "
-                       "variables, compute = \"fos\")", default="monte_carlo", choices=METHODS)
+    method: str = text(methods_text(), default="monte_carlo", choices=tuple(METHODS))
     realisations: int = integer("number of realisations (form, point_estimate: the most FOS searches)", ge=1,
                                 le=MAX_REALISATIONS)
     seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
     compute: str = text(
-        "`verdict`: one strength-reduction run per realisation at `factor`, stable or failed; `fos`: each "
-        "realisation's own FOS by the stage's search", default="verdict", choices=("verdict", "fos"),
+        "; ".join(f"`{name}`: {computation.description}" for name, computation in COMPUTATIONS.items()),
+        default="verdict", choices=tuple(COMPUTATIONS),
     )
     pf_interval_width: float | None = number(
         "1", "stop once the 95% interval of pf is at most this wide (checked after each batch of "
@@ -114,6 +108,16 @@ class Probabilistic(Record):
     p0: float = number("1", "*subset_simulation:* the conditional probability of each level (its threshold the "
                        "p0-quantile of the level's FOS); 1 / p0 a whole number", default=0.1, gt=0.0, le=0.5)
 
+    @property
+    def method_kind(self) -> Method:
+        """The method ``method`` names (``workflows.probabilistic.kinds``)."""
+        return METHODS[self.method]
+
+    @property
+    def computation(self) -> Computation:
+        """What ``compute`` names (``workflows.probabilistic.kinds``)."""
+        return COMPUTATIONS[self.compute]
+
     def check_in_study(self, study) -> None:
         """Something to draw, a strength reduction to judge each realisation by, no [refinement] beside it."""
         if not self.variables and study.random_field is None:
@@ -123,17 +127,11 @@ class Probabilistic(Record):
                              "reduction: it needs a strength_reduction stage")
         if study.refinement is not None:
             raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
-        if self.method in DESIGN_POINT_METHODS:
-            if study.random_field is not None:
-                raise StudyError("probabilistic.method", f"{self.method} here takes random variables only, not a "
-                                 "[random_field] (use monte_carlo)")
-            if study.sweep is not None:
-                raise StudyError("probabilistic.method", f"{self.method} with [sweep] is not supported yet")
+        self.method_kind.check_in_study(study)
 
     def check(self):
         n = len(self.variables)
-        if self.method in DESIGN_POINT_METHODS:
-            self._check_design_points(n)
+        self.method_kind.check(self, n)
         if self.correlation is not None:
             rows = self.correlation
             if len(rows) != n or any(not isinstance(row, (list, tuple)) or len(row) != n for row in rows):
@@ -147,27 +145,3 @@ class Probabilistic(Record):
                     if not -1 < value <= 1 or value != rows[j][i]:
                         raise StudyError(f"correlation[{i}][{j}]", "must lie in (-1, 1) and equal "
                                          f"correlation[{j}][{i}]")
-
-    def _check_design_points(self, n: int) -> None:
-        """What form and point_estimate need: random variables, each point's FOS, a budget for their points."""
-        if n == 0:
-            raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]]); it "
-                             "does not take a [random_field] yet (use monte_carlo)")
-        if self.compute != "fos":
-            raise StudyError("compute", f'{self.method} takes the FOS of each point: give compute = "fos"')
-        if self.pf_interval_width is not None:
-            raise StudyError("pf_interval_width", f"applies to monte_carlo and latin_hypercube, not {self.method}")
-        if self.method == "subset_simulation":
-            chains = self.samples_per_level * self.p0
-            if abs(1.0 / self.p0 - round(1.0 / self.p0)) > 1e-9 or abs(chains - round(chains)) > 1e-9:
-                raise StudyError("p0", f"1 / p0 and samples_per_level * p0 must be whole numbers (the chains, of 1 / p0 "
-                                 f"states each), got p0 = {self.p0:g} with samples_per_level = {self.samples_per_level}")
-            if self.realisations < self.samples_per_level:
-                raise StudyError("realisations", f"subset_simulation needs at least samples_per_level = "
-                                 f"{self.samples_per_level} FOS searches (its first level), got {self.realisations}")
-            return
-        needed = 2**n if self.method == "point_estimate" else 2 * (n + 1)
-        if self.realisations < needed:
-            raise StudyError("realisations", f"{self.method} with {n} variables needs at least {needed} FOS searches "
-                             + ("(2^n points)" if self.method == "point_estimate" else "(two iterations of n + 1)")
-                             + f", got {self.realisations}")

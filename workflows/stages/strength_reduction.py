@@ -46,9 +46,9 @@ import numpy as np
 
 from workflows.fields import StudyError, boolean, integer, number, text
 from workflows.stages.base import ORIGINAL_POSITIONS, StageBase
+from workflows.stages.flow_rules import FLOW_RULES, FlowRule
 from workflows.stages.protocols import PROTOCOLS, Protocol
 
-FLOW_RULES = ("associated", "as_declared")
 OPTIONAL_PROTOCOL_FIELDS = ("damping", "tolerance", "ramp_time_s", "rest_window_s", "rest_growth")
 """The fields that apply to some protocols only (each protocol's ``fields``), checked in this order."""
 DEFAULT_QUASI_STATIC_DAMPING = 0.7
@@ -125,10 +125,8 @@ class StrengthReductionStage(StageBase):
         default=None, gt=0.0,
     )
     flow_rule: str = text(
-        "`associated`: the dilation follows the reduced friction, psi_F = phi_F, the flow rule under which limit "
-        "equilibrium and limit analysis give the FOS; `as_declared`: psi_F = min(psi, phi_F) with each "
-        "material's dilation_deg (psi = 0 gives a lower FOS, about 2% at phi = 20 deg)",
-        default="associated", choices=FLOW_RULES,
+        "; ".join(f"`{name}`: {rule.description}" for name, rule in FLOW_RULES.items()),
+        default="associated", choices=tuple(FLOW_RULES),
     )
     srf_min: float = number(
         "1", "first SRF of the sweep; below 1 tests whether the slope stands as built", ge=0.01,
@@ -195,6 +193,11 @@ class StrengthReductionStage(StageBase):
     def reduction(self) -> Protocol:
         """The protocol ``protocol`` names (``workflows.stages.protocols``)."""
         return PROTOCOLS[self.protocol]
+
+    @property
+    def dilation_rule(self) -> FlowRule:
+        """The flow rule ``flow_rule`` names (``workflows.stages.flow_rules``)."""
+        return FLOW_RULES[self.flow_rule]
 
     def check_in_study(self, study, index: int) -> None:
         """The last stage, after a stage that makes the gravity state, in a study with a plastic
@@ -299,7 +302,7 @@ class StrengthReductionStage(StageBase):
 
     def reduced(self, table, srf: float):
         """``table`` with the strength divided by ``srf`` under the stage's flow rule."""
-        return table.with_strength_reduction(srf, associated=self.flow_rule == "associated")
+        return self.dilation_rule.reduced(table, srf)
 
     # ------------------------------------------------------------------ one run
     def run_at(self, sim, srf: float, study, monitor_nodes, stop):

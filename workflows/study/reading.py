@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from workflows import engineering_units
-from workflows.fields import REQUIRED, TABLE, TABLES, Spec, StudyError, check_value, field_default, show, specs
+from workflows.fields import REQUIRED, Spec, StudyError, check_value, field_default, show, specs
 from workflows.study import line_files, section_form, slope_form
 from workflows.study.geometry import SectionForm, SlopeForm
 from workflows.study.tables import Study
@@ -50,12 +50,7 @@ def _build(cls, raw, path: str):
             if field_default(cls, key) is REQUIRED:
                 raise StudyError(_join(path, key), f"required field missing{spec.kind.missing(key)}")
             continue
-        value = raw[key]
-        if spec.kind is TABLE:
-            value = _build(spec.of, value, _join(path, key))
-        elif spec.kind is TABLES:
-            value = _build_entries(spec, value, _join(path, key))
-        values[key] = value
+        values[key] = spec.kind.visit(_Building, spec, raw[key], _join(path, key))
     try:
         return cls(**values)
     except StudyError as error:
@@ -64,6 +59,23 @@ def _build(cls, raw, path: str):
             raise StudyError(_join(path, alias), f"{error.problem} (in Pa; {alias} = {show(written[alias])})") \
                 from None
         raise StudyError(_join(path, error.field), error.problem) from None
+
+
+class _Building:
+    """What the reader makes of a field as the file gives it, by its kind (``FieldKind.visit``): a value
+    as it is (its table converts and checks it), a nested table or an array of tables built."""
+
+    @staticmethod
+    def value(spec: Spec, raw, path: str):
+        return raw
+
+    @staticmethod
+    def table(spec: Spec, raw, path: str):
+        return _build(spec.of, raw, path)
+
+    @staticmethod
+    def tables(spec: Spec, raw, path: str):
+        return _build_entries(spec, raw, path)
 
 
 def _build_entries(spec: Spec, raw, path: str) -> tuple:
@@ -177,32 +189,48 @@ def resolve_field(raw: dict, path: str) -> FieldAt:
         if part not in declared or (cls is Study and part in ("sweep", "probabilistic")):
             raise _unknown(".".join(parts[:i]), part, [k for k in declared if k not in ("sweep", "probabilistic")])
         spec = declared[part]
-        if spec.kind is TABLE:
-            if i == len(parts) - 1:
-                raise StudyError(path, "is a table: name one of its fields")
-            node = node.setdefault(part, {})
-            cls, i, where = spec.of, i + 1, _join(where, part)
-            continue
-        if spec.kind is TABLES:
-            if i + 2 >= len(parts):
-                raise StudyError(path, f"name an entry and a field: {part}.<{spec.unique}>.<field>")
-            entries = node.get(part, [])
-            names = [entry.get(spec.unique) for entry in entries if isinstance(entry, dict)]
-            if parts[i + 1] not in names:
-                known = (f"known: {', '.join(map(str, names))}" if names else
-                         f"the study file gives no [[{part}]]; those a [geometry.slope] makes cannot be swept")
-                raise StudyError(path, f"no [[{part}]] with {spec.unique} {parts[i + 1]!r} ({known})")
-            position = [k for k, entry in enumerate(entries) if isinstance(entry, dict)][names.index(parts[i + 1])]
-            node = entries[position]
-            cls = spec.variants.get(node.get(spec.key), spec.of) if spec.key else spec.of
-            if not isinstance(cls, type):
-                raise StudyError(path, f"the entry's {spec.key} is not valid")
-            i, where = i + 2, f"{_join(where, part)}[{position}]"
-            continue
-        if i != len(parts) - 1:
-            raise StudyError(path, f"{part} is a value, not a table")
-        return FieldAt(node, part, spec, cls, where)
+        step = spec.kind.visit(_PathStep, spec, path, parts, i, node, where)
+        if step is None:
+            if i != len(parts) - 1:
+                raise StudyError(path, f"{part} is a value, not a table")
+            return FieldAt(node, part, spec, cls, where)
+        node, cls, i, where = step
     raise StudyError(path, "is empty")
+
+
+class _PathStep:
+    """One step of :func:`resolve_field` down a sweep ``path`` at its part ``parts[i]``, by the field's kind
+    (``FieldKind.visit``): into a nested table (one part) or an entry of an array of tables (two parts:
+    the array and the entry's name), as (the table's dict, its class, the next part, where); None at a value."""
+
+    @staticmethod
+    def value(spec: Spec, path: str, parts: list[str], i: int, node: dict, where: str):
+        return None
+
+    @staticmethod
+    def table(spec: Spec, path: str, parts: list[str], i: int, node: dict, where: str):
+        part = parts[i]
+        if i == len(parts) - 1:
+            raise StudyError(path, "is a table: name one of its fields")
+        return node.setdefault(part, {}), spec.of, i + 1, _join(where, part)
+
+    @staticmethod
+    def tables(spec: Spec, path: str, parts: list[str], i: int, node: dict, where: str):
+        part = parts[i]
+        if i + 2 >= len(parts):
+            raise StudyError(path, f"name an entry and a field: {part}.<{spec.unique}>.<field>")
+        entries = node.get(part, [])
+        names = [entry.get(spec.unique) for entry in entries if isinstance(entry, dict)]
+        if parts[i + 1] not in names:
+            known = (f"known: {', '.join(map(str, names))}" if names else
+                     f"the study file gives no [[{part}]]; those a [geometry.slope] makes cannot be swept")
+            raise StudyError(path, f"no [[{part}]] with {spec.unique} {parts[i + 1]!r} ({known})")
+        position = [k for k, entry in enumerate(entries) if isinstance(entry, dict)][names.index(parts[i + 1])]
+        entry = entries[position]
+        cls = spec.variants.get(entry.get(spec.key), spec.of) if spec.key else spec.of
+        if not isinstance(cls, type):
+            raise StudyError(path, f"the entry's {spec.key} is not valid")
+        return entry, cls, i + 2, f"{_join(where, part)}[{position}]"
 
 
 def resolve_sweep_path(raw: dict, path: str) -> tuple[dict, str, Spec]:

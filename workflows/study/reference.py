@@ -13,7 +13,7 @@ import json
 import sys
 
 from workflows import engineering_units
-from workflows.fields import NUMBER, REQUIRED, TABLE, TABLES, Spec, field_default, show, specs
+from workflows.fields import NUMBER, REQUIRED, Spec, field_default, show, specs
 from workflows.study.tables import Study
 
 REGENERATE = "python -m workflows.study.reference > docs/study-file.md"
@@ -43,18 +43,7 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
         required.append(key)
     for field_name, spec in specs(cls).items():
         default = field_default(cls, field_name)
-        if spec.kind is TABLE:
-            schema = table_schema(spec.of)
-        elif spec.kind is TABLES:
-            if spec.variants:
-                items = {"oneOf": [table_schema(c, spec.key, k) for k, c in spec.variants.items()]}
-            else:
-                items = table_schema(spec.of)
-            schema = {"type": "array", "items": items, "minItems": spec.min_items}
-        else:
-            schema = spec.kind.schema(spec)
-            if default is not REQUIRED and default is not None:
-                schema["default"] = _json_default(default)
+        schema = spec.kind.visit(_Schema, spec, default)
         schema["description"] = _describe(spec)
         properties[field_name] = schema
         if default is REQUIRED:
@@ -79,6 +68,30 @@ def table_schema(cls, key: str | None = None, kind: str | None = None) -> dict:
     return schema
 
 
+class _Schema:
+    """The JSON schema of a field, by its kind (``FieldKind.visit``): a value's with its default, a nested
+    table's, an array of tables (of one class, or one of the variants by its ``key``)."""
+
+    @staticmethod
+    def value(spec: Spec, default) -> dict:
+        schema = spec.kind.schema(spec)
+        if default is not REQUIRED and default is not None:
+            schema["default"] = _json_default(default)
+        return schema
+
+    @staticmethod
+    def table(spec: Spec, default) -> dict:
+        return table_schema(spec.of)
+
+    @staticmethod
+    def tables(spec: Spec, default) -> dict:
+        if spec.variants:
+            items = {"oneOf": [table_schema(c, spec.key, k) for k, c in spec.variants.items()]}
+        else:
+            items = table_schema(spec.of)
+        return {"type": "array", "items": items, "minItems": spec.min_items}
+
+
 def json_schema() -> dict:
     """The JSON schema of a study file (draft 2020-12)."""
     schema = {"$schema": "https://json-schema.org/draft/2020-12/schema", "title": "spfem-fos study file"}
@@ -96,23 +109,32 @@ def reference_rows(cls=Study, prefix: str = "", only: str = "") -> list[list[str
     rows = []
     for field_name, spec in specs(cls).items():
         path = f"{prefix}.{field_name}" if prefix else field_name
-        default = field_default(cls, field_name)
-        if spec.kind is TABLE:
-            rows += reference_rows(spec.of, path)
-        elif spec.kind is TABLES:
-            entry = f"{path}[]"
-            if not spec.variants:
-                rows += reference_rows(spec.of, entry)
-                continue
-            kinds = ", ".join(f"`{k}`" for k in spec.variants)
-            rows.append([f"`{entry}.{spec.key}`", "string", "", "required", kinds, spec.key_doc])
-            rows += _variant_rows(spec, entry)
-        else:
-            shown = "required" if default is REQUIRED else ("" if default is None else f"`{show(default)}`")
-            unit = "" if spec.unit == "1" else spec.unit
-            doc = f"*{only}:* {spec.doc}" if only else spec.doc
-            rows.append([f"`{path}`", spec.kind.shown, unit, shown, spec.kind.allowed(spec), doc])
+        rows += spec.kind.visit(_Rows, spec, path, field_default(cls, field_name), only)
     return rows
+
+
+class _Rows:
+    """The reference's rows of a field, by its kind (``FieldKind.visit``): a value's one row (``only``: the
+    variant it belongs to), a nested table's fields, an array of tables' (with its variants' own)."""
+
+    @staticmethod
+    def value(spec: Spec, path: str, default, only: str) -> list[list[str]]:
+        shown = "required" if default is REQUIRED else ("" if default is None else f"`{show(default)}`")
+        unit = "" if spec.unit == "1" else spec.unit
+        doc = f"*{only}:* {spec.doc}" if only else spec.doc
+        return [[f"`{path}`", spec.kind.shown, unit, shown, spec.kind.allowed(spec), doc]]
+
+    @staticmethod
+    def table(spec: Spec, path: str, default, only: str) -> list[list[str]]:
+        return reference_rows(spec.of, path)
+
+    @staticmethod
+    def tables(spec: Spec, path: str, default, only: str) -> list[list[str]]:
+        entry = f"{path}[]"
+        if not spec.variants:
+            return reference_rows(spec.of, entry)
+        kinds = ", ".join(f"`{k}`" for k in spec.variants)
+        return [[f"`{entry}.{spec.key}`", "string", "", "required", kinds, spec.key_doc], *_variant_rows(spec, entry)]
 
 
 def _variant_rows(spec: Spec, entry: str) -> list[list[str]]:
