@@ -43,6 +43,20 @@ def test_only_run_files_of_another_study_are_removed(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.nc.tmp", "srf_1.2000.nc", "srf_field_survey.nc"]
 
 
+def test_run_files_that_keep_fewer_particle_fields_than_asked_are_removed(tmp_path):
+    """A run made under keep_fields = "none" holds less than a study that keeps every run's fields
+    asks: made again if the search asks for it, and never left beside the new runs if it does not."""
+    from workflows.fos.task import RunPolicy
+
+    netcdf(tmp_path / "srf_1.1000.nc", srf=1.1, run_key="mine", run_fields="none")
+    netcdf(tmp_path / "srf_1.2000.nc", srf=1.2, run_key="mine", run_fields="failed")
+    netcdf(tmp_path / "srf_1.3000.nc", srf=1.3, run_key="mine", run_fields="all")
+    assert remove_stale_runs(tmp_path, lambda srf: "mine", RunPolicy(fields="failed")) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["srf_1.2000.nc", "srf_1.3000.nc"]
+    assert remove_stale_runs(tmp_path, lambda srf: "mine", RunPolicy(fields="all")) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["srf_1.3000.nc"]
+
+
 def test_a_file_named_as_a_run_file_without_a_run_key_is_refused_not_overwritten(tmp_path):
     netcdf(tmp_path / "srf_1.2000.nc", note="the user's")
     with pytest.raises(StudyError) as error:

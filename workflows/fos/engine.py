@@ -217,9 +217,10 @@ class Engine:
     def _new_search(self, case: CaseSearch) -> None:
         """The case's folder without files another study made, and its search."""
         make_output_folder(case.out_dir)
-        removed = remove_stale_runs(case.out_dir, case.key)
+        removed = remove_stale_runs(case.out_dir, case.key, case.policy)
         if removed:
-            self.progress.message(case.say(f"removed {removed} run files another study made"))
+            self.progress.message(case.say(f"removed {removed} run files another study made (or that keep fewer "
+                                           "particle fields than this one asks for)"))
         if self.force:
             remove_stale_runs(case.out_dir, lambda srf: "")  # every run file of ours: each has a key
         stage = case.study.strength_reduction

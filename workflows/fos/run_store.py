@@ -64,10 +64,12 @@ def write_run(result: SrfRunResult, path: Path) -> None:
     write_bytes(result.file_bytes, path)
 
 
-def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str]) -> int:
+def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str], policy: RunPolicy = RunPolicy()) -> int:
     """Delete run files that another study made (another slope, strength or core): a file named as
     a run file (:data:`RUN_FILE_NAME`) whose ``run_key`` is not ``key_of(its srf)``, a damaged one,
-    and the temporary files of run files a killed process left.  StudyError on ``--out`` for a file
+    one made under a policy that keeps fewer particle fields than ``policy`` (the search makes it
+    again if it asks for that value; if not, it must not stay beside this study's runs as if it held
+    what they hold), and the temporary files of run files a killed process left.  StudyError on ``--out`` for a file
     named as a run file that is readable but carries no ``run_key``: not ours, and a run would
     write over it."""
     removed = 0
@@ -82,7 +84,8 @@ def remove_stale_runs(out_dir: Path, key_of: Callable[[float], str]) -> int:
         if attrs is not None and "run_key" not in attrs:
             raise StudyError("--out", f"{path} was not made by spfem-fos (no run_key attribute) and a run of this "
                              "study writes that name; move it or choose another output folder")
-        if attrs is None or "srf" not in attrs or attrs["run_key"] != key_of(float(attrs["srf"])):
+        if (attrs is None or "srf" not in attrs or attrs["run_key"] != key_of(float(attrs["srf"]))
+                or not policy.covered_by(attrs.get(FIELDS_POLICY_ATTRIBUTE, "all"))):
             path.unlink(missing_ok=True)
             removed += 1
     for path in out_dir.glob("srf_*.nc.tmp"):
