@@ -77,7 +77,7 @@ class Probabilistic(Record):
                        "new design), `form` (the reliability index by FORM on the FOS: random variables, "
                        "compute = \"fos\"), `point_estimate` (Rosenblueth's 2^n points: the FOS's mean and std, "
                        "a screen) or `subset_simulation` (a small pf by levels of Markov chains on the FOS: random "
-                       "variables, compute = \"fos\")", default="monte_carlo", choices=METHODS)
+                       "variables and random fields, compute = \"fos\")", default="monte_carlo", choices=METHODS)
     realisations: int = integer("number of realisations (form, point_estimate: the most FOS searches)", ge=1,
                                 le=MAX_REALISATIONS)
     seed: int = integer("the seed: realisation i of monte_carlo is the same whatever the count", default=1, ge=0)
@@ -124,9 +124,9 @@ class Probabilistic(Record):
         if study.refinement is not None:
             raise StudyError("probabilistic", "[probabilistic] and [refinement] in one study are not supported yet")
         if self.method in DESIGN_POINT_METHODS:
-            if study.random_field is not None:
+            if study.random_field is not None and self.method != "subset_simulation":
                 raise StudyError("probabilistic.method", f"{self.method} here takes random variables only, not a "
-                                 "[random_field] (use monte_carlo)")
+                                 "[random_field] (use monte_carlo or subset_simulation)")
             if study.sweep is not None:
                 raise StudyError("probabilistic.method", f"{self.method} with [sweep] is not supported yet")
 
@@ -150,7 +150,7 @@ class Probabilistic(Record):
 
     def _check_design_points(self, n: int) -> None:
         """What form and point_estimate need: random variables, each point's FOS, a budget for their points."""
-        if n == 0:
+        if n == 0 and self.method != "subset_simulation":  # (subset_simulation: a [random_field] may vary alone)
             raise StudyError("variables", f"{self.method} needs random variables ([[probabilistic.variables]]); it "
                              "does not take a [random_field] yet (use monte_carlo)")
         if self.compute != "fos":
