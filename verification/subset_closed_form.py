@@ -31,7 +31,6 @@ from workflows.probabilistic.reliability import lognormal_strength_pf
 from workflows.study import parse_study
 from workflows.study_types import run_study
 
-
 SINGLE_VARIABLE_THETA_M = 1e6
 """--field: a scale of fluctuation over 100 times the 90 m section: the field is one value per realisation."""
 
