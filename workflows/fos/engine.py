@@ -369,9 +369,11 @@ class Engine:
                                 failure_m=failure_displacement_m(case.study), window=case.window)
 
     def _replay(self, case: CaseSearch) -> bool:
-        """Feed the search the runs it asks for while every one of them is on disk; True (the case
-        concluded, no gravity needed) if that finishes it.  Otherwise the search stands where the
-        first missing run is asked for, and the loop plans from there once the gravity is known."""
+        """Feed the search the runs it asks for while some of them are on disk (of a batch, those that are:
+        a value beside them that an earlier invocation never ran, cancelled above one of them that failed,
+        is then no longer asked for); True (the case concluded, no gravity needed) if that finishes it.
+        Otherwise the search stands where it asks only for missing runs, and the loop plans from there
+        once the gravity is known."""
         if self.force:
             return False
         search = case.search
@@ -380,10 +382,11 @@ class Engine:
             if not planned:
                 break
             stored = [stored_run(case.out_dir / run_file_name(srf), case.key(srf), case.policy) for srf in planned]
-            if any(record is None for record in stored):
+            found = [record for record in stored if record is not None]
+            if not found:
                 return False
-            for record in stored:
-                search.started(record.srf)
+            for record in found:  # (a value missing beside them may be one the search no longer asks for once
+                search.started(record.srf)  # it knows these: above one of them that failed, as when they ran)
                 self._reused(case, record)
         if search.pending:
             return False
