@@ -181,3 +181,20 @@ def test_subset_simulation_on_a_random_field_reaches_a_known_small_pf(tmp_path):
         if not again.next_cases(made, progress) and again.finished:
             break
     assert again.realisations.field_terms == points.field_terms and again.realisations.count == points.count
+
+
+@pytest.mark.slow
+def test_a_subset_study_on_a_random_field_resumes_without_a_run_and_the_same_pf(tmp_path):
+    """The undrained random-field study at h = 2 m, factor 0.8, 20 points a level: run, then run again into the
+    same folder: every point made again from the seeds, every run read back (none made) and the same pf and
+    levels (before: the second invocation re-made runs and stopped with the engine waiting on no task)."""
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study
+
+    text = UNDRAINED.replace("spacing_m = 1.0", "spacing_m = 2.0").replace('compute = "verdict"', 'compute = "fos"')
+    text = re.sub(r'(?m)^method = .*$', 'method = "subset_simulation"\nsamples_per_level = 20', text, count=1)
+    text = text.replace("realisations = 200", "realisations = 100").replace("factor = 1.0", "factor = 0.8")
+    first = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    again = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert first.runs_made > 0 and again.runs_made == 0
+    assert again.pf == first.pf and again.thresholds == first.thresholds and again.n_searches == first.n_searches
