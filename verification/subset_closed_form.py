@@ -3,6 +3,7 @@ at COVs that put pf near 1e-3 and 1e-4, over independent seeds.
 
     python -m verification.subset_closed_form                          # h = 2 m, 200 points a level, seeds 1-5
     python -m verification.subset_closed_form --spacing 1 --samples 500 --targets 1e-3
+    python -m verification.subset_closed_form --field        # cu the study's field, theta beyond the section
 
 ``studies/probabilistic_undrained.toml`` without its field, cu one lognormal variable
 (``verification.undrained_variants``), ``method = "subset_simulation"``, each point's FOS searched to
@@ -24,11 +25,14 @@ from pathlib import Path
 
 from scipy import optimize, stats
 
-from verification.undrained_variants import deterministic_fos, shipped_text, single_variable_text
+from verification.undrained_variants import deterministic_fos, field_text, shipped_text, single_variable_text
 from workflows.cases import RunOptions
 from workflows.probabilistic.reliability import lognormal_strength_pf
 from workflows.study import parse_study
 from workflows.study_types import run_study
+
+SINGLE_VARIABLE_THETA_M = 1e6
+"""--field: a scale of fluctuation over 100 times the 90 m section: the field is one value per realisation."""
 
 
 def cov_for(target_pf: float, f_det: float) -> float:
@@ -36,9 +40,15 @@ def cov_for(target_pf: float, f_det: float) -> float:
     return float(optimize.brentq(lambda cov: lognormal_strength_pf(1.0, cov, f_det) - target_pf, 0.01, 2.0))
 
 
-def subset_text(text: str, cov: float, seed: int, samples: int, budget: int) -> str:
-    """One lognormal cu per point, by subset simulation on each point's FOS."""
-    text = single_variable_text(text, cov, budget)
+def subset_text(text: str, cov: float, seed: int, samples: int, budget: int, field: bool = False) -> str:
+    """One lognormal cu per point, by subset simulation on each point's FOS: a random variable, or (``field``)
+    the study's cu field at a scale of fluctuation beyond the single-variable limit (one value per point, drawn
+    and moved through the fields' standard normal vectors and ``random_field.combination``)."""
+    if field:
+        text = field_text(text, cov, SINGLE_VARIABLE_THETA_M, budget)
+        text = text.replace("[random_field]\nseed = 1", f"[random_field]\nseed = {seed}")
+    else:
+        text = single_variable_text(text, cov, budget)
     text = re.sub(r'(?m)^method = .*$', f'method = "subset_simulation"\nsamples_per_level = {samples}', text, count=1)
     text = re.sub(r"(?m)^seed = 1$", f"seed = {seed}", text, count=1)
     return re.sub(r'(?m)^compute = .*$', 'compute = "fos"', text, count=1)
@@ -51,6 +61,8 @@ def main(argv=None) -> int:
     parser.add_argument("--samples", type=int, default=200, help="FOS searches a level")
     parser.add_argument("--spacing", type=float, default=2.0)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--field", action="store_true", help="cu as the study's random field in its single-variable "
+                        "limit (the fields' chains) instead of a random variable")
     args = parser.parse_args(argv)
     text = shipped_text(args.spacing)
     options = RunOptions(workers=args.workers)
@@ -63,7 +75,7 @@ def main(argv=None) -> int:
             cov = cov_for(target, f_det)
             exact = lognormal_strength_pf(1.0, cov, f_det)
             for seed in args.seeds:
-                case = subset_text(text, cov, seed, args.samples, 20 * args.samples)
+                case = subset_text(text, cov, seed, args.samples, 20 * args.samples, args.field)
                 out = run_study(parse_study(case), Path(scratch) / f"pf_{target:g}_seed_{seed}", options)
                 crude = (1.0 - out.pf) / (out.pf * out.cov**2) if out.pf > 0 else math.inf
                 holds = out.pf_low <= exact <= out.pf_high

@@ -278,7 +278,7 @@ def case_count(study: Study) -> int | None:
         return len(study.transient.fos_times())
     if study.probabilistic is not None:  # (with [sweep]: a probabilistic study per case)
         table = study.probabilistic
-        each = min(2 ** len(table.variables), table.realisations) if table.method == "point_estimate" else table.realisations
+        each = table.method_kind.most_searches(table, len(table.variables))
         return each * (len(sweep_cases(study)) if study.sweep is not None else 1)
     if study.sweep is not None:
         return len(sweep_cases(study))

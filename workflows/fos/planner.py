@@ -115,9 +115,11 @@ class Planner:
 
     # ------------------------------------------------------------------ one case
     def replay(self, case: CaseSearch) -> bool:
-        """Feed the search the runs it asks for while every one of them is on disk; True (the case is
-        decided, no gravity needed) if that finishes it.  Otherwise the search stands where the
-        first missing run is asked for, and is planned from there once the gravity is known."""
+        """Feed the search the runs it asks for while some of them are on disk (of a batch, those that
+        are: a value beside them that an earlier invocation never ran, cancelled above one of them that
+        failed, is then no longer asked for); True (the case is decided, no gravity needed) if that
+        finishes it.  Otherwise the search stands where it asks only for missing runs, and is planned
+        from there once the gravity is known."""
         if self.force:
             return False
         search = case.search
@@ -126,9 +128,10 @@ class Planner:
             if not planned:
                 break
             stored = [stored_run(case.out_dir / run_file_name(srf), case.key(srf), case.policy) for srf in planned]
-            if any(record is None for record in stored):
+            found = [record for record in stored if record is not None]
+            if not found:
                 return False
-            for record in stored:
+            for record in found:
                 search.started(record.srf)
                 case.reused(record)
         return not search.pending

@@ -71,6 +71,7 @@ class DesignPoints(Realisations):
         except ValueError as error:
             raise StudyError("probabilistic.correlation", str(error)) from None
         self.u = np.empty((0, len(self.marginals)))
+        self.field_terms: dict[int, tuple] = {}  # point -> its fields' (realisation, weight) terms, where not its own
         return np.empty((0, len(self.marginals)))
 
     def add(self, values: np.ndarray, u: np.ndarray | None = None) -> None:
@@ -82,9 +83,19 @@ class DesignPoints(Realisations):
         self._check_draws()
 
     def add_u(self, u: np.ndarray) -> None:
-        """Points at the standard normals ``u`` (rows), through the Nataf transform."""
+        """Points at the standard normals ``u`` (rows), through the Nataf transform (none: a [random_field] varies
+        alone)."""
         u = np.atleast_2d(u)
-        self.add(self.sampler._values(u @ self.sampler.cholesky.T), u)
+        self.add(self.sampler._values(u @ self.sampler.cholesky.T) if self.marginals else np.empty((len(u), 0)), u)
+
+    def raw_of(self, i: int) -> dict:
+        """The study dict of point ``i``; with its fields' ``combination`` where a Markov chain moved them
+        (``field_terms``: subset simulation)."""
+        case_raw = super().raw_of(i)
+        terms = self.field_terms.get(i)
+        if terms is not None:
+            case_raw["random_field"]["combination"] = [[realisation, weight] for realisation, weight in terms]
+        return case_raw
 
     def x_of(self, u: np.ndarray) -> np.ndarray:
         """The variables' values at the standard normals ``u``."""

@@ -38,14 +38,15 @@ class Method:
 
     name: str
     description: str  # for the reference
-    placed = False  # places its points (``workflows.probabilistic.design_points``): random variables only,
-    # each point's FOS, no [sweep] and no pf_interval_width
+    placed = False  # places its points (``workflows.probabilistic.design_points``): random variables only
+    # (unless it takes fields), each point's FOS, no [sweep] and no pf_interval_width
+    takes_fields = False  # a placed method that also moves a [random_field]'s standard normal vector
 
     def check(self, table, n_variables: int) -> None:
         """StudyError where the table's other fields do not suit it (a placed method: the rules above)."""
         if not self.placed:
             return
-        if n_variables == 0:
+        if n_variables == 0 and not self.takes_fields:  # (one that takes fields: a [random_field] may vary alone)
             raise StudyError("variables", f"{self.name} needs random variables ([[probabilistic.variables]]); it "
                              "does not take a [random_field] yet (use monte_carlo)")
         if not table.computation.searches:
@@ -57,18 +58,23 @@ class Method:
     def check_budget(self, table, n_variables: int) -> None:
         """StudyError where ``realisations`` cannot hold the points the method needs."""
 
+    def most_searches(self, table, n_variables: int) -> int:
+        """The most realisations or FOS searches it makes: ``realisations`` (FORM and subset simulation
+        stop sooner once converged)."""
+        return table.realisations
+
     def draw(self, sampler, seed: int, count: int):
         """A sampled method's standard normals of ``count`` realisations (``sampling.Sampler``); a placed
         method places its points instead (``design_points.DesignPoints``)."""
         raise NotImplementedError(f"{self.name} places its points")
 
     def check_in_study(self, study) -> None:
-        """A placed method takes neither a [random_field] nor [sweep]."""
+        """A placed method takes no [sweep], and no [random_field] unless it takes fields."""
         if not self.placed:
             return
-        if study.random_field is not None:
+        if study.random_field is not None and not self.takes_fields:
             raise StudyError("probabilistic.method", f"{self.name} here takes random variables only, not a "
-                             "[random_field] (use monte_carlo)")
+                             "[random_field] (use monte_carlo or subset_simulation)")
         if study.sweep is not None:
             raise StudyError("probabilistic.method", f"{self.name} with [sweep] is not supported yet")
 
@@ -116,12 +122,17 @@ class PointEstimate(Method):
             raise StudyError("realisations", f"{self.name} with {n_variables} variables needs at least {needed} FOS "
                              f"searches (2^n points), got {table.realisations}")
 
+    def most_searches(self, table, n_variables):
+        """Its 2^n points."""
+        return min(2**n_variables, table.realisations)
+
 
 class SubsetSimulation(Method):
     name = "subset_simulation"
-    description = ("`subset_simulation` (a small pf by levels of Markov chains on the FOS: random variables, "
-                   "compute = \"fos\")")
+    description = ("`subset_simulation` (a small pf by levels of Markov chains on the FOS: random variables "
+                   "and random fields, compute = \"fos\")")
     placed = True
+    takes_fields = True
 
     def check_budget(self, table, n_variables):
         """Whole chains of 1 / p0 states, and room for the first level."""

@@ -12,7 +12,9 @@ which make the next level's N points, all with FOS < b_k.  A chain moves by cond
 
     candidate = rho u + sqrt(1 - rho^2) eps,   eps standard normal,   accepted if FOS(candidate) < b_k,
 
-the state repeated otherwise; it needs no ratio of densities and works in any dimension.  Once a
+the state repeated otherwise; it needs no ratio of densities and works in any dimension: a random field's
+standard normal vector xi (thousands of numbers, the field a linear map of it) moves all at once the same
+way, written as the weighted sum of the streams' vectors it is made of (:func:`moved_terms`).  Once a
 level has at least ``N p0`` points below the factor (or the levels run out) it is the last, ``m``:
 
     pf = p0^m P_m,     P_m = #(FOS < factor) / N.
@@ -49,6 +51,13 @@ def seeds_and_threshold(fos: np.ndarray, p0: float, factor: float) -> tuple[np.n
 def candidate(u: np.ndarray, eps: np.ndarray, rho: float = PROPOSAL_CORRELATION) -> np.ndarray:
     """rho u + sqrt(1 - rho^2) eps (module doc)."""
     return rho * np.asarray(u, float) + math.sqrt(1.0 - rho * rho) * np.asarray(eps, float)
+
+
+def moved_terms(terms: tuple, own: int, rho: float = PROPOSAL_CORRELATION) -> tuple:
+    """A random field's candidate as its standard normal vector's terms (realisation, weight): rho times the
+    state's, and sqrt(1 - rho^2) times the vector of the candidate's own stream, realisation ``own`` (the
+    candidate of the module doc, in the fields' space; ``random_field.combination``)."""
+    return tuple((realisation, rho * weight) for realisation, weight in terms) + ((own, math.sqrt(1.0 - rho * rho)),)
 
 
 def chain_gamma(indicator: np.ndarray) -> float:

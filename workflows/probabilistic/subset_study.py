@@ -1,11 +1,13 @@
-"""A probabilistic study by subset simulation (``method = "subset_simulation"``, random variables,
-``compute = "fos"``): the levels of ``workflows.probabilistic.subset`` on the points' FOS.
+"""A probabilistic study by subset simulation (``method = "subset_simulation"``, random variables and random
+fields, ``compute = "fos"``): the levels of ``workflows.probabilistic.subset`` on the points' FOS.
 
 Level 0 is the Monte Carlo sample of a ``monte_carlo`` study of the same seed (point i's standard
-normals from the stream ``SeedSequence([seed, i])``), ``samples_per_level`` points.  Each later level
-runs its ``samples_per_level * p0`` chains together: a round is one candidate per chain (its noise from
-the stream ``SeedSequence([seed, i, 1])`` of the candidate's own number i), all searched at once on the
-cluster; ``1 / p0 - 1`` rounds make a level.  Every candidate is a realisation
+normals from the stream ``SeedSequence([seed, i])``, its fields those of realisation i),
+``samples_per_level`` points.  Each later level runs its ``samples_per_level * p0`` chains together: a
+round is one candidate per chain (its noise from the stream ``SeedSequence([seed, i, 1])`` of the
+candidate's own number i, and for the fields the vector of realisation i's own field stream: the
+candidate's fields are ``random_field.combination``, rho times the state's terms and sqrt(1 - rho^2) times
+its own), all searched at once on the cluster; ``1 / p0 - 1`` rounds make a level.  Every candidate is a realisation
 (``OUT/cases/realisation_<i>/``), accepted or not, numbered in the order they are made, so the points
 depend only on the seed and the FOS before them: a stopped study makes the same points again and reads
 their runs back.  A point's FOS for the levels is its search's (a FOS above ``srf_max``: infinite, never
@@ -153,12 +155,23 @@ class SubsetStudy(DesignPointStudy):
         candidates = [subset.candidate(points.u[chain[-1]], np.random.default_rng(
             np.random.SeedSequence([table.seed, start + k, 1])).standard_normal(n))
             for k, chain in enumerate(self.chains)]
-        for k in range(len(candidates)):
+        for k, chain in enumerate(self.chains):
             self.level_of[start + k] = len(self.levels)
+            if self.study.random_field is not None:  # the fields' xi moves with u (module doc)
+                state = chain[-1]
+                points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
+                                                                   start + k)
         self.round_start = start
         points.add_u(np.array(candidates))
         self.batch_end = points.count
         return self.more_cases(FIRST_REALISATIONS)
+
+    def _field_estimate(self, case) -> float | None:
+        """None: a point's window is predicted from its fields' strength near the mean soil's critical circle
+        (``ProbabilisticStudy.features``), never from the mechanisms of the points concluded before, which a
+        resumed study reads back without all of their slip lines: its windows, runs and FOS would differ, and
+        with them the chains (module doc: the points depend only on the seed and the FOS before them)."""
+        return None
 
     def _discretisation(self, result: SubsetOutcome) -> tuple | None:
         """The expected excess of every point's FOS at the study's spacing (``fos.discretisation``: the measured

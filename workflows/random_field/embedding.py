@@ -128,6 +128,21 @@ class GridField:
         sqrt_eigen.setflags(write=False)  # shared by the cache
         return cls(model, theta_x_m, theta_y_m, nx, ny, dx_m, dy_m, sqrt_eigen, cell_m)
 
+    def standard_normals(self, rng: np.random.Generator) -> np.ndarray:
+        """The standard normal vector xi of one draw: Z1 then Z2 of the periodic grid, raveled (what
+        :meth:`draw` takes from ``rng``, in its order)."""
+        return np.concatenate([rng.standard_normal(self.sqrt_eigen.shape).ravel(),
+                               rng.standard_normal(self.sqrt_eigen.shape).ravel()])
+
+    def field_of(self, xi: np.ndarray) -> np.ndarray:
+        """The field of the standard normal vector ``xi`` (:meth:`standard_normals`), linear in it:
+        Re FFT(sqrt(lambda / N) (Z1 + i Z2)) on the grid (module doc), the first field of :meth:`draw`."""
+        from scipy import fft  # scipy.fft: only when a field is drawn
+
+        size = self.sqrt_eigen.size
+        z = (xi[:size] + 1j * xi[size:]).reshape(self.sqrt_eigen.shape)
+        return fft.fft2(self.sqrt_eigen * z).real[: self.nx, : self.ny]
+
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """Two independent fields of zero mean and unit variance on the grid, each (nx, ny)."""
         from scipy import fft  # scipy.fft: only when a field is drawn
@@ -245,6 +260,15 @@ class ParticleField:
         """Two independent standard Gaussian fields at the particles, cell-averaged (module doc)."""
         first, second = self.grid.draw(rng)
         return self._at_particles(first), self._at_particles(second)
+
+    def standard_normals(self, rng: np.random.Generator) -> np.ndarray:
+        """The standard normal vector of one draw (``GridField.standard_normals``)."""
+        return self.grid.standard_normals(rng)
+
+    def field_of(self, xi: np.ndarray) -> np.ndarray:
+        """The field at the particles of the standard normal vector ``xi``, linear in it: the first field
+        :meth:`draw` gives from the ``rng`` that :meth:`standard_normals` turns into ``xi``."""
+        return self._at_particles(self.grid.field_of(xi))
 
     def _at_particles(self, grid_values: np.ndarray) -> np.ndarray:
         if self.grid.cell_m is not None:  # the grid holds the cell averages

@@ -66,6 +66,14 @@ class SingleValueField:
         a, b = rng.standard_normal(2)
         return np.full(self.n_particles, a), np.full(self.n_particles, b)
 
+    def standard_normals(self, rng: np.random.Generator) -> np.ndarray:
+        """The standard normal vector of one draw (as :meth:`draw` takes it from ``rng``)."""
+        return rng.standard_normal(2)
+
+    def field_of(self, xi: np.ndarray) -> np.ndarray:
+        """The field of the standard normal vector ``xi``: its first value at every particle."""
+        return np.full(self.n_particles, float(xi[0]))
+
 
 class ExpandedField:
     """Standard Gaussian values at particles, each the average over its cell, from a Karhunen-Loeve
@@ -100,6 +108,15 @@ class ExpandedField:
         """Two independent fields at the particles, cell-averaged (module doc)."""
         xi = rng.standard_normal((2, self.n_modes))
         return self.modes @ xi[0], self.modes @ xi[1]
+
+    def standard_normals(self, rng: np.random.Generator) -> np.ndarray:
+        """The standard normal vector of one draw (as :meth:`draw` takes it from ``rng``), raveled."""
+        return rng.standard_normal((2, self.n_modes)).ravel()
+
+    def field_of(self, xi: np.ndarray) -> np.ndarray:
+        """The field at the particles of the standard normal vector ``xi``, linear in it: sum_k a_k(x) xi_k over
+        the modes (the first field of :meth:`draw`)."""
+        return self.modes @ xi[: self.n_modes]
 
 
 def _node_counts(extent_m: tuple[float, float], theta_m: tuple[float, float], spacing_m: float) -> tuple[int, int]:

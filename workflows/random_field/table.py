@@ -23,9 +23,22 @@ import numpy as np
 
 from workflows.distributions import FIELD_DISTRIBUTIONS, NORMAL, Distribution
 from workflows.engineering_units import spellings
-from workflows.fields import NUMBER, Record, StudyError, integer, name_field, number, specs, tables, text
+from workflows.fields import (
+    NUMBER,
+    Record,
+    StudyError,
+    any_values,
+    integer,
+    name_field,
+    number,
+    specs,
+    tables,
+    text,
+)
 from workflows.random_field.correlation import CORRELATION_MODELS, CorrelationModel
 
+COMBINATION_TOLERANCE = 1e-9
+"""How far the squares of a ``combination``'s weights may sum from 1 (rounding of the chains' products)."""
 SEEPAGE_PROPERTY = "permeability_m_s"
 """The one property of a field that is no property of the core's: the conductivity the steady flow
 takes (``workflows.seepage.flow``), with ``[seepage]``."""
@@ -157,6 +170,37 @@ class RandomField(Record):
     seed: int = integer("the seed of the fields", default=1, ge=0)
     realisation: int = integer("which realisation of the fields (a probabilistic study sets it for each of its "
                                "realisations)", default=0, ge=0)
+    combination: tuple | None = any_values(
+        "the standard normal vector of the fields as a weighted sum of those of other realisations, rows "
+        "[realisation, weight] whose weights' squares sum to 1 (subset simulation's Markov chains write it: rho times "
+        "the chain's state, sqrt(1 - rho^2) times the candidate's own); `realisation` then only names the case; "
+        "absent: the realisation's own", default=None)
+
+    def check(self):
+        """A combination's rows are [realisation >= 0, finite weight], distinct, their weights' squares summing
+        to 1 (a standard normal vector again)."""
+        if self.combination is None:
+            return
+        seen = set()
+        for i, row in enumerate(self.combination):
+            if (not isinstance(row, tuple) or len(row) != 2 or isinstance(row[0], bool) or not isinstance(row[0], int)
+                    or row[0] < 0 or isinstance(row[1], bool) or not isinstance(row[1], (int, float))
+                    or not math.isfinite(row[1])):
+                raise StudyError(f"combination[{i}]", f"must be [realisation (an integer >= 0), weight (a number)], "
+                                 f"got {list(row) if isinstance(row, tuple) else row!r}")
+            if row[0] in seen:
+                raise StudyError(f"combination[{i}]", f"realisation {row[0]} appears twice")
+            seen.add(row[0])
+        total = sum(float(row[1]) ** 2 for row in self.combination)
+        if abs(total - 1.0) > COMBINATION_TOLERANCE:
+            raise StudyError("combination", f"the weights' squares sum to {total:.9g}, not 1: the sum would not be "
+                             "a standard normal vector")
+
+    def terms(self) -> tuple[tuple[int, float], ...]:
+        """(realisation, weight) of each standard normal vector the fields are made of (``combination``)."""
+        if self.combination is None:
+            return ((self.realisation, 1.0),)
+        return tuple((int(r), float(w)) for r, w in self.combination)
 
     def check_in_study(self, study) -> None:
         """Every entry names a material and one of its numeric properties, with a valid mean (module doc)."""

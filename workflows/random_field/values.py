@@ -17,10 +17,12 @@ RFEM does).  Two properties of one material are cross-correlated through their G
 both, as Fenton & Griffiths' co-located model); for lognormal properties ``rho`` is the
 correlation of ln X.
 
-The field of realisation ``r`` with seed ``s`` is drawn from the stream
+The field of realisation ``r`` with seed ``s`` is the generator's linear map of a standard normal vector
+xi (``field_of``) drawn from the stream
 ``SeedSequence([s, r], spawn_key=(FIELD_STREAM, crc32 of the field's name))``, so it depends on nothing
 else (not on the other fields, the number of realisations or the worker),
-and never coincides with the stream of ``[probabilistic]``'s random variables.  The values live
+and never coincides with the stream of ``[probabilistic]``'s random variables; with ``combination``, xi is
+the weighted sum of the vectors of the realisations it names (:func:`standard_normals`).  The values live
 on the particles (``spfem_core.scene.Scene.node_properties``), and particles are the mesh's
 nodes: remeshing never moves a value from one particle to another.
 """
@@ -70,9 +72,7 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
             theta_x_m, theta_y_m = entry.thetas_m()
             fields[structure] = particle_field(entry.model(), theta_x_m, theta_y_m, node_xy_m[mine],
                                                node_spacing_m[mine])
-        stream = np.random.SeedSequence([random_field.seed, random_field.realisation],
-                                        spawn_key=(FIELD_STREAM, zlib.crc32(entry.name.encode())))
-        g = fields[structure].draw(np.random.default_rng(stream))[0]
+        g = fields[structure].field_of(standard_normals(fields[structure], random_field, entry.name))
         if entry.correlated_with is not None:
             rho = entry.correlation
             g = rho * gaussian[entry.correlated_with] + math.sqrt(1.0 - rho * rho) * g
@@ -87,6 +87,18 @@ def node_properties(random_field, materials, node_xy_m: np.ndarray, node_spacing
         column[mine] = values
     keep_order(materials, node_material, out)
     return out
+
+
+def standard_normals(generator, random_field, name: str) -> np.ndarray:
+    """The standard normal vector xi of the field ``name`` in the realisation of ``random_field``: that of the
+    realisation's own stream (module doc), or the weighted sum of those of the realisations its ``combination``
+    names (a Markov chain's move: the field of the sum is the sum of the fields, the map xi -> field linear)."""
+    xi = 0.0
+    for realisation, weight in random_field.terms():  # (1.0 times one vector: that vector, bit for bit)
+        stream = np.random.SeedSequence([random_field.seed, realisation],
+                                        spawn_key=(FIELD_STREAM, zlib.crc32(name.encode())))
+        xi = xi + weight * generator.standard_normals(np.random.default_rng(stream))
+    return np.asarray(xi)
 
 
 def keep_order(materials, node_material: np.ndarray, out: dict[str, np.ndarray]) -> None:
