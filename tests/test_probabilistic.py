@@ -323,3 +323,35 @@ def test_a_resumed_field_study_in_fos_mode_repeats_itself(tmp_path):
     assert resumed.runs_made == 0
     np.testing.assert_array_equal(xr.load_dataset(tmp_path / "probabilistic.nc")["fos"].values, first["fos"].values)
     assert xr.load_dataset(summary)["slip_x"].size > 1
+
+
+def test_a_realisation_handed_out_late_in_its_generation_is_predicted_from_the_earlier_ones(tmp_path, monkeypatch):
+    """fos mode: realisation 0 is generation 1, realisations 1 and 2 generation 2.  Realisation 2 handed
+    out after realisation 1 concluded is still predicted from realisation 0 alone (the order the
+    realisations of a generation conclude in differs between an uninterrupted and a resumed study);
+    once the generation is over, both join the prediction."""
+    from types import SimpleNamespace
+
+    from workflows.probabilistic import study_type
+
+    monkeypatch.setattr(study_type, "case_result", lambda result: result)
+    monkeypatch.setattr(study_type, "realisation_verdict", lambda *args: study_type.STABLE)
+    study = study_type.ProbabilisticStudy(parse_study(probabilistic(6, 'compute = "fos"')), tmp_path)
+    study.check(RunOptions(workers=2))
+
+    def conclude(case):
+        _, windows = study.generation_windows
+        estimate = windows.pending[case.case_id][1]  # its FOS: its limit-equilibrium estimate (ratio 1)
+        outcome = SimpleNamespace(diverged=False, fos=estimate, runs=[], result=SimpleNamespace(slip="none"))
+        study.case_concluded(case.case_id, outcome, Progress())
+
+    [first] = study.cases()
+    conclude(first)
+    [second] = study.more_cases(1)
+    conclude(second)
+    [third] = study.more_cases(1)
+    _, windows = study.generation_windows
+    assert third.case_id.endswith("00002") and len(windows.predictor.ratios) == 1
+    conclude(third)
+    study.more_cases(1)
+    assert len(windows.predictor.ratios) == 3
