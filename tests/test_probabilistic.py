@@ -302,3 +302,56 @@ def test_a_target_interval_width_makes_no_realisation_of_the_batches_it_skips(tm
     outcome = run_study(parse_study(probabilistic(100_000, "pf_interval_width = 0.99")), tmp_path,
                         RunOptions(workers=2))
     assert outcome.n_realisations == 3 and len(list((tmp_path / "cases").iterdir())) == 3
+
+
+def test_a_resumed_field_study_in_fos_mode_repeats_itself(tmp_path):
+    """The undrained random-field study in fos mode (h = 2 m, 4 realisations): realisation 0 is stable,
+    so its failed runs lose their particle state once it concludes (keep_fields = "failed"), yet its
+    slip line predicts the windows of realisations 1 and 2.  Run again into the same folder (as after a
+    kill), every realisation concludes from its runs on disk: no run is made, every FOS is the same, and
+    realisation 0's summary keeps its slip line (read back from the summary the first run wrote)."""
+    text = (REPO / "studies" / "probabilistic_undrained.toml").read_text()
+    text = (text.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("realisations = 200", "realisations = 4")
+            .replace('compute = "verdict"', 'compute = "fos"'))
+    run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    first = xr.load_dataset(tmp_path / "probabilistic.nc")
+    assert first["verdict"].values[0] == "stable"
+    summary = tmp_path / "cases" / "realisation_00000" / "summary.nc"
+    assert xr.load_dataset(summary)["slip_x"].size > 1
+    (tmp_path / "probabilistic.nc").unlink()
+    resumed = run_study(parse_study(text), tmp_path, RunOptions(workers=2))
+    assert resumed.runs_made == 0
+    np.testing.assert_array_equal(xr.load_dataset(tmp_path / "probabilistic.nc")["fos"].values, first["fos"].values)
+    assert xr.load_dataset(summary)["slip_x"].size > 1
+
+
+def test_a_realisation_handed_out_late_in_its_generation_is_predicted_from_the_earlier_ones(tmp_path, monkeypatch):
+    """fos mode: realisation 0 is generation 1, realisations 1 and 2 generation 2.  Realisation 2 handed
+    out after realisation 1 concluded is still predicted from realisation 0 alone (the order the
+    realisations of a generation conclude in differs between an uninterrupted and a resumed study);
+    once the generation is over, both join the prediction."""
+    from types import SimpleNamespace
+
+    from workflows.probabilistic import study_type
+
+    monkeypatch.setattr(study_type, "case_result", lambda result: result)
+    monkeypatch.setattr(study_type, "realisation_verdict", lambda *args: study_type.STABLE)
+    study = study_type.ProbabilisticStudy(parse_study(probabilistic(6, 'compute = "fos"')), tmp_path)
+    study.check(RunOptions(workers=2))
+
+    def conclude(case):
+        _, windows = study.generation_windows
+        estimate = windows.pending[case.case_id][1]  # its FOS: its limit-equilibrium estimate (ratio 1)
+        outcome = SimpleNamespace(diverged=False, fos=estimate, runs=[], result=SimpleNamespace(slip="none"))
+        study.case_concluded(case.case_id, outcome, Progress())
+
+    [first] = study.cases()
+    conclude(first)
+    [second] = study.more_cases(1)
+    conclude(second)
+    [third] = study.more_cases(1)
+    _, windows = study.generation_windows
+    assert third.case_id.endswith("00002") and len(windows.predictor.ratios) == 1
+    conclude(third)
+    study.more_cases(1)
+    assert len(windows.predictor.ratios) == 3

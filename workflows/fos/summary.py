@@ -102,6 +102,8 @@ def conclude_case(case, progress, wall_start: float, figures: bool, summary_file
         return outcome
     io_start = time.perf_counter()
     outcome.slip, outcome.edges = case_mechanism(study, out_dir, status)
+    if isinstance(outcome.slip, str) and _reused(runs, status.fos_high):  # its particle state removed since
+        outcome.slip = earlier_slip_surface(outcome.summary_path, status.fos_high) or outcome.slip
     for contact in outcome.edges if case.label else []:  # a single study's report says it
         if contact.warning:
             progress.message(case.say(f"warning: the box decides: {contact.line}"))
@@ -130,6 +132,38 @@ def case_mechanism(study, out_dir: Path, status) -> tuple[SlipSurface | str, lis
         stable = run_particles(out_dir / run_file_name(status.fos_low), study)
     slip = slip_surface(study, failed, stable, status.fos_high, status.fos_low if stable is not None else math.nan)
     return slip, edge_contacts(study, failed, stable, (slip.x_m, slip.y_m) if isinstance(slip, SlipSurface) else None)
+
+
+def _reused(runs: dict, srf: float) -> bool:
+    """Whether the run at ``srf`` is an earlier invocation's (its start time NaN)."""
+    record = runs.get(srf)
+    return record is not None and record.started_s != record.started_s
+
+
+def earlier_slip_surface(summary_path: Path, srf: float) -> SlipSurface | None:
+    """The slip surface from the failed run at ``srf`` that an earlier invocation wrote to the case's
+    ``summary.nc`` (None: no file, or no line from that run).  A resumed case whose runs are all reused
+    keeps its slip line though that run's particle state was removed after the first conclusion
+    (a probabilistic study's ``keep_fields``): a probabilistic study predicts its later realisations'
+    windows from these lines, so a resumed study repeats the uninterrupted one.  The supports the
+    mechanism reaches are not kept (they need the particles)."""
+    from workflows.fos.limit_equilibrium import SpencerResult
+
+    try:
+        with xr.open_dataset(summary_path, engine="netcdf4") as ds:
+            if "slip_x" not in ds or ds["slip_x"].size < 2 or float(ds["slip_srf"].values) != srf:
+                return None
+            slip_srf, le = ds["slip_srf"], ds["le_fos"]
+            return SlipSurface(
+                x_m=np.asarray(ds["slip_x"].values, dtype=float), y_m=np.asarray(ds["slip_y"].values, dtype=float),
+                depth_m=float(ds["slip_depth"].values), area_m2=float(ds["slip_area"].values), srf=srf,
+                stable_srf=float(slip_srf.attrs.get("stable_srf", math.nan)),
+                moved_m=float(slip_srf.attrs.get("moved_m", math.nan)),
+                limit_equilibrium=SpencerResult(float(le.values),
+                                                math.radians(float(le.attrs.get("interslice_angle_deg", math.nan))),
+                                                str(le.attrs.get("reason", ""))))
+    except (OSError, ValueError, KeyError):
+        return None
 
 
 def _slip_variables(ds: xr.Dataset, slip: SlipSurface | str) -> None:
