@@ -123,3 +123,31 @@ def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_on
         for case in given:
             feed.concluded(case.case_id, 1.0)
     assert sizes == [1, 2, 4, 2]
+
+
+def test_a_case_handed_out_late_in_its_generation_is_predicted_from_the_earlier_generations_alone():
+    """Generation 3 (four cases) handed out two at a time: the later two see what the first two did
+    not (before: the first two's FOS, which had concluded by then), so the windows, runs and FOS of
+    a sweep depended on how many cases the workers asked for at once."""
+
+    class _Case:
+        def __init__(self, i):
+            self.case_id = f"case{i}"
+            self.study = None
+
+    cases = [_Case(i) for i in range(7)]
+    feed = PredictedFeed(cases, [[float(i)] for i in range(7)])
+    observed, seen = [], {}
+
+    def window(case, features, estimate=None):  # what the predictor had observed when the case was handed out
+        seen[case.case_id] = sorted(observed)
+
+    def concluded(case_id, fos):
+        observed.append(case_id)
+
+    feed.windows.window, feed.windows.concluded = window, concluded
+    for count in (1, 2, 2, 2):  # generations 1, 2, then the four of generation 3 in two calls
+        for case in feed.more(count):
+            feed.concluded(case.case_id, 1.0)
+    first_three = sorted(case.case_id for case in feed.cases[:3])
+    assert [seen[case.case_id] for case in feed.cases[3:7]] == [first_three] * 4

@@ -214,18 +214,28 @@ class PredictedFeed:
         self.generations = Generations(len(cases), largest_generation)
         self.windows = WindowPredictor()
         self.n_concluded = 0
+        self.order = {case.case_id: i for i, case in enumerate(self.cases)}
+        self.held: list[tuple[int, str, float]] = []  # (order, case id, FOS) of the generation under way
 
     def to_come(self) -> int:
         return len(self.cases) - self.generations.given
 
     def more(self, count: int) -> list:
-        """Up to ``count`` cases of the generation under way (the next once all before have concluded)."""
+        """Up to ``count`` cases of the generation under way (the next once all before have concluded).
+        The generation just concluded joins the prediction first, whole and in order: a case handed out
+        late in its generation is predicted from the earlier generations alone, as the others of it,
+        whichever of its own generation finished first."""
         start = self.generations.given
+        if self.generations.given >= self.generations.end and self.n_concluded >= self.generations.given:
+            for _, case_id, fos in sorted(self.held):
+                self.windows.concluded(case_id, fos)
+            self.held = []
         take = min(count, self.generations.room(self.n_concluded))
         self.generations.take(take)
         return [self.windows.with_window(case, features)
                 for case, features in zip(self.cases[start:start + take], self.features[start:start + take])]
 
     def concluded(self, case_id: str, fos: float) -> None:
+        """A case's FOS, held until its whole generation has concluded (:meth:`more`)."""
         self.n_concluded += 1
-        self.windows.concluded(case_id, fos)
+        self.held.append((self.order.get(case_id, len(self.order)), case_id, fos))
