@@ -137,6 +137,7 @@ class Generations:
         self.end = 0  # the current generation ends before this case
         self.size = 1
         self.concluded = 0
+        self.held: list[tuple[int, object]] = []  # (case order, what it taught) of the generation under way
 
     def room(self, concluded: int) -> int:
         """How many more cases may be handed out now, ``concluded`` of those handed out having concluded."""
@@ -150,6 +151,22 @@ class Generations:
 
     def take(self, count: int) -> None:
         self.given += count
+
+    def hold(self, order: int, observation) -> None:
+        """What a concluded case taught (its FOS, its slip line), kept until its whole generation has
+        concluded: a case handed out late in its generation is predicted from the earlier
+        generations alone, as the others of it, whichever of its own generation finished first (so
+        a resumed study, whose cases on disk conclude first, repeats the uninterrupted one)."""
+        self.held.append((order, observation))
+
+    def released(self, concluded: int) -> list:
+        """The observations held, in case order, once every case handed out has concluded at the end
+        of a generation (then forgotten here); none before."""
+        if self.given < self.end or concluded < self.given:
+            return []
+        observations = [observation for _, observation in sorted(self.held, key=lambda held: held[0])]
+        self.held = []
+        return observations
 
 
 class WindowPredictor:
@@ -215,27 +232,22 @@ class PredictedFeed:
         self.windows = WindowPredictor()
         self.n_concluded = 0
         self.order = {case.case_id: i for i, case in enumerate(self.cases)}
-        self.held: list[tuple[int, str, float]] = []  # (order, case id, FOS) of the generation under way
 
     def to_come(self) -> int:
         return len(self.cases) - self.generations.given
 
     def more(self, count: int) -> list:
-        """Up to ``count`` cases of the generation under way (the next once all before have concluded).
-        The generation just concluded joins the prediction first, whole and in order: a case handed out
-        late in its generation is predicted from the earlier generations alone, as the others of it,
-        whichever of its own generation finished first."""
+        """Up to ``count`` cases of the generation under way (the next once all before have concluded,
+        after the FOS of those join the prediction: :meth:`Generations.released`)."""
         start = self.generations.given
-        if self.generations.given >= self.generations.end and self.n_concluded >= self.generations.given:
-            for _, case_id, fos in sorted(self.held):
-                self.windows.concluded(case_id, fos)
-            self.held = []
+        for case_id, fos in self.generations.released(self.n_concluded):
+            self.windows.concluded(case_id, fos)
         take = min(count, self.generations.room(self.n_concluded))
         self.generations.take(take)
         return [self.windows.with_window(case, features)
                 for case, features in zip(self.cases[start:start + take], self.features[start:start + take])]
 
     def concluded(self, case_id: str, fos: float) -> None:
-        """A case's FOS, held until its whole generation has concluded (:meth:`more`)."""
+        """A case's FOS, held until its whole generation has concluded (:meth:`Generations.hold`)."""
         self.n_concluded += 1
-        self.held.append((self.order.get(case_id, len(self.order)), case_id, fos))
+        self.generations.hold(self.order.get(case_id, len(self.order)), (case_id, fos))

@@ -319,7 +319,6 @@ class ProbabilisticStudy(SweepStudy):
         self.study_of: dict[str, Study] = {}  # case id -> its study, until it concludes
         self.generation_windows: tuple[Generations, WindowPredictor] | None = None  # fos mode: (Generations, WindowPredictor) of the realisations' searches
         self.n_concluded = 0
-        self.held: list[tuple] = []  # (index, case id, FOS, study, slip line) of the generation under way
         if not study.probabilistic.computation.searches:  # one run per realisation: its run file is its summary
             self.placement = dataclasses.replace(self.placement, summaries=False)
         if study.probabilistic.pf_interval_width is not None:
@@ -424,8 +423,7 @@ class ProbabilisticStudy(SweepStudy):
             if self.generation_windows is None:
                 self.generation_windows = (Generations(self.realisations.count, LARGEST_GENERATION), WindowPredictor())
             generations, _ = self.generation_windows
-            if generations.given >= generations.end and self.n_concluded >= generations.given:
-                self._observe_generation()
+            self._observe(generations.released(self.n_concluded))
             count = min(count, generations.room(self.n_concluded))
         cases: list[Case] = []
         while len(cases) < count and self.next_index < self.batch_end:
@@ -501,8 +499,8 @@ class ProbabilisticStudy(SweepStudy):
         if self.generation_windows is not None:
             self.n_concluded += 1
             slip = getattr(outcome.result, "slip", None)
-            self.held.append((int(case_id[len(CASE_PREFIX):]), case_id, outcome.fos, self.study_of.get(case_id),
-                              (slip.x_m, slip.y_m) if hasattr(slip, "x_m") else None))
+            self.generation_windows[0].hold(int(case_id[len(CASE_PREFIX):]), (
+                case_id, outcome.fos, self.study_of.get(case_id), (slip.x_m, slip.y_m) if hasattr(slip, "x_m") else None))
         result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
         verdict = realisation_verdict(result, table.computation, table.factor)
         tally[verdict] += 1
@@ -523,19 +521,15 @@ class ProbabilisticStudy(SweepStudy):
         decided = tally[FAILED] + tally[STABLE]
         progress.tally(f"{tally[FAILED]} failed" + (f", pf {tally[FAILED] / decided:.3g}" if decided else ""))
 
-    def _observe_generation(self) -> None:
-        """The realisations of the generation just concluded join the prediction (``fos.prediction``:
-        their FOS; with random fields their slip lines), in realisation order, once all of them have
-        concluded: a realisation handed out late in its generation is predicted from the earlier
-        generations alone, as the others, whichever of its own generation finished first (a resumed
-        study, whose realisations on disk conclude first, repeats the uninterrupted one)."""
+    def _observe(self, concluded: list) -> None:
+        """A generation's realisations join the prediction once all of them have concluded
+        (``fos.prediction.Generations.released``): their FOS, and with random fields their slip lines."""
         _, windows = self.generation_windows
         mechanisms = getattr(self, "_mechanisms", None)
-        for _, case_id, fos, study, line in sorted(self.held, key=lambda held: held[0]):
+        for case_id, fos, study, line in concluded:
             windows.concluded(case_id, fos)
             if mechanisms is not None and line is not None and study is not None:
                 mechanisms.add(study, line[0], line[1], fos)
-        self.held = []
 
     def _mechanism(self, case_id: str, outcome) -> tuple[tuple | None, list]:
         """The slip line (x, y) of a failed realisation and the supports its mechanism reaches: its
