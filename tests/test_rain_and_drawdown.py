@@ -88,6 +88,24 @@ def test_a_rain_box_on_no_boundary_edge_is_refused_naming_the_entry():
     assert error.value.field == "transient.boundary[0]"
 
 
+def test_an_initial_water_table_above_the_ground_where_no_reservoir_holds_it_is_refused():
+    """The table at 300 m over a 15 m slope: every surface particle would carry hundreds of metres of water
+    that nothing holds (it ran to a FOS on tensile effective stress)."""
+    text = _replace(SMALL, "initial_water_table_m = 3.0", "initial_water_table_m = 300.0")
+    with pytest.raises(StudyError, match="295 m above the ground surface") as error:
+        transient_flow(parse_study(text))
+    assert error.value.field == "transient.initial_water_table_m"
+
+
+def test_a_study_whose_boundary_is_all_no_flow_keeps_its_water():
+    """No [[transient.boundary]] at all: the water redistributes inside, none enters or leaves (the flow
+    ended in a reshape error reported as a convergence failure)."""
+    rain, far = SMALL.index("[[transient.boundary]]"), SMALL.index("[[monitors]]")
+    flow = transient_flow(parse_study(SMALL[:rain] + SMALL[far:]))
+    assert flow.solution.water_in_m2[-1] == 0.0 and flow.solution.water_out_m2[-1] == 0.0
+    assert flow.solution.balance_fraction().max() < 1e-7
+
+
 def test_a_rain_history_holds_each_intensity_until_the_next_time():
     """[[0, 10], [12, 50], [42, 0]] mm/h: 10 mm/h to 12 h, 50 to 42 h, none after; its volume exact."""
     entry = parse_study(SMALL).transient.boundary[0]

@@ -4,6 +4,7 @@ seepage faces), anisotropy, and the mass balance of every run.  The convergence 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from spfem_core.mesh import triangulate
 from spfem_core.seepage import FlowProblem, solve_steady_flow
 from spfem_core.soil_water import Gardner, VanGenuchten
 from spfem_core.transient_seepage import (
+    FlowNotConverged,
     HeadBoundary,
     History,
     ReservoirBoundary,
@@ -150,6 +152,24 @@ def test_hydrostatic_water_stays_at_rest():
     assert np.max(np.abs(solution.boundary_cumulative_inflow_m2)) < 1e-15
 
 
+def test_a_closed_domain_keeps_its_water():
+    """No boundary condition at all (every boundary no-flow): the column's unsaturated water, its head higher
+    on top, redistributes but none enters or leaves, its balance closes over the water moved, and the
+    boundary flows are empty columns per time (they were a reshape error).  Water at rest there stays at
+    rest (its balance's scale is 0: only the residual's rounding bounds it; it never converged)."""
+    column = Column(1.0, (Layer(4.0, 1e-5, 0.34),), 0.0, 0.0)
+    xy, problem = column_problem(column, 0.25, initial_head=lambda xy: -2.0 + 0.5 * xy[:, 1])
+    closed = dataclasses.replace(problem, boundaries=())
+    solution = solve_transient_flow(closed, [HOUR_S, 10 * HOUR_S])
+    assert solution.boundary_inflow_m2_s.shape == (3, 0)
+    assert solution.boundary_cumulative_inflow_m2.shape == (3, 0)
+    assert solution.water_in_m2[-1] == 0.0 and solution.water_out_m2[-1] == 0.0
+    assert np.ptp(solution.head_m[-1]) < 0.5 * np.ptp(solution.head_m[0])  # it moved
+    _closed(solution)
+    at_rest = solve_transient_flow(dataclasses.replace(closed, initial_head_m=np.full(len(xy), 1.0)), [HOUR_S])
+    np.testing.assert_allclose(at_rest.head_m, 1.0, atol=1e-12)
+
+
 def test_a_node_on_a_material_interface_stores_each_materials_water():
     """Two layers of different curves at one uniform pressure head: the lumped water sums each material's
     theta over its own area (the interface row of particles takes half from each)."""
@@ -260,7 +280,7 @@ def test_a_step_that_cannot_converge_is_refused_with_the_time():
     xy, problem = column_problem(HOMOGENEOUS, 0.25)
     settings = TransientSettings(initial_step_s=3600.0, min_step_s=3000.0, max_step_s=3600.0, max_iterations=2,
                                  easy_iterations=1, hard_iterations=2)
-    with pytest.raises(ValueError, match="does not converge at t = 0 s"):
+    with pytest.raises(FlowNotConverged, match="does not converge at t = 0 s"):
         solve_transient_flow(problem, [HOUR_S], settings)
 
 

@@ -33,6 +33,7 @@ from spfem_core.mesh import boundary_edges, triangulate
 from spfem_core.seepage import conductivity_tensor
 from spfem_core.soil_water import Gardner, VanGenuchten
 from spfem_core.transient_seepage import (
+    FlowNotConverged,
     FluxBoundary,
     HeadBoundary,
     History,
@@ -45,6 +46,7 @@ from spfem_core.transient_seepage import (
     hydrostatic_head_m,
     solve_transient_flow,
 )
+from workflows.box import TOLERANCE_PER_SPACING
 from workflows.fields import StudyError
 from workflows.particles import cloud_of_geometry, rows_of_materials
 from workflows.transient.table import HOUR_S, MM_H_TO_M_S
@@ -227,13 +229,14 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
                 boundaries[b] = _without(earlier, box)
     boundaries = [b for b in boundaries if np.any(b.nodes)]
     initial = _initial_head_m(study, node_xy_m)
+    _check_initial_water_under_ground(study, node_xy_m, edges, initial, reservoirs, finest_m)
     problem = TransientProblem(node_xy_m, elem_nodes, conductivity_tensor(k1, k1 * ratio, angle), elem_material,
                                curves, tuple(boundaries), initial)
     settings = TransientSettings(initial_step_s=min(60.0, transient.max_step_h * HOUR_S),
                                  max_step_s=transient.max_step_h * HOUR_S)
     try:
         solution = solve_transient_flow(problem, output_times_h(transient, until_h) * HOUR_S, settings)
-    except ValueError as error:
+    except FlowNotConverged as error:
         raise StudyError("transient", f"{error} (a finer spacing, a shorter max_step_h, or a smaller rain or "
                          "permeability contrast)") from None
     water = study.water
@@ -270,6 +273,32 @@ def _initial_head_m(study, node_xy_m: np.ndarray) -> np.ndarray:
     else:
         table_m = transient.initial_water_table_m
     return hydrostatic_head_m(node_xy_m, table_m, transient.suction_limit_m)
+
+
+def _check_initial_water_under_ground(study, node_xy_m: np.ndarray, edges: np.ndarray, head_m: np.ndarray,
+                                      reservoirs: list, finest_m: float) -> None:
+    """StudyError when the initial water table stands more than a spacing above the ground surface where no
+    reservoir holds water at 0 h: the ground there would carry a pore pressure no water above it holds (its
+    effective stress tensile from the first step), as the steady flow refuses (``seepage.flow``)."""
+    transient = study.transient
+    if transient.initial_state != "water_table":
+        return  # the steady flow's heads: its own check
+    polygon = np.asarray(study.geometry.polygon_m, dtype=float)
+    surface = np.unique(edges.ravel())
+    x, y = node_xy_m[surface, 0], node_xy_m[surface, 1]
+    ground_m = surface_height_m(polygon, x)
+    on_ground = np.isfinite(ground_m) & (y >= ground_m - TOLERANCE_PER_SPACING * finest_m)
+    excess_m = np.where(on_ground, head_m[surface] - y, -np.inf)
+    for history, (x_min, x_max) in reservoirs:
+        excess_m[(x >= x_min) & (x <= x_max) & (head_m[surface] <= history.at(0.0) + finest_m)] = -np.inf
+    k = int(np.argmax(excess_m))
+    if excess_m[k] > study.geometry.spacing_m:
+        field = "initial_water_table_m" if transient.initial_water_line_m is None else "initial_water_line_m"
+        raise StudyError(f"transient.{field}", (
+            f"the water stands {excess_m[k]:.3g} m above the ground surface at ({x[k]:.4g}, {y[k]:.4g}) m at 0 h "
+            "where no reservoir holds it: the ground there would carry a pore pressure no water above it holds; "
+            "draw the table at or below the ground, or give the water standing on it as a reservoir "
+            "([[transient.boundary]] condition = \"reservoir\")"))
 
 
 def water_at_time(study, time_h: float | None = None) -> WaterAt:
