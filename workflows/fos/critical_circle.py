@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
+from spfem_core.bishop import bishop_circles
 from spfem_core.geometry import downslope_sign, relief_m, surface_height_m
 from workflows.fos.limit_equilibrium import material_strengths
 from workflows.particles import material_rows
@@ -125,106 +126,34 @@ class _Section:
                 pore[inside] = ru_pore_pressure_pa(study, points[inside], lambda p: material_rows(study, p), g)
                 self.water = f"with ru = {study.water.ru:g}"
         self.unit_weight = np.where(saturated, wet[material], dry[material]).reshape(grid_x.shape)
-        self.cumulative = np.vstack([np.zeros((1, xs.size)), np.cumsum(self.unit_weight, axis=0)])
-        self.pore = pore.reshape(grid_x.shape)
-        self.material = material.reshape(grid_x.shape)
+        self.cumulative = np.ascontiguousarray(np.vstack([np.zeros((1, xs.size)), np.cumsum(self.unit_weight, axis=0)]))
+        self.pore = np.ascontiguousarray(pore.reshape(grid_x.shape), dtype=float)
+        self.material = np.ascontiguousarray(material.reshape(grid_x.shape), dtype=np.int64)
         cohesion, tan_phi = material_strengths(study.materials)  # c = inf: no strength (elastic)
-        self.cohesion = np.append(cohesion, 0.0)
-        self.tan_phi = np.append(tan_phi, 0.0)
+        self.cohesion = np.append(cohesion, 0.0).astype(float)  # (the last: no soil, material -1)
+        self.tan_phi = np.append(tan_phi, 0.0).astype(float)
         self.ys = ys
         # the searched section faces +x: x' = sign x
         order = np.argsort(self.sign * xs)
-        self.x = (self.sign * xs)[order]
-        self.ground = self.ground_study[order]
-        self.void = outside[order]  # beyond a free side: no soil, not even below the base
-        self.ground_list = self.ground.tolist()  # (for scalar look-ups)
-        self.columns = order
-
-    def ground_at(self, x):
-        """The ground's height at the searched abscissae x; -inf beyond a free side (a circle there is
-        in the air, whatever its depth)."""
-        last = self.x.size - 1
-        if np.ndim(x) == 0:  # (the crossings' bisection: scalars, many)
-            position = min(max((x - self.x[0]) / self.cell, 0.0), float(last))
-            if self.void[int(position + 0.5)]:
-                return -math.inf
-            left = min(int(position), last - 1)
-            return self.ground_list[left] + (self.ground_list[left + 1] - self.ground_list[left]) * (position - left)
-        columns = np.clip(np.rint((x - self.x[0]) / self.cell).astype(np.int64), 0, last)
-        return np.where(self.void[columns], -np.inf, np.interp(x, self.x, self.ground))
-
-    def column(self, x) -> np.ndarray:
-        """Raster column index of the searched abscissae x."""
-        index = np.clip(np.rint((x - self.x[0]) / self.cell).astype(np.int64), 0, self.x.size - 1)
-        return self.columns[index]
-
-    def row(self, y) -> np.ndarray:
-        return np.clip(np.floor((y - self.base) / self.cell).astype(np.int64), 0, self.ys.size - 1)
+        self.x = np.ascontiguousarray((self.sign * xs)[order], dtype=float)
+        self.ground = np.ascontiguousarray(self.ground_study[order], dtype=float)
+        self.void = np.ascontiguousarray(outside[order])  # beyond a free side: no soil, not even below the base
+        self.columns = np.ascontiguousarray(order, dtype=np.int64)
 
 
-CROSSING_BISECTIONS = 26
-"""Bisections of the interval (at most a raster cell) in which an arc meets the ground: 1e-8 of a cell."""
+def _bishop_many(section: _Section, xc, yc, radius) -> np.ndarray:
+    """(k, 3): F (inf: not admissible), entry and exit x of each circle, in the searched coordinates
+    (``spfem_core.bishop``, compiled: the quick search of a study's window evaluates about 800 circles)."""
+    return bishop_circles(np.asarray(xc, float).reshape(-1), np.asarray(yc, float).reshape(-1),
+                          np.asarray(radius, float).reshape(-1), section.x, section.ground, section.void,
+                          section.base, section.cell, section.columns, section.cumulative, section.material,
+                          section.pore, section.cohesion, section.tan_phi, SLICES)
 
 
 def _bishop(section: _Section, xc: float, yc: float, radius: float) -> tuple[float, float, float]:
     """(F, entry x, exit x) of one circle in the searched coordinates (F = inf: not admissible)."""
-    x = section.x
-    if max(section.ground_at(xc - radius), section.ground_at(xc + radius)) > yc:
-        return math.inf, math.nan, math.nan  # the circle meets the ground on its upper half: no closed block
-    inside = (x > xc - radius) & (x < xc + radius)
-    if not inside.any():
-        return math.inf, math.nan, math.nan
-    base_y = yc - np.sqrt(np.maximum(radius**2 - (x - xc) ** 2, 0.0))
-    cut = inside & (base_y < section.ground - 1e-9) & ~section.void
-    if cut.sum() < 3:
-        return math.inf, math.nan, math.nan
-    index = np.flatnonzero(cut)
-    if index[-1] - index[0] + 1 != index.size:  # the circle leaves and re-enters the ground
-        return math.inf, math.nan, math.nan
-    def crossing(outside: float, inside: float) -> float:
-        """Where the arc meets the ground between an abscissa outside the ground and one inside it."""
-        for _ in range(CROSSING_BISECTIONS):
-            middle = 0.5 * (outside + inside)
-            depth = section.ground_at(middle) - (yc - math.sqrt(max(radius**2 - (middle - xc) ** 2, 0.0)))
-            outside, inside = (middle, inside) if depth <= 0.0 else (outside, middle)
-        return 0.5 * (outside + inside)
-
-    left = crossing(max(x[index[0] - 1], xc - radius) if index[0] > 0 else xc - radius, x[index[0]])
-    right = crossing(min(x[index[-1] + 1], xc + radius) if index[-1] + 1 < x.size else xc + radius, x[index[-1]])
-    edges = np.linspace(left, right, SLICES + 1)
-    middle = 0.5 * (edges[1:] + edges[:-1])
-    width = np.diff(edges)
-    base = yc - np.sqrt(np.maximum(radius**2 - (middle - xc) ** 2, 0.0))
-    if base.min() < section.base - 1e-9:
-        return math.inf, math.nan, math.nan
-    ground = section.ground_at(middle)
-    column = section.column(middle)
-    rows = section.row(base)
-    tops = np.maximum(section.row(ground - 0.5 * section.cell), rows)  # the last cell whose centre is in the ground
-    # the mean unit weight of each column of cells from the base to the ground
-    weight = (section.cumulative[tops + 1, column] - section.cumulative[rows, column]) / (tops - rows + 1) * (
-        ground - base) * width
-    material = section.material[rows, column]
-    cohesion, tan_phi = section.cohesion[material], section.tan_phi[material]
-    if not np.all(np.isfinite(cohesion)):
-        return math.inf, math.nan, math.nan
-    pore = section.pore[rows, column]
-    alpha = np.arctan2(xc - middle, np.sqrt(np.maximum(radius**2 - (middle - xc) ** 2, 1e-12)))
-    driving = float(np.sum(weight * np.sin(alpha)))
-    if driving <= 0.0:
-        return math.inf, math.nan, math.nan
-    resisting_base = cohesion * width + np.maximum(weight - pore * width, 0.0) * tan_phi
-    fos = 1.0
-    for _ in range(60):
-        m = np.cos(alpha) + np.sin(alpha) * tan_phi / fos
-        if np.any(m <= 0.2):
-            return math.inf, math.nan, math.nan
-        new = float(np.sum(resisting_base / m)) / driving
-        if abs(new - fos) < 1e-7:
-            fos = new
-            break
-        fos = new
-    return fos, left, right
+    fos, left, right = _bishop_many(section, xc, yc, radius)[0]
+    return float(fos), float(left), float(right)
 
 
 QUICK = dict(raster_per_height=10, centres=10, depths=6, polished=1)
@@ -241,17 +170,17 @@ def _grid(section: _Section, centres: int, depths: int) -> list[tuple[float, flo
         step = int(np.argmax(np.abs(np.diff(section.ground))))
         sloping = section.x[step:step + 2]
     x_low, x_high = sloping.min(), sloping.max()
-    found = []
+    circles = []
     for xc in np.linspace(x_low - h, x_high + h, centres):
         for yc in np.linspace(toe_y + 0.3 * h, top_y + 2.0 * h, centres):
             radii = [yc - bottom for bottom in np.linspace(section.base, toe_y + 0.3 * h, depths)]
             radii.append(math.hypot(xc - x_high, yc - toe_y))  # the toe circle (a steep face's lowest point is beyond the toe)
-            for radius in radii:
-                if radius > 0.0:
-                    fos = _bishop(section, xc, yc, radius)[0]
-                    if math.isfinite(fos):
-                        found.append((fos, xc, yc, radius))
-    return found
+            circles += [(xc, yc, radius) for radius in radii if radius > 0.0]
+    if not circles:
+        return []
+    xc, yc, radius = np.array(circles, dtype=float).T
+    fos = _bishop_many(section, xc, yc, radius)[:, 0]
+    return [(float(f), float(a), float(b), float(c)) for f, a, b, c in zip(fos, xc, yc, radius) if math.isfinite(f)]
 
 
 def _circle(section: _Section, xc: float, yc: float, radius: float) -> CriticalCircle:
