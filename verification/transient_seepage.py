@@ -71,12 +71,12 @@ CONVERGENCE_TIME_S = 3.0 * HOUR_S
 
 
 def column_problem(column: Column, spacing_m: float, rain_m_s: History | None = None, initial_head=None,
-                   curves=None, width_spacings: int = 2):
+                   curves=None, width_spacings: int = 2, dry_limit_m: float | None = None):
     """(particles (n, 2), the transient problem) of ``column`` (module doc, item 1) at ``spacing_m``:
     Gardner's curve per layer (a triangle takes the layer of its centroid; the interfaces fall on
     rows of particles), psi = 0 at the base, the flux ``rain_m_s`` (default: qA from t = 0) per
-    horizontal length on the top edge, the initial heads ``initial_head(particles)`` (default: the
-    steady profile of q0)."""
+    horizontal length on the top edge (evaporating, held at ``dry_limit_m`` where the soil cannot supply
+    it), the initial heads ``initial_head(particles)`` (default: the steady profile of q0)."""
     height = column.height_m
     width = width_spacings * spacing_m
     xy = particles_in_polygon(np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]]), spacing_m)
@@ -92,7 +92,7 @@ def column_problem(column: Column, spacing_m: float, rain_m_s: History | None = 
     top = edges[(y[edges[:, 0]] > height - tol) & (y[edges[:, 1]] > height - tol)]
     rain = History.constant(column.flux_m_s) if rain_m_s is None else rain_m_s
     boundaries = (HeadBoundary("water_table", y < tol, History.constant(0.0), pressure=True),
-                  FluxBoundary("surface", boundary_flux_weights_m(xy, top, True), rain))
+                  FluxBoundary("surface", boundary_flux_weights_m(xy, top, True), rain, dry_limit_m=dry_limit_m))
     if initial_head is None:
         head = y + steady_pressure_head_m(column, y, column.initial_flux_m_s)
     else:
@@ -181,6 +181,40 @@ def lu_griffiths(flux_m_s: float, spacing_m: float = 0.125, height_m: float = 5.
     return {"flux_m_s": flux_m_s, "particles": xy.shape[0], "y_m": y, "psi_m": psi, "psi_exact_m": exact,
             "error_m": float(np.max(np.abs(psi - exact))), "stress_pa": stress, "stress_exact_pa": stress_exact,
             "stress_error_pa": float(np.max(np.abs(stress - stress_exact))), "solution": solution, "wall_s": wall}
+
+
+def gardner_dry_limit_flux_m_s(height_m: float, alpha_1_m: float, conductivity_m_s: float,
+                               dry_limit_m: float) -> float:
+    """The steady upward flux (m/s, > 0) through a column of Gardner's soil ``height_m`` above its water table
+    whose surface is held at psi_d = ``dry_limit_m``: from Gardner's (1958) steady profile
+    exp(alpha psi) = (1 + E / K_s) exp(-alpha z) - E / K_s at z = L,
+    E = K_s (exp(-alpha L) - exp(alpha psi_d)) / (1 - exp(-alpha L)) (none unless psi_d < -L)."""
+    top = math.exp(-alpha_1_m * height_m)
+    return conductivity_m_s * (top - math.exp(alpha_1_m * dry_limit_m)) / (1.0 - top)
+
+
+def dry_limit_column(demand_m_s: float, dry_limit_m: float, spacing_m: float = 0.25, height_m: float = 5.0,
+                     alpha_1_m: float = 1.0, conductivity_m_s: float = 1e-6) -> dict:
+    """A column of Gardner's soil under the evaporation ``demand_m_s`` (> 0, up) with the surface's dry limit
+    ``dry_limit_m``, from hydrostatic water to steady state: the surface held at the limit where the demand
+    exceeds what the soil can lift (:func:`gardner_dry_limit_flux_m_s`), the flux then Gardner's and the
+    profile his for that flux; else the demand's."""
+    limited_m_s = gardner_dry_limit_flux_m_s(height_m, alpha_1_m, conductivity_m_s, dry_limit_m)
+    evaporation_m_s = min(demand_m_s, limited_m_s)
+    column = Column(alpha_1_m, (Layer(height_m, conductivity_m_s, WATER_CONTENT_RANGE),), 0.0, -demand_m_s)
+    xy, problem = column_problem(column, spacing_m, initial_head=lambda xy: hydrostatic_head_m(xy, 0.0),
+                                 dry_limit_m=dry_limit_m)
+    solution = solve_transient_flow(problem, [1e11], TransientSettings(initial_step_s=60.0, max_step_s=1e9))
+    y = xy[:, 1]
+    psi = solution.pressure_head_m(xy)[-1]
+    exact = steady_pressure_head_m(column, y, -evaporation_m_s)
+    width_m = float(np.ptp(xy[:, 0]))
+    surface = list(solution.boundary_names).index("surface")
+    out_m_s = -float(solution.boundary_inflow_m2_s[-1, surface]) / width_m
+    top = y > height_m - 1e-9
+    return {"demand_m_s": demand_m_s, "limited_m_s": limited_m_s, "evaporation_m_s": evaporation_m_s,
+            "computed_m_s": out_m_s, "top_psi_m": float(psi[top].mean()), "held": bool(solution.node_held[-1][top].all()),
+            "error_m": float(np.max(np.abs(psi - exact))), "solution": solution, "particles": xy.shape[0]}
 
 
 def ponding_column(spacing_m: float = 0.1, rain_m_s: float = 5e-6, rain_hours: float = 6.0, hours: float = 12.0):
