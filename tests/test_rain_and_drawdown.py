@@ -329,6 +329,42 @@ def test_a_threshold_chart_of_an_earlier_invocation_is_among_the_sweeps_stale_fi
     assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == []
 
 
+def test_a_threshold_of_an_earlier_invocation_goes_when_the_sweep_no_longer_computes_one(tmp_path):
+    """threshold.nc, written by an earlier threshold sweep, is removed when a sweep starts in that folder (as its
+    study.nc: a stopped sweep must not show one); a sweep that computes no threshold says so in its line, one that
+    does writes it again and says nothing; a user's netCDF file of that name stays."""
+    import netCDF4
+
+    from workflows.fos_time.threshold import threshold_dataset
+    from workflows.output.writing import write_dataset
+    from workflows.study_types import study_type
+
+    threshold_text = (REPO / "studies" / "rain_threshold.toml").read_text().replace("spacing_m = 1.0", "spacing_m = 2.0")
+    study = parse_study(threshold_text)
+    dims = ("rain_mm_h", "water_at_h")
+    sweep = xr.Dataset({"fos": (dims, np.full((3, 4), 1.2)), "fos_high": (dims, np.full((3, 4), 1.21))},
+                       coords={"rain_mm_h": [15.0, 25.0, 40.0], "water_at_h": [12.0, 24.0, 36.0, 48.0]})
+    path = tmp_path / "threshold.nc"
+    no_threshold = _replace(threshold_text, "values = [12.0, 24.0, 36.0, 48.0]", "values = [12.0]")
+    for text, stale in ((no_threshold, ["threshold.nc"]), (threshold_text, [])):
+        write_dataset(threshold_dataset(study, sweep), path)
+        kind = study_type(parse_study(text), tmp_path)
+        kind.sweep_cases = kind.make_cases()  # what check() sets, without its scenes
+        kind.cases()
+        assert not path.exists()
+        kind._remove_stale_outputs([], [path] if not stale else [])
+        assert kind.stale_results == stale
+        lines = kind.removed
+        assert (lines[0].endswith("results not written again (threshold.nc)") if stale else
+                not any("threshold.nc" in line for line in lines))
+    with netCDF4.Dataset(path, "w") as mine:
+        mine.note = "the user's"
+    kind = study_type(parse_study(no_threshold), tmp_path)
+    kind.sweep_cases = kind.make_cases()
+    kind.cases()
+    assert path.is_file() and kind.earlier_results == []
+
+
 def test_the_fos_against_time_figure_of_an_earlier_invocation_goes_when_not_drawn_again(tmp_path):
     """The small rain study at one time with figures, then with figures = false: fos_time.png is removed,
     said in one line (it showed the earlier invocation's FOS)."""
