@@ -102,7 +102,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse
-from scipy.sparse.linalg import splu
+from scipy.sparse.linalg import SuperLU, splu
 
 from spfem_core.flow_system import ElementConductivity, darcy_velocity_m_s, switch_atmospheric_nodes
 from spfem_core.soil_water import SoilWaterCurve
@@ -468,7 +468,7 @@ class _Solver:
         self.lumped = self.system.lumped_area_m2()
         self.conditions = _Conditions(problem)
         self.solves = self.factorizations = 0
-        self._factors = None
+        self._factors: SuperLU | None = None
         n = self.y.size
         self._stiffness, self._jacobian = (sparse.csc_matrix((np.zeros(self.indices.size), self.indices, self.indptr),
                                                              shape=(n, n)) for _ in range(2))
@@ -649,7 +649,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
     events = events[(events > 0.0) & (events <= times[-1])]
     owner = solver.conditions.owner
 
-    saved = {key: [] for key in ("head", "theta", "se", "v", "held", "rate", "cum", "in", "out", "stored", "err")}
+    saved: dict[str, list] = {key: [] for key in ("head", "theta", "se", "v", "held", "rate", "cum", "in", "out", "stored", "err")}
     cumulative, rate = np.zeros(n_bound), np.zeros(n_bound)
     water_in = water_out = storage_term = error = 0.0
 
@@ -668,7 +668,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
         saved["err"].append(error)
 
     save(psi, water, saturation, kr, held)
-    log = {key: [] for key in ("end", "dt", "it", "err", "scale")}
+    log: dict[str, list] = {key: [] for key in ("end", "dt", "it", "err", "scale")}
     rejected = 0
     t, dt = 0.0, min(max(settings.initial_step_s, settings.min_step_s), settings.max_step_s)
     next_save = 0
@@ -686,7 +686,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
                 raise ValueError(f"{WHO}: the iteration does not converge at t = {t:.6g} s even with a step of "
                                  f"{step:.3g} s (min_step_s = {settings.min_step_s:g} s)")
             continue
-        rate = np.bincount(owner[owner >= 0], weights=done.node_inflow[owner >= 0], minlength=n_bound)
+        rate = np.bincount(owner[owner >= 0], weights=done.node_inflow[owner >= 0], minlength=n_bound).astype(float)
         cumulative = cumulative + rate * step
         water_in += step * float(np.sum(np.maximum(done.node_inflow, 0.0)))
         water_out += step * float(np.sum(np.maximum(-done.node_inflow, 0.0)))

@@ -82,7 +82,7 @@ def remove_stale_results(out_dir: Path, keep: set[str]) -> list[str]:
 
 
 def removed_line(cases_removed: list[str], cases_kept: list[str], figures: list[str],
-                 results: list[str] = ()) -> str | None:
+                 results: tuple[str, ...] | list[str] = ()) -> str | None:
     """One line saying what :func:`remove_stale_cases`, the stale figures' removal and
     :func:`remove_stale_results` did; None if nothing."""
     if not (cases_removed or cases_kept or figures or results):

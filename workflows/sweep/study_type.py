@@ -202,14 +202,14 @@ class SweepStudy(StudyType):
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = study_dataset(self.study, self.sweep_cases, by_id, self.same_as, len(outcomes))
         write_dataset(dataset, study_path)
-        figures, results = [], []
+        figures, result_files = [], []
         if self.study.output.figures:
             figures = draw_sweep_figures(self.out_dir, dataset)
         if threshold_applies(self.study):  # rain or drawdown over time: the duration at which the FOS reaches 1
             written = write_threshold(self.study, dataset, self.out_dir)
             figures += [path for path in written if path.suffix == ".png"]
-            results = [path for path in written if path.suffix == ".nc"]
-        self._remove_stale_outputs(figures, results)
+            result_files = [path for path in written if path.suffix == ".nc"]
+        self._remove_stale_outputs(figures, result_files)
         runs = [record for outcome in outcomes.values() for record in outcome.runs]
         runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
         gravity_computed = sum(outcome.result.timings_s["gravity"] > 0.0 for outcome in outcomes.values()
