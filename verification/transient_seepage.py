@@ -14,7 +14,9 @@ particles' own clouds and meshes (``spfem_core.cloud``, ``spfem_core.mesh``).
 2. **Lu & Griffiths (2004)**: the steady profile under a constant infiltration or evaporation
    rate (the same closed form, the flux throughout), reached by the transient solve, and the
    suction stress sigma_s = S_e gamma_w psi (Lu & Likos 2006; ``spfem_core.suction_stress``) with
-   van Genuchten's S_e at Gardner's alpha and n = 2 (a choice of this check).
+   van Genuchten's S_e at Gardner's alpha and n = 2 (a choice of this check); and evaporation beyond
+   what the column lifts, its surface held at its dry limit, against Gardner's (1958) flux at that
+   limit (:func:`dry_limit_column`).
 3. **Mass balance** of every run: the water in less the water out against the change of the
    stored water, including a column whose surface ponds under rain (the switch to psi = 0 and
    back) and a bank whose reservoir is drawn down (the face above the level a seepage face).
@@ -300,9 +302,10 @@ def print_profiles(runs: dict) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="+", choices=["profiles", "spacing", "step", "steady", "balance", "slope"])
+    parser.add_argument("--only", nargs="+", choices=["profiles", "spacing", "step", "steady", "dry", "balance",
+                                                      "slope"])
     args = parser.parse_args(argv)
-    todo = set(args.only or ["profiles", "spacing", "step", "steady", "balance", "slope"])
+    todo = set(args.only or ["profiles", "spacing", "step", "steady", "dry", "balance", "slope"])
     balance = []
 
     if todo & {"profiles", "balance"}:
@@ -353,6 +356,26 @@ def main(argv=None) -> int:
             print(f"| {ratio:+g} | {r['particles']} | {r['solution'].step_s.size} | {r['psi_exact_m'][top].mean():.4f} | "
                   f"{r['error_m']:.2e} | {r['stress_exact_pa'][top].mean() / 1e3:.3f} | {r['stress_error_pa'] / 1e3:.2e} |")
             balance.append((f"Lu & Griffiths, flux {ratio:+g} K_s", r["solution"]))
+
+    if "dry" in todo:
+        print("\nEvaporation beyond what the soil lifts: the same column, demand 0.01 K_s, surface dry limit -6 m; "
+              f"Gardner's flux at the limit {gardner_dry_limit_flux_m_s(5.0, 1.0, 1e-6, -6.0) / 1e-6:.5f} K_s\n")
+        print("| h (m) | particles | surface held | psi top (m) | flux out (K_s) | its error | order | "
+              "largest psi error (m) |")
+        print("|---|---|---|---|---|---|---|---|")
+        errors = []
+        for spacing in (0.5, 0.25, 0.125, 0.0625):
+            r = dry_limit_column(1e-8, -6.0, spacing_m=spacing)
+            errors.append(r["computed_m_s"] / r["evaporation_m_s"] - 1.0)
+            order = observed_orders(errors[-2:])[0] if len(errors) > 1 else math.nan
+            print(f"| {spacing:g} | {r['particles']} | {r['held']} | {r['top_psi_m']:.4f} | {r['computed_m_s'] / 1e-6:.5f} "
+                  f"| {errors[-1]:.2e} | {order:.2f} | {r['error_m']:.2e} |")
+            balance.append((f"evaporation to the dry limit, h = {spacing:g} m", r["solution"]))
+        within = dry_limit_column(2e-9, -6.0, spacing_m=0.125)
+        print(f"\nA demand of 0.002 K_s (within what the soil lifts): surface held {within['held']}, psi at the top "
+              f"{within['top_psi_m']:.4f} m, flux out {within['computed_m_s'] / 1e-6:.6f} K_s, largest psi error "
+              f"{within['error_m']:.2e} m")
+        balance.append(("evaporation within what the soil lifts", within["solution"]))
 
     if "balance" in todo:
         _, ponded = ponding_column()
