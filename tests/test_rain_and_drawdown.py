@@ -97,6 +97,10 @@ def test_a_dry_limit_above_the_initial_suction_exits_2_with_one_line(tmp_path):
     assert result.stderr == (f"error: {study}: transient.boundary[0].surface_min_head_m: -2 m is above the initial "
                              "pressure head on the surface of 'rain' (down to -5 m): give a lower limit, or a "
                              "suction_limit_m of at most 2 m\n")
+    # rain always more than the evaporation: the surface never evaporates, its dry limit never holds
+    wet = _replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                   "rain_mm_h = 10.0\nevaporation_mm_h = 1.0\nsurface_min_head_m = -2.0")
+    assert transient_flow(parse_study(wet), until_h=1.0).solution.balance_fraction().max() < 1e-6
 
 
 def test_evaporation_is_taken_from_the_rain_at_every_time_and_dries_the_slope():

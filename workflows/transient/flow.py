@@ -207,9 +207,6 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
                 raise StudyError(where, f"the box of {entry.name!r} holds no edge of the domain's boundary the rain "
                                  "falls on (a flux needs two neighbouring boundary particles, not on one vertical)")
             dry_limit_m = None if entry.evaporation_mm_h is None else entry.surface_min_head_m
-            if dry_limit_m is not None:
-                _check_dry_limit(f"{where}.surface_min_head_m", entry.name, initial - node_xy_m[:, 1], weights > 0.0,
-                                 dry_limit_m)
             boundaries.append(FluxBoundary(entry.name, weights, rain_history(entry), dry_limit_m=dry_limit_m))
         elif entry.condition == "reservoir":
             history = level_history(entry)
@@ -232,6 +229,7 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
             boundaries.append(SeepageFace(entry.name, np.zeros(n, dtype=bool)))
             for b, earlier in enumerate(boundaries[:-1]):
                 boundaries[b] = _without(earlier, box)
+    _check_dry_limits(transient.boundary, boundaries, initial - node_xy_m[:, 1])
     boundaries = [b for b in boundaries if np.any(b.nodes)]
     problem = TransientProblem(node_xy_m, elem_nodes, conductivity_tensor(k1, k1 * ratio, angle), elem_material,
                                curves, tuple(boundaries), initial)
@@ -248,14 +246,23 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
                          transient.suction_in_strength, time.perf_counter() - start)
 
 
-def _check_dry_limit(field: str, name: str, pressure_head_m: np.ndarray, surface: np.ndarray, limit_m: float) -> None:
-    """StudyError naming ``field`` when the initial pressure head on the surface of an evaporating condition is
-    below its dry limit (held there, the surface would wet the ground)."""
-    driest_m = float(pressure_head_m[surface].min())
-    if driest_m < limit_m:
-        raise StudyError(field, f"{limit_m:g} m is above the initial pressure head on the surface of {name!r} "
-                         f"(down to {driest_m:.4g} m): give a lower limit, or a suction_limit_m of at most "
-                         f"{-limit_m:g} m")
+def _check_dry_limits(entries, boundaries: list, pressure_head_m: np.ndarray) -> None:
+    """StudyError naming its ``surface_min_head_m`` when the initial pressure head on the particles a rain entry
+    that evaporates at some time holds (those no later entry takes) is below its dry limit: held there, the surface would wet the
+    ground.  ``boundaries``: one per entry, in order (``transient_flow``)."""
+    taken_later = np.zeros(pressure_head_m.size, dtype=bool)
+    for i in reversed(range(len(boundaries))):
+        boundary = boundaries[i]
+        if isinstance(boundary, FluxBoundary) and boundary.dry_limit_m is not None and np.any(
+                boundary.flux_m_s.values < 0.0):  # it evaporates at some time
+            surface = boundary.nodes & ~taken_later
+            driest_m = float(pressure_head_m[surface].min(initial=np.inf))
+            if driest_m < boundary.dry_limit_m:
+                raise StudyError(f"transient.boundary[{i}].surface_min_head_m",
+                                 f"{boundary.dry_limit_m:g} m is above the initial pressure head on the surface of "
+                                 f"{entries[i].name!r} (down to {driest_m:.4g} m): give a lower limit, or a "
+                                 f"suction_limit_m of at most {-boundary.dry_limit_m:g} m")
+        taken_later |= boundary.nodes
 
 
 def _without(boundary, nodes: np.ndarray):
