@@ -68,7 +68,12 @@ or its horizontal length for rain per horizontal area) and which ponds: a node w
 head would rise above 0 (above ``head_tolerance_m``: the ponding instant has no consistent state
 closer than that) is held at psi = 0, and released when the water the hold draws in exceeds the flux
 (``spfem_core.flow_system.switch_atmospheric_nodes``, the steady solver's seepage-face rule, checked
-every iteration); a seepage face: the same rule with no flux.  A head may vary along its boundary
+every iteration); a seepage face: the same rule with no flux.  A negative flux is evaporation, the
+atmosphere's demand: where the soil cannot supply it the surface dries to the limit the air sets, and
+with ``FluxBoundary.dry_limit_m`` psi_d a node whose pressure head would fall below psi_d (by more than
+``head_tolerance_m``) while the flux is upward is held at psi = psi_d, and released when the water the
+hold draws out exceeds the demand (:func:`switch_dry_nodes`; the "atmospheric" condition of HYDRUS and
+of Lu & Griffiths 2004: |q| at most the demand, psi_d <= psi <= 0).  A head may vary along its boundary
 (``HeadBoundary.offset_m``).
 
 **Unloading**: the water a reservoir leaves on the ground is a vertical load; where it changes by a depth
@@ -97,7 +102,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import sparse
-from scipy.sparse.linalg import splu
+from scipy.sparse.linalg import SuperLU, splu
 
 from spfem_core.flow_system import ElementConductivity, darcy_velocity_m_s, switch_atmospheric_nodes
 from spfem_core.soil_water import SoilWaterCurve
@@ -196,12 +201,14 @@ class ReservoirBoundary:
 @dataclass(frozen=True)
 class FluxBoundary:
     """A flux q(t) (m/s, positive in): node i takes node_weight_m[i] q(t) (m2/s per metre), and is held at
-    psi = 0 where the surface ponds (unless ``ponds`` is False)."""
+    psi = 0 where the surface ponds (unless ``ponds`` is False); while q < 0 (evaporation), held at
+    psi = ``dry_limit_m`` where the soil cannot supply the demand (None: no limit; module doc)."""
 
     name: str
     node_weight_m: np.ndarray
     flux_m_s: History
     ponds: bool = True
+    dry_limit_m: float | None = None
 
     @property
     def nodes(self) -> np.ndarray:
@@ -294,6 +301,7 @@ class TransientSolution:
     effective_saturation: np.ndarray  # (k, n) the lumped mean of S_e
     elem_darcy_velocity_m_s: np.ndarray  # (k, e, 2) q = -k_r K_sat grad h
     node_held: np.ndarray  # (k, n) nodes held at psi = 0 by a ponding surface, a seepage face or a reservoir's
+    #                          face, or at its dry limit by an evaporating surface
     boundary_names: tuple[str, ...]
     boundary_inflow_m2_s: np.ndarray  # (k, b) the water each condition let in over the step before each time
     boundary_cumulative_inflow_m2: np.ndarray  # (k, b) since t = 0 (negative: out)
@@ -383,6 +391,10 @@ class _Conditions:
             offset = getattr(boundary, "offset_m", None)
             if offset is not None and np.shape(offset) != (n,):
                 raise ValueError(f"{WHO}: boundary {boundary.name!r}: offset_m must hold one head per node ({n})")
+            if isinstance(boundary, FluxBoundary) and boundary.dry_limit_m is not None and not (
+                    math.isfinite(boundary.dry_limit_m) and boundary.dry_limit_m < 0.0):
+                raise ValueError(f"{WHO}: boundary {boundary.name!r}: dry_limit_m must be a finite pressure head below "
+                                 f"0, got {boundary.dry_limit_m}")
             if isinstance(boundary, ReservoirBoundary):
                 if boundary.ground_above_m is not None and np.shape(boundary.ground_above_m) != (n,):
                     raise ValueError(f"{WHO}: boundary {boundary.name!r}: ground_above_m must hold one height per "
@@ -409,10 +421,12 @@ class _Conditions:
         return change
 
     def at(self, start_s: float, end_s: float):
-        """(target total head, NaN where free; may hold psi = 0; supplied inflow Q (mean over the step))."""
+        """(target total head, NaN where free; may hold psi = 0; the dry limit psi_d of each node that may be
+        held there, NaN elsewhere; supplied inflow Q (mean over the step))."""
         n = self.y.size
         target = np.full(n, np.nan)
         may_hold = np.zeros(n, dtype=bool)
+        dry_limit = np.full(n, np.nan)
         supplied = np.zeros(n)
         for boundary, mine in zip(self.boundaries, self.mine):
             if isinstance(boundary, HeadBoundary):
@@ -424,12 +438,15 @@ class _Conditions:
                 target[under] = level
                 may_hold |= mine & ~under
             elif isinstance(boundary, FluxBoundary):
-                supplied[mine] = boundary.node_weight_m[mine] * boundary.flux_m_s.mean(start_s, end_s)
+                flux = boundary.flux_m_s.mean(start_s, end_s)
+                supplied[mine] = boundary.node_weight_m[mine] * flux
                 if boundary.ponds:
                     may_hold |= mine
+                if boundary.dry_limit_m is not None and flux < 0.0:
+                    dry_limit[mine] = boundary.dry_limit_m
             else:
                 may_hold |= mine
-        return target, may_hold, supplied
+        return target, may_hold, dry_limit, supplied
 
 
 @dataclass
@@ -437,7 +454,8 @@ class _Step:
     """A converged step: the new pressure heads and held nodes, the lumped state, the water each node took in."""
 
     psi: np.ndarray
-    held: np.ndarray
+    held: np.ndarray  # at psi = 0
+    dry: np.ndarray  # at the dry limit
     water: np.ndarray
     storage: np.ndarray
     saturation: np.ndarray
@@ -460,7 +478,7 @@ class _Solver:
         self.lumped = self.system.lumped_area_m2()
         self.conditions = _Conditions(problem)
         self.solves = self.factorizations = 0
-        self._factors = None
+        self._factors: SuperLU | None = None
         n = self.y.size
         self._stiffness, self._jacobian = (sparse.csc_matrix((np.zeros(self.indices.size), self.indices, self.indptr),
                                                              shape=(n, n)) for _ in range(2))
@@ -493,15 +511,17 @@ class _Solver:
         delta = self._factors.solve(rhs)
         return delta if np.all(np.isfinite(delta)) else None
 
-    def step(self, psi_old: np.ndarray, water_old: np.ndarray, held_old: np.ndarray, start_s: float,
-             dt: float, guess: np.ndarray) -> _Step | None:
+    def step(self, psi_old: np.ndarray, water_old: np.ndarray, held_old: np.ndarray, dry_old: np.ndarray,
+             start_s: float, dt: float, guess: np.ndarray) -> _Step | None:
         """The modified Picard iteration of one step (module doc); None when it does not converge."""
         s = self.settings
-        target, may_hold, supplied = self.conditions.at(start_s, start_s + dt)
+        target, may_hold, dry_limit, supplied = self.conditions.at(start_s, start_s + dt)
         load_change = self.conditions.load_change_m(start_s, start_s + dt)
         fixed = np.isfinite(target)
         may_hold &= ~fixed
+        may_dry = np.isfinite(dry_limit) & ~fixed
         held = held_old & may_hold
+        dry = dry_old & may_dry
         psi = guess.copy()
         psi[fixed] = target[fixed] - self.y[fixed]
         change = math.inf
@@ -513,18 +533,23 @@ class _Solver:
             residual = stored / dt + self._on(self._stiffness, stiffness) @ (psi + self.y) - supplied
             held, switched = switch_atmospheric_nodes(held, may_hold, residual + supplied, supplied, psi,
                                                       s.head_tolerance_m)
-            every_held = fixed | held
+            dry, dried = switch_dry_nodes(dry, may_dry & ~held, residual + supplied, supplied, psi, dry_limit,
+                                          s.head_tolerance_m)
+            switched |= dried
+            every_held = fixed | held | dry
             scale = np.sum(np.abs(stored)) + dt * (np.sum(np.abs(supplied)) + np.sum(np.abs(residual[every_held])))
             unbalanced = dt * np.sum(np.abs(residual[~every_held]))
             if iteration > 0 and change <= s.head_tolerance_m and not switched and (
                     unbalanced <= s.balance_tolerance * scale or unbalanced <= self._roundoff_m2(stiffness, psi, dt)):
                 inflow = np.where(every_held, residual + supplied, supplied)
-                return _Step(psi, held, water, storage, saturation, kr, inflow, load_change, float(scale), iteration)
+                return _Step(psi, held, dry, water, storage, saturation, kr, inflow, load_change, float(scale),
+                             iteration)
             if iteration == s.max_iterations:
                 return None
             data = stiffness.copy()
             data[self.diagonal] += (capacity + storage) / dt
-            delta_held = np.where(every_held, np.where(fixed, target - self.y, 0.0) - psi, 0.0)
+            held_psi = np.where(fixed, target - self.y, np.where(dry, dry_limit, 0.0))
+            delta_held = np.where(every_held, held_psi - psi, 0.0)
             jacobian = self._on(self._jacobian, data)
             rhs = -residual - jacobian @ delta_held
             rhs[every_held] = delta_held[every_held]
@@ -542,6 +567,20 @@ class _Solver:
             psi = psi + np.where(free, relaxation * delta, delta)
             change = float(np.max(np.abs(delta)))
         return None
+
+
+def switch_dry_nodes(dry: np.ndarray, may_dry: np.ndarray, needed_inflow: np.ndarray, supplied_inflow: np.ndarray,
+                     pressure_head_m: np.ndarray, dry_limit_m: np.ndarray, hold_below_m: float = 0.0
+                     ) -> tuple[np.ndarray, bool]:
+    """(the nodes held at their dry limit after the rule of the module doc, whether any changed).
+
+    ``needed_inflow``: the water each node takes in at the present heads (what a held node's hold supplies:
+    negative, drawn out); ``supplied_inflow``: what the boundary gives it when released (the demand, negative);
+    a held node is released when its hold draws out more than the demand, a released node that may dry is held
+    when its pressure head is below its limit ``dry_limit_m`` by more than ``hold_below_m``."""
+    release = dry & (needed_inflow - supplied_inflow < 0.0)
+    hold = may_dry & ~dry & (pressure_head_m < dry_limit_m - hold_below_m)
+    return (dry & ~release) | hold, bool(release.any() or hold.any())
 
 
 ROUNDOFF = 1e-12
@@ -615,13 +654,20 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
     if psi.shape != (n,) or not np.all(np.isfinite(psi)):
         raise ValueError(f"{WHO}: initial_head_m must give every one of the {n} nodes a finite head")
     water, _, storage, saturation, kr = solver.materials.state(psi)
-    _, may_hold, _ = solver.conditions.at(0.0, times[0])
+    _, may_hold, _, _ = solver.conditions.at(0.0, times[0])
     held = may_hold & (psi >= 0.0)
+    dry = np.zeros(n, dtype=bool)
+    for boundary, mine in zip(problem.boundaries, solver.conditions.mine):
+        if isinstance(boundary, FluxBoundary) and boundary.dry_limit_m is not None and np.any(
+                boundary.flux_m_s.values < 0.0) and np.any(psi[mine] < boundary.dry_limit_m - settings.head_tolerance_m):
+            raise ValueError(f"{WHO}: boundary {boundary.name!r}: its initial pressure head is down to "
+                             f"{psi[mine].min():.4g} m, below its dry limit {boundary.dry_limit_m:g} m (holding it "
+                             "there would wet the ground)")
     events = np.unique(np.concatenate([times, solver.conditions.breakpoints_s()]))
     events = events[(events > 0.0) & (events <= times[-1])]
     owner = solver.conditions.owner
 
-    saved = {key: [] for key in ("head", "theta", "se", "v", "held", "rate", "cum", "in", "out", "stored", "err")}
+    saved: dict[str, list] = {key: [] for key in ("head", "theta", "se", "v", "held", "rate", "cum", "in", "out", "stored", "err")}
     cumulative, rate = np.zeros(n_bound), np.zeros(n_bound)
     water_in = water_out = storage_term = error = 0.0
 
@@ -640,7 +686,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
         saved["err"].append(error)
 
     save(psi, water, saturation, kr, held)
-    log = {key: [] for key in ("end", "dt", "it", "err", "scale")}
+    log: dict[str, list] = {key: [] for key in ("end", "dt", "it", "err", "scale")}
     rejected = 0
     t, dt = 0.0, min(max(settings.initial_step_s, settings.min_step_s), settings.max_step_s)
     next_save = 0
@@ -650,7 +696,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
         remaining = next_event - t
         step = remaining if remaining <= dt else 0.5 * remaining if remaining < 2.0 * dt else dt  # no sliver
         guess = psi if last_rate is None else psi + step * last_rate  # the last step's trend continued
-        done = solver.step(psi, water, held, t, step, guess)
+        done = solver.step(psi, water, held, dry, t, step, guess)
         if done is None:
             rejected += 1
             dt = step * settings.cut
@@ -658,7 +704,7 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
                 raise FlowNotConverged(f"{WHO}: the iteration does not converge at t = {t:.6g} s even with a step of "
                                  f"{step:.3g} s (min_step_s = {settings.min_step_s:g} s)")
             continue
-        rate = np.bincount(owner[owner >= 0], weights=done.node_inflow[owner >= 0], minlength=n_bound)
+        rate = np.bincount(owner[owner >= 0], weights=done.node_inflow[owner >= 0], minlength=n_bound).astype(float)
         cumulative = cumulative + rate * step
         water_in += step * float(np.sum(np.maximum(done.node_inflow, 0.0)))
         water_out += step * float(np.sum(np.maximum(-done.node_inflow, 0.0)))
@@ -671,13 +717,13 @@ def solve_transient_flow(problem: TransientProblem, output_times_s, settings: Tr
             log[key].append(value)
         t = next_event if step == remaining else t + step
         last_rate = (done.psi - psi) / step
-        psi, water, held = done.psi, done.water, done.held
+        psi, water, held, dry = done.psi, done.water, done.held, done.dry
         if done.iterations > settings.hard_iterations:
             dt = max(settings.min_step_s, min(dt, step) * settings.shrink)
         elif done.iterations <= settings.easy_iterations and step == dt:  # a step shortened to an event says little
             dt = min(settings.max_step_s, dt * settings.growth)
         while next_save < times.size and t >= times[next_save]:
-            save(psi, water, done.saturation, done.kr, held)
+            save(psi, water, done.saturation, done.kr, held | dry)
             next_save += 1
 
     return TransientSolution(

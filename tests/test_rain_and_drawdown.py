@@ -60,6 +60,13 @@ def _replace(text: str, old: str, new: str) -> str:
      "transient.initial_water_table_m"),
     ("end_time_h = 48.0\n", "end_time_h = 48.0\nmax_step_h = 100.0\n", "transient.max_step_h"),
     ("stop_below_fos = 1.0\n", "", "transient.runout_duration_s"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]", "evaporation_mm_h = -1.0",
+     "transient.boundary[0].evaporation_mm_h"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "evaporation_mm_h = 1.0\nsurface_min_head_m = 0.5", "transient.boundary[0].surface_min_head_m"),
+    ("rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+     "rain_mm_h = 1.0\nsurface_min_head_m = -10.0", "transient.boundary[0].surface_min_head_m"),
+    ("total_head_m = 3.0\n", "total_head_m = 3.0\nevaporation_mm_h = 1.0\n", "transient.boundary[1].evaporation_mm_h"),
 ])
 def test_bad_transient_input_names_its_field(old, new, field):
     """Each refusal names the field, as every table of the study file does."""
@@ -78,6 +85,49 @@ def test_bad_transient_input_exits_2_with_one_line_and_check_refuses_it_too(tmp_
         assert result.exit_code == 2
         assert result.stderr == f"error: {study}: transient.curves[0].n: must be > 1, got 0.5\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["study.toml"]
+
+
+def test_a_dry_limit_above_the_initial_suction_exits_2_with_one_line(tmp_path):
+    """The surface starts at -5 m (suction_limit_m): a dry limit of -2 m would wet it; refused naming the field."""
+    study = tmp_path / "study.toml"
+    study.write_text(_replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                              "evaporation_mm_h = 1.0\nsurface_min_head_m = -2.0"))
+    result = CliRunner().invoke(app, [str(study), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.stderr == (f"error: {study}: transient.boundary[0].surface_min_head_m: -2 m is above the initial "
+                             "pressure head on the surface of 'rain' (down to -5 m): give a lower limit, or a "
+                             "suction_limit_m of at most 2 m\n")
+    # rain always more than the evaporation: the surface never evaporates, its dry limit never holds
+    wet = _replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                   "rain_mm_h = 10.0\nevaporation_mm_h = 1.0\nsurface_min_head_m = -2.0")
+    assert transient_flow(parse_study(wet), until_h=1.0).solution.balance_fraction().max() < 1e-6
+
+
+def test_evaporation_is_taken_from_the_rain_at_every_time_and_dries_the_slope():
+    """Rain 10 mm/h for 12 h less 2 mm/h of evaporation: 8 mm/h, then -2 mm/h (up).  Evaporation alone at 1 mm/h
+    for 48 h draws water out of the slope through its surface (the balance closed); with a dry limit of -6 m the
+    surface that cannot supply it is held there, and gives less than the demand."""
+    entry = parse_study(_replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                                 "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 0.0]]\nevaporation_mm_h = 2.0"
+                                 )).transient.boundary[0]
+    history = rain_history(entry)
+    assert history.at(6 * 3600.0) == pytest.approx(8 * MM_H_TO_M_S)
+    assert history.at(20 * 3600.0) == pytest.approx(-2 * MM_H_TO_M_S)
+    outflow = {}
+    for limit in ("", "\nsurface_min_head_m = -6.0"):
+        study = parse_study(_replace(SMALL, "rain_history_h_mm_h = [[0.0, 10.0], [12.0, 50.0], [42.0, 0.0]]",
+                                     "evaporation_mm_h = 1.0" + limit))
+        flow = transient_flow(study)
+        solution = flow.solution
+        assert solution.balance_fraction().max() < 1e-6
+        rain = solution.boundary_names.index("rain")
+        outflow[limit] = -solution.boundary_cumulative_inflow_m2[-1, rain]
+        psi = solution.pressure_head_m(flow.node_xy_m)[-1]
+        if limit:
+            held = solution.node_held[-1] & flow.problem.boundaries[rain].nodes
+            assert held.any() and np.all(np.abs(psi[held] + 6.0) < 1e-12) and psi.min() >= -6.0 - 1e-4
+    demand_m2 = 1e-3 * 48 * 60.0  # 1 mm/h for 48 h over the 60 m of horizontal length
+    assert 0.0 < outflow["\nsurface_min_head_m = -6.0"] < outflow[""] <= demand_m2 * (1 + 1e-9)
 
 
 def test_a_rain_box_on_no_boundary_edge_is_refused_naming_the_entry():
@@ -299,6 +349,42 @@ def test_a_threshold_chart_of_an_earlier_invocation_is_among_the_sweeps_stale_fi
     assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == ["threshold.png"]
     Image.new("RGB", (20, 20)).save(tmp_path / "threshold.png")
     assert remove_stale_figures(tmp_path, SWEEP_FIGURE_NAMES, keep=set()) == []
+
+
+def test_a_threshold_of_an_earlier_invocation_goes_when_the_sweep_no_longer_computes_one(tmp_path):
+    """threshold.nc, written by an earlier threshold sweep, is removed when a sweep starts in that folder (as its
+    study.nc: a stopped sweep must not show one); a sweep that computes no threshold says so in its line, one that
+    does writes it again and says nothing; a user's netCDF file of that name stays."""
+    import netCDF4
+
+    from workflows.fos_time.threshold import threshold_dataset
+    from workflows.output.writing import write_dataset
+    from workflows.study_types import study_type
+
+    threshold_text = (REPO / "studies" / "rain_threshold.toml").read_text().replace("spacing_m = 1.0", "spacing_m = 2.0")
+    study = parse_study(threshold_text)
+    dims = ("rain_mm_h", "water_at_h")
+    sweep = xr.Dataset({"fos": (dims, np.full((3, 4), 1.2)), "fos_high": (dims, np.full((3, 4), 1.21))},
+                       coords={"rain_mm_h": [15.0, 25.0, 40.0], "water_at_h": [12.0, 24.0, 36.0, 48.0]})
+    path = tmp_path / "threshold.nc"
+    no_threshold = _replace(threshold_text, "values = [12.0, 24.0, 36.0, 48.0]", "values = [12.0]")
+    for text, stale in ((no_threshold, ["threshold.nc"]), (threshold_text, [])):
+        write_dataset(threshold_dataset(study, sweep), path)
+        kind = study_type(parse_study(text), tmp_path)
+        kind.sweep_cases = kind.make_cases()  # what check() sets, without its scenes
+        kind.cases()
+        assert not path.exists()
+        kind._remove_stale_outputs([], [path] if not stale else [])
+        assert kind.stale_results == stale
+        lines = kind.removed
+        assert (lines[0].endswith("results not written again (threshold.nc)") if stale else
+                not any("threshold.nc" in line for line in lines))
+    with netCDF4.Dataset(path, "w") as mine:
+        mine.note = "the user's"
+    kind = study_type(parse_study(no_threshold), tmp_path)
+    kind.sweep_cases = kind.make_cases()
+    kind.cases()
+    assert path.is_file() and kind.earlier_results == []
 
 
 def test_the_fos_against_time_figure_of_an_earlier_invocation_goes_when_not_drawn_again(tmp_path):

@@ -38,8 +38,10 @@ from verification.transient_seepage import (
     HOMOGENEOUS,
     HOUR_S,
     TWO_LAYERS,
+    WATER_CONTENT_RANGE,
     column_problem,
     drawdown_bank,
+    dry_limit_column,
     lu_griffiths,
     observed_orders,
     ponding_column,
@@ -274,6 +276,50 @@ def test_a_drawdown_unloads_the_pore_pressure_under_the_face_by_the_water_remove
     under_face = ~drained.node_held[-1] & (xy[:, 0] > 4.5) & (y < ground_m - 0.3)
     assert np.all(drained.pressure_head_m(xy)[-1][under_face] < ground_m[under_face] - y[under_face] + 1e-3)
     _closed(drained)
+
+
+@pytest.mark.parametrize("demand_ks", [0.01, 0.002], ids=["beyond what the soil lifts", "within it"])
+def test_an_evaporating_surface_dries_to_its_limit_where_the_soil_cannot_supply_the_demand(demand_ks):
+    """5 m of Gardner's soil (alpha 1 /m) over its water table, the surface's dry limit -6 m, h = 0.125 m, to steady
+    state from hydrostatic water.  The most it lifts with its surface at -6 m is Gardner's (1958)
+    E = K_s (e^(-alpha L) - e^(alpha psi_d)) / (1 - e^(-alpha L)) = 0.00429 K_s: a demand of 0.01 K_s holds the
+    surface at -6 m and draws out E (within 1%: 0.54%, falling 4 times per halving of h, 8.5% at 0.5 m) along
+    Gardner's profile for E (within 0.005 m); a demand of 0.002 K_s is met in full, the surface released above the
+    limit.  Balances closed."""
+    result = dry_limit_column(demand_ks * 1e-6, -6.0, spacing_m=0.125)
+    limited = demand_ks * 1e-6 > result["limited_m_s"]
+    assert limited == (demand_ks == 0.01) and result["held"] == limited
+    assert result["computed_m_s"] == pytest.approx(result["evaporation_m_s"], rel=0.01 if limited else 1e-9)
+    assert result["error_m"] < 0.005
+    assert (result["top_psi_m"] == pytest.approx(-6.0, abs=1e-12)) if limited else result["top_psi_m"] > -6.0 + 0.1
+    _closed(result["solution"])
+
+
+def test_a_dried_surface_is_released_when_the_rain_returns():
+    """The column held at its dry limit after a long evaporation (0.01 K_s, limit -6 m), then rain at 0.5 K_s: the
+    surface leaves the limit at once and wets; the rain enters in full; the balance closed."""
+    column = Column(1.0, (Layer(5.0, 1e-6, WATER_CONTENT_RANGE),), 0.0, 0.0)
+    dry_s = 1e10
+    flux = History(np.array([0.0, dry_s, dry_s]), np.array([-1e-8, -1e-8, 5e-7]))
+    xy, problem = column_problem(column, 0.25, rain_m_s=flux, initial_head=lambda xy: hydrostatic_head_m(xy, 0.0),
+                                 dry_limit_m=-6.0)
+    solution = solve_transient_flow(problem, [dry_s, dry_s + HOUR_S, dry_s + 6 * HOUR_S],
+                                    TransientSettings(max_step_s=1e9))
+    top = xy[:, 1] > 5.0 - 1e-9
+    psi = solution.pressure_head_m(xy)[:, top].mean(axis=1)
+    assert solution.node_held[1][top].all() and psi[1] == pytest.approx(-6.0, abs=1e-12)
+    assert not solution.node_held[2:][:, top].any() and psi[2] > -6.0 and psi[3] > psi[2]
+    assert solution.boundary_inflow_m2_s[-1, 1] == pytest.approx(5e-7 * 0.5, rel=1e-9)
+    _closed(solution)
+
+
+def test_a_dry_limit_must_be_a_suction_and_below_the_initial_state():
+    column = Column(1.0, (Layer(5.0, 1e-6, WATER_CONTENT_RANGE),), 0.0, -1e-8)
+    for limit, message in ((0.5, "dry_limit_m must be a finite pressure head below 0"),
+                           (-3.0, "its initial pressure head is down to -5 m, below its dry limit -3 m")):
+        _, problem = column_problem(column, 0.5, initial_head=lambda xy: hydrostatic_head_m(xy, 0.0), dry_limit_m=limit)
+        with pytest.raises(ValueError, match=message):
+            solve_transient_flow(problem, [HOUR_S])
 
 
 def test_a_step_that_cannot_converge_is_refused_with_the_time():

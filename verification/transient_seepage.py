@@ -14,7 +14,9 @@ particles' own clouds and meshes (``spfem_core.cloud``, ``spfem_core.mesh``).
 2. **Lu & Griffiths (2004)**: the steady profile under a constant infiltration or evaporation
    rate (the same closed form, the flux throughout), reached by the transient solve, and the
    suction stress sigma_s = S_e gamma_w psi (Lu & Likos 2006; ``spfem_core.suction_stress``) with
-   van Genuchten's S_e at Gardner's alpha and n = 2 (a choice of this check).
+   van Genuchten's S_e at Gardner's alpha and n = 2 (a choice of this check); and evaporation beyond
+   what the column lifts, its surface held at its dry limit, against Gardner's (1958) flux at that
+   limit (:func:`dry_limit_column`).
 3. **Mass balance** of every run: the water in less the water out against the change of the
    stored water, including a column whose surface ponds under rain (the switch to psi = 0 and
    back) and a bank whose reservoir is drawn down (the face above the level a seepage face).
@@ -71,12 +73,12 @@ CONVERGENCE_TIME_S = 3.0 * HOUR_S
 
 
 def column_problem(column: Column, spacing_m: float, rain_m_s: History | None = None, initial_head=None,
-                   curves=None, width_spacings: int = 2):
+                   curves=None, width_spacings: int = 2, dry_limit_m: float | None = None):
     """(particles (n, 2), the transient problem) of ``column`` (module doc, item 1) at ``spacing_m``:
     Gardner's curve per layer (a triangle takes the layer of its centroid; the interfaces fall on
     rows of particles), psi = 0 at the base, the flux ``rain_m_s`` (default: qA from t = 0) per
-    horizontal length on the top edge, the initial heads ``initial_head(particles)`` (default: the
-    steady profile of q0)."""
+    horizontal length on the top edge (evaporating, held at ``dry_limit_m`` where the soil cannot supply
+    it), the initial heads ``initial_head(particles)`` (default: the steady profile of q0)."""
     height = column.height_m
     width = width_spacings * spacing_m
     xy = particles_in_polygon(np.array([[0.0, 0.0], [width, 0.0], [width, height], [0.0, height]]), spacing_m)
@@ -92,7 +94,7 @@ def column_problem(column: Column, spacing_m: float, rain_m_s: History | None = 
     top = edges[(y[edges[:, 0]] > height - tol) & (y[edges[:, 1]] > height - tol)]
     rain = History.constant(column.flux_m_s) if rain_m_s is None else rain_m_s
     boundaries = (HeadBoundary("water_table", y < tol, History.constant(0.0), pressure=True),
-                  FluxBoundary("surface", boundary_flux_weights_m(xy, top, True), rain))
+                  FluxBoundary("surface", boundary_flux_weights_m(xy, top, True), rain, dry_limit_m=dry_limit_m))
     if initial_head is None:
         head = y + steady_pressure_head_m(column, y, column.initial_flux_m_s)
     else:
@@ -183,6 +185,40 @@ def lu_griffiths(flux_m_s: float, spacing_m: float = 0.125, height_m: float = 5.
             "stress_error_pa": float(np.max(np.abs(stress - stress_exact))), "solution": solution, "wall_s": wall}
 
 
+def gardner_dry_limit_flux_m_s(height_m: float, alpha_1_m: float, conductivity_m_s: float,
+                               dry_limit_m: float) -> float:
+    """The steady upward flux (m/s, > 0) through a column of Gardner's soil ``height_m`` above its water table
+    whose surface is held at psi_d = ``dry_limit_m``: from Gardner's (1958) steady profile
+    exp(alpha psi) = (1 + E / K_s) exp(-alpha z) - E / K_s at z = L,
+    E = K_s (exp(-alpha L) - exp(alpha psi_d)) / (1 - exp(-alpha L)) (none unless psi_d < -L)."""
+    top = math.exp(-alpha_1_m * height_m)
+    return conductivity_m_s * (top - math.exp(alpha_1_m * dry_limit_m)) / (1.0 - top)
+
+
+def dry_limit_column(demand_m_s: float, dry_limit_m: float, spacing_m: float = 0.25, height_m: float = 5.0,
+                     alpha_1_m: float = 1.0, conductivity_m_s: float = 1e-6) -> dict:
+    """A column of Gardner's soil under the evaporation ``demand_m_s`` (> 0, up) with the surface's dry limit
+    ``dry_limit_m``, from hydrostatic water to steady state: the surface held at the limit where the demand
+    exceeds what the soil can lift (:func:`gardner_dry_limit_flux_m_s`), the flux then Gardner's and the
+    profile his for that flux; else the demand's."""
+    limited_m_s = gardner_dry_limit_flux_m_s(height_m, alpha_1_m, conductivity_m_s, dry_limit_m)
+    evaporation_m_s = min(demand_m_s, limited_m_s)
+    column = Column(alpha_1_m, (Layer(height_m, conductivity_m_s, WATER_CONTENT_RANGE),), 0.0, -demand_m_s)
+    xy, problem = column_problem(column, spacing_m, initial_head=lambda xy: hydrostatic_head_m(xy, 0.0),
+                                 dry_limit_m=dry_limit_m)
+    solution = solve_transient_flow(problem, [1e11], TransientSettings(initial_step_s=60.0, max_step_s=1e9))
+    y = xy[:, 1]
+    psi = solution.pressure_head_m(xy)[-1]
+    exact = steady_pressure_head_m(column, y, -evaporation_m_s)
+    width_m = float(np.ptp(xy[:, 0]))
+    surface = list(solution.boundary_names).index("surface")
+    out_m_s = -float(solution.boundary_inflow_m2_s[-1, surface]) / width_m
+    top = y > height_m - 1e-9
+    return {"demand_m_s": demand_m_s, "limited_m_s": limited_m_s, "evaporation_m_s": evaporation_m_s,
+            "computed_m_s": out_m_s, "top_psi_m": float(psi[top].mean()), "held": bool(solution.node_held[-1][top].all()),
+            "error_m": float(np.max(np.abs(psi - exact))), "solution": solution, "particles": xy.shape[0]}
+
+
 def ponding_column(spacing_m: float = 0.1, rain_m_s: float = 5e-6, rain_hours: float = 6.0, hours: float = 12.0):
     """A 5 m column of van Genuchten silt (alpha 1 /m, n 1.6, K_s 1e-6 m/s, S_s 1e-4 /m) at hydrostatic
     suction (capped at 3 m) above a water table at its base, rained on at 5 K_s for ``rain_hours``: its
@@ -266,9 +302,10 @@ def print_profiles(runs: dict) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", nargs="+", choices=["profiles", "spacing", "step", "steady", "balance", "slope"])
+    parser.add_argument("--only", nargs="+", choices=["profiles", "spacing", "step", "steady", "dry", "balance",
+                                                      "slope"])
     args = parser.parse_args(argv)
-    todo = set(args.only or ["profiles", "spacing", "step", "steady", "balance", "slope"])
+    todo = set(args.only or ["profiles", "spacing", "step", "steady", "dry", "balance", "slope"])
     balance = []
 
     if todo & {"profiles", "balance"}:
@@ -319,6 +356,26 @@ def main(argv=None) -> int:
             print(f"| {ratio:+g} | {r['particles']} | {r['solution'].step_s.size} | {r['psi_exact_m'][top].mean():.4f} | "
                   f"{r['error_m']:.2e} | {r['stress_exact_pa'][top].mean() / 1e3:.3f} | {r['stress_error_pa'] / 1e3:.2e} |")
             balance.append((f"Lu & Griffiths, flux {ratio:+g} K_s", r["solution"]))
+
+    if "dry" in todo:
+        print("\nEvaporation beyond what the soil lifts: the same column, demand 0.01 K_s, surface dry limit -6 m; "
+              f"Gardner's flux at the limit {gardner_dry_limit_flux_m_s(5.0, 1.0, 1e-6, -6.0) / 1e-6:.5f} K_s\n")
+        print("| h (m) | particles | surface held | psi top (m) | flux out (K_s) | its error | order | "
+              "largest psi error (m) |")
+        print("|---|---|---|---|---|---|---|---|")
+        errors = []
+        for spacing in (0.5, 0.25, 0.125, 0.0625):
+            r = dry_limit_column(1e-8, -6.0, spacing_m=spacing)
+            errors.append(r["computed_m_s"] / r["evaporation_m_s"] - 1.0)
+            order = observed_orders(errors[-2:])[0] if len(errors) > 1 else math.nan
+            print(f"| {spacing:g} | {r['particles']} | {r['held']} | {r['top_psi_m']:.4f} | {r['computed_m_s'] / 1e-6:.5f} "
+                  f"| {errors[-1]:.2e} | {order:.2f} | {r['error_m']:.2e} |")
+            balance.append((f"evaporation to the dry limit, h = {spacing:g} m", r["solution"]))
+        within = dry_limit_column(2e-9, -6.0, spacing_m=0.125)
+        print(f"\nA demand of 0.002 K_s (within what the soil lifts): surface held {within['held']}, psi at the top "
+              f"{within['top_psi_m']:.4f} m, flux out {within['computed_m_s'] / 1e-6:.6f} K_s, largest psi error "
+              f"{within['error_m']:.2e} m")
+        balance.append(("evaporation within what the soil lifts", within["solution"]))
 
     if "balance" in todo:
         _, ponded = ponding_column()

@@ -35,8 +35,9 @@ def draw_fos_time(study, dataset, flow, out_dir: Path) -> Path:
     grid = np.linspace(0.0, end_h, HISTORY_SAMPLES)
     level = reservoir_level_m(flow, grid)
     if np.all(np.isnan(level)):
-        bottom.fill_between(grid, rain_mm_h(flow, grid), step="post", color="tab:cyan", alpha=0.7)
-        bottom.set_ylabel("rain (mm/h)")
+        flux = rain_mm_h(flow, grid)
+        bottom.fill_between(grid, flux, step="post", color="tab:cyan", alpha=0.7)
+        bottom.set_ylabel("rain less evaporation (mm/h)" if np.any(flux < 0.0) else "rain (mm/h)")
     else:
         bottom.plot(grid, level, color="tab:blue", lw=1.5)
         bottom.set_ylabel("reservoir level (m)")

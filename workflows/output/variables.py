@@ -500,8 +500,9 @@ TRANSIENT_FILE = _table(
              "the pore pressure a particle carries at that time: S_e gamma_w psi (negative above the water table: "
              "suction) with suction_in_strength, else gamma_w max(psi, 0)"),
     Variable("held", ("time", "particle"), "1",
-             "1 where a condition holds the particle at atmospheric pressure (ponding rain, a seepage face, a "
-             "reservoir's face above its level)"),
+             "1 where a condition holds the particle's pressure head: at atmospheric pressure (ponding rain, a seepage "
+             "face, a reservoir's face above its level) or at surface_min_head_m (a surface too dry to supply the "
+             "evaporation)"),
     Variable("darcy_vx", ("time", "face"), "m s-1", "x Darcy velocity -k_r K grad h in the triangle"),
     Variable("darcy_vy", ("time", "face"), "m s-1", "y Darcy velocity in the triangle"),
     Variable("condition", ("condition",), "1", "name of each [[transient.boundary]] condition that holds particles"),
@@ -516,7 +517,8 @@ TRANSIENT_FILE = _table(
     Variable("balance_error", ("time",), "m2", "water in less water out less the change of the stored water"),
     Variable("balance_fraction", ("time",), "1",
              "|balance_error| over the largest of water_in, water_out and the change of the stored water"),
-    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time"),
+    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time, less "
+             "its evaporation_mm_h (negative: evaporation; the demand, the soil may give less)"),
     Variable("reservoir_level", ("time",), "m", "the reservoir's level at that time (NaN: no reservoir)"),
     Variable("step_end_time", ("step",), "s", "the end of each accepted time step of the flow"),
     Variable("step_length", ("step",), "s", "the length of each accepted step"),
@@ -544,8 +546,10 @@ FOS_TIME_FILE = _table(
     Variable("window_low", ("time",), "1", "the lower end of the window its search started in (NaN: none, the "
              "first time)"),
     Variable("window_high", ("time",), "1", "the upper end of that window"),
-    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time"),
-    Variable("cumulative_rain", ("time",), "mm", "the rain of the first rain condition fallen since t = 0"),
+    Variable("rain_intensity", ("time",), "mm h-1", "the intensity of the first rain condition at that time, less "
+             "its evaporation_mm_h (negative: evaporation; the demand, the soil may give less)"),
+    Variable("cumulative_rain", ("time",), "mm", "the rain of the first rain condition fallen since t = 0, less its "
+             "evaporation_mm_h"),
     Variable("reservoir_level", ("time",), "m", "the reservoir's level at that time (NaN: no reservoir)"),
     Variable("water_in", ("time",), "m2", "all the water that entered the ground since t = 0, per metre"),
 )

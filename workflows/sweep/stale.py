@@ -1,8 +1,8 @@
 """What an earlier invocation of a sweep left in its folder and this one does not make again.
 
 A sweep rerun into the same folder after it changed (fewer cases, another axis, ``figures =
-false``) would leave the earlier case folders and design charts beside the new ones, looking
-current.  Only files spfem-fos made are removed: in a case folder that is not one of this sweep's,
+false``) would leave the earlier case folders, design charts and ``threshold.nc`` beside the new
+ones, looking current.  Only files spfem-fos made are removed: in a case folder that is not one of this sweep's,
 its ``case.toml`` (our header), the netCDF files that carry our provenance (``spfem_fos_version``),
 the figures marked as ours (``output.figures.drawn_by_us``) and our temporary files; the folder
 once empty.  A file of the user's stays, and with it its folder.
@@ -20,6 +20,10 @@ from workflows.sweep.results import CASE_TEXT_NAME
 SWEEP_FIGURE_NAMES = ("fos_*.png", "runout_*.png", "threshold.png")
 """The design charts a sweep may draw (``sweep.figures``, and the threshold's, ``fos_time.threshold``):
 those it did not draw this time are removed."""
+
+SWEEP_RESULT_NAMES = ("threshold.nc",)
+"""The result files a sweep may write besides ``study.nc`` (the threshold's, ``fos_time.threshold``): those
+it did not write this time are removed (if ours: a netCDF file with our provenance)."""
 
 CASE_TEXT_HEADERS = ("# case ", "# realisation ")
 """How the ``case.toml`` of a sweep's case and of a realisation begin (``study.reading.sweep_cases``,
@@ -65,9 +69,23 @@ def remove_stale_cases(cases_dir: Path, keep: set[str]) -> tuple[list[str], list
     return removed, kept
 
 
-def removed_line(cases_removed: list[str], cases_kept: list[str], figures: list[str]) -> str | None:
-    """One line saying what :func:`remove_stale_cases` and the stale figures' removal did; None if nothing."""
-    if not (cases_removed or cases_kept or figures):
+def remove_stale_results(out_dir: Path, keep: set[str]) -> list[str]:
+    """Remove the files of ``SWEEP_RESULT_NAMES`` in ``out_dir`` not named in ``keep`` that we made (a user's file
+    of that name stays); their names."""
+    removed = []
+    for name in SWEEP_RESULT_NAMES:
+        path = Path(out_dir) / name
+        if name not in keep and path.is_file() and _made_by_us(path):
+            path.unlink(missing_ok=True)
+            removed.append(name)
+    return removed
+
+
+def removed_line(cases_removed: list[str], cases_kept: list[str], figures: list[str],
+                 results: tuple[str, ...] | list[str] = ()) -> str | None:
+    """One line saying what :func:`remove_stale_cases`, the stale figures' removal and
+    :func:`remove_stale_results` did; None if nothing."""
+    if not (cases_removed or cases_kept or figures or results):
         return None
 
     def names(items: list[str], folder: bool = False) -> str:
@@ -79,6 +97,8 @@ def removed_line(cases_removed: list[str], cases_kept: list[str], figures: list[
         parts.append(f"{len(cases_removed)} case folders no longer in the sweep ({names(cases_removed, True)})")
     if figures:
         parts.append(f"figures not drawn again ({names(figures)})")
+    if results:
+        parts.append(f"results not written again ({names(list(results))})")
     line = "removed what an earlier invocation made: " + "; ".join(parts) if parts else ""
     if cases_kept:
         line += ("; " if line else "") + (f"kept {names(cases_kept, True)}: no longer in the sweep, "

@@ -14,8 +14,8 @@
    a sweep that stopped early leaves no ``study.nc`` (the one of an earlier invocation is removed
    at the start), and the same command resumes it.
 4. What an earlier invocation made and this one does not is removed (``sweep.stale``): the case
-   folders of cases the sweep no longer has, at the start, and the design charts it did not draw,
-   at the end; the report says so in one line.
+   folders of cases the sweep no longer has and ``threshold.nc`` (drawn from ``study.nc``), at the start,
+   and the design charts it did not draw, at the end; the report says so in one line.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ from workflows.sweep.results import (
     stage_sweep_dataset,
     study_dataset,
 )
-from workflows.sweep.stale import SWEEP_FIGURE_NAMES, remove_stale_cases, removed_line
+from workflows.sweep.stale import SWEEP_FIGURE_NAMES, remove_stale_cases, remove_stale_results, removed_line
 
 
 @dataclass
@@ -95,6 +95,8 @@ class SweepStudy(StudyType):
     base_note = "; the base study, before the sweep sets its values"
     stale_cases: tuple[list[str], list[str]] = ([], [])  # case folders of an earlier invocation: (removed, kept)
     stale_figures: list[str] = []  # design charts of an earlier invocation removed
+    earlier_results: list[str] = []  # its threshold.nc, removed at the start
+    stale_results: list[str] = []  # of those, the ones not written again
 
     @staticmethod
     def applies_to(study: Study) -> bool:
@@ -144,9 +146,10 @@ class SweepStudy(StudyType):
 
     def cases(self) -> list[Case]:
         """A folder and ``case.toml`` per case to compute (module doc, steps 1-2); ``study.nc`` of an
-        earlier invocation removed."""
+        earlier invocation removed, and its threshold.nc."""
         make_output_folder(self.out_dir / CASES_FOLDER)
         (self.out_dir / STUDY_FILE_NAME).unlink(missing_ok=True)  # a stopped sweep must not show an old one
+        self.earlier_results = remove_stale_results(self.out_dir, keep=set())  # nor a result drawn from it
         self.same_as = {case.case_id: case.case_id for case in self.sweep_cases}  # case id -> whose files it has
         distinct = self.sweep_cases
         if self.fos:
@@ -199,12 +202,14 @@ class SweepStudy(StudyType):
         study_path = self.out_dir / STUDY_FILE_NAME
         dataset = study_dataset(self.study, self.sweep_cases, by_id, self.same_as, len(outcomes))
         write_dataset(dataset, study_path)
-        figures = []
+        figures, result_files = [], []
         if self.study.output.figures:
             figures = draw_sweep_figures(self.out_dir, dataset)
         if threshold_applies(self.study):  # rain or drawdown over time: the duration at which the FOS reaches 1
-            figures += [path for path in write_threshold(self.study, dataset, self.out_dir) if path.suffix == ".png"]
-        self._remove_stale_figures(figures)
+            written = write_threshold(self.study, dataset, self.out_dir)
+            figures += [path for path in written if path.suffix == ".png"]
+            result_files = [path for path in written if path.suffix == ".nc"]
+        self._remove_stale_outputs(figures, result_files)
         runs = [record for outcome in outcomes.values() for record in outcome.runs]
         runs_made = sum(record.started_s == record.started_s for record in runs)  # NaN: reused
         gravity_computed = sum(outcome.result.timings_s["gravity"] > 0.0 for outcome in outcomes.values()
@@ -229,18 +234,19 @@ class SweepStudy(StudyType):
         figures = []
         if self.study.output.figures and runout_stage_names(self.study):
             figures = draw_runout_sweep(self.out_dir, dataset)
-        self._remove_stale_figures(figures)
+        self._remove_stale_outputs(figures, [])
         return StageSweepOutcome(self.out_dir, study_path, self.sweep_cases, results, runout_stage_names(self.study),
                                  {"total": time.perf_counter() - wall_start}, figures)
 
-    def _remove_stale_figures(self, drawn: list[Path]) -> None:
-        """The design charts of an earlier invocation not drawn now removed (module doc, step 4)."""
+    def _remove_stale_outputs(self, drawn: list[Path], written: list[Path]) -> None:
+        """The design charts and threshold.nc of an earlier invocation not made now removed (module doc, step 4)."""
         self.stale_figures = remove_stale_figures(self.out_dir, SWEEP_FIGURE_NAMES, keep={path.name for path in drawn})
+        self.stale_results = [name for name in self.earlier_results if name not in {path.name for path in written}]
 
     @property
     def removed(self) -> list[str]:
         """The line saying what was removed (module doc, step 4), or none."""
-        line = removed_line(*self.stale_cases, self.stale_figures)
+        line = removed_line(*self.stale_cases, self.stale_figures, self.stale_results)
         return [line] if line else []
 
     def report(self, outcome, quiet: bool, study_file) -> Report:

@@ -134,10 +134,12 @@ def curve_of(entry):
 
 
 def rain_history(entry) -> History:
-    """A rain entry's intensity (m/s) against time (s): constant, or piecewise constant between the
-    points of its history (each holds until the next time; none before the first)."""
-    if entry.rain_mm_h is not None:
-        return History.constant(entry.rain_mm_h * MM_H_TO_M_S)
+    """A rain entry's flux into the surface (m/s) against time (s): its intensity, constant or piecewise
+    constant between the points of its history (each holds until the next time; none before the first),
+    less its evaporation (negative where that is the larger)."""
+    evaporation_m_s = (entry.evaporation_mm_h or 0.0) * MM_H_TO_M_S
+    if entry.rain_history_h_mm_h is None:
+        return History.constant((entry.rain_mm_h or 0.0) * MM_H_TO_M_S - evaporation_m_s)
     times, values = [], []
     if entry.rain_history_h_mm_h[0][0] > 0.0:
         times, values = [0.0], [0.0]
@@ -147,7 +149,7 @@ def rain_history(entry) -> History:
             values.append(values[-1])
         times.append(t_h * HOUR_S)
         values.append(intensity * MM_H_TO_M_S)
-    return History(np.array(times), np.array(values))
+    return History(np.array(times), np.array(values) - evaporation_m_s)
 
 
 def level_history(entry) -> History:
@@ -194,6 +196,7 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
     on_boundary[edges.ravel()] = True
     boundaries: list[FluxBoundary | ReservoirBoundary | SeepageFace | HeadBoundary] = []
     reservoirs: list = []
+    initial = _initial_head_m(study, node_xy_m)
     for i, entry in enumerate(transient.boundary):
         where = f"transient.boundary[{i}]"
         box = on_boundary & entry.holds(node_xy_m, finest_m)
@@ -205,7 +208,8 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
             if not np.any(weights > 0.0):
                 raise StudyError(where, f"the box of {entry.name!r} holds no edge of the domain's boundary the rain "
                                  "falls on (a flux needs two neighbouring boundary particles, not on one vertical)")
-            boundaries.append(FluxBoundary(entry.name, weights, rain_history(entry)))
+            dry_limit_m = None if entry.evaporation_mm_h is None else entry.surface_min_head_m
+            boundaries.append(FluxBoundary(entry.name, weights, rain_history(entry), dry_limit_m=dry_limit_m))
         elif entry.condition == "reservoir":
             history = level_history(entry)
             slack = POND_SLACK * geometry.finest_spacing_m
@@ -227,8 +231,8 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
             boundaries.append(SeepageFace(entry.name, np.zeros(n, dtype=bool)))
             for b, earlier in enumerate(boundaries[:-1]):
                 boundaries[b] = _without(earlier, box)
+    _check_dry_limits(transient.boundary, boundaries, initial - node_xy_m[:, 1])
     boundaries = [b for b in boundaries if np.any(b.nodes)]
-    initial = _initial_head_m(study, node_xy_m)
     _check_initial_water_under_ground(study, node_xy_m, edges, initial, reservoirs, finest_m)
     problem = TransientProblem(node_xy_m, elem_nodes, conductivity_tensor(k1, k1 * ratio, angle), elem_material,
                                curves, tuple(boundaries), initial)
@@ -245,11 +249,30 @@ def transient_flow(study, until_h: float | None = None) -> TransientFlow:
                          transient.suction_in_strength, time.perf_counter() - start)
 
 
+def _check_dry_limits(entries, boundaries: list, pressure_head_m: np.ndarray) -> None:
+    """StudyError naming its ``surface_min_head_m`` when the initial pressure head on the particles a rain entry
+    that evaporates at some time holds (those no later entry takes) is below its dry limit: held there, the surface would wet the
+    ground.  ``boundaries``: one per entry, in order (``transient_flow``)."""
+    taken_later = np.zeros(pressure_head_m.size, dtype=bool)
+    for i in reversed(range(len(boundaries))):
+        boundary = boundaries[i]
+        if isinstance(boundary, FluxBoundary) and boundary.dry_limit_m is not None and np.any(
+                boundary.flux_m_s.values < 0.0):  # it evaporates at some time
+            surface = boundary.nodes & ~taken_later
+            driest_m = float(pressure_head_m[surface].min(initial=np.inf))
+            if driest_m < boundary.dry_limit_m:
+                raise StudyError(f"transient.boundary[{i}].surface_min_head_m",
+                                 f"{boundary.dry_limit_m:g} m is above the initial pressure head on the surface of "
+                                 f"{entries[i].name!r} (down to {driest_m:.4g} m): give a lower limit, or a "
+                                 f"suction_limit_m of at most {-boundary.dry_limit_m:g} m")
+        taken_later |= boundary.nodes
+
+
 def _without(boundary, nodes: np.ndarray):
     """``boundary`` less the particles ``nodes`` (a later no_flow entry takes them)."""
     if isinstance(boundary, FluxBoundary):
         return FluxBoundary(boundary.name, np.where(nodes, 0.0, boundary.node_weight_m), boundary.flux_m_s,
-                            boundary.ponds)
+                            boundary.ponds, boundary.dry_limit_m)
     kept = boundary.nodes & ~nodes
     if isinstance(boundary, ReservoirBoundary):
         return ReservoirBoundary(boundary.name, kept, boundary.level_m, boundary.ground_above_m,

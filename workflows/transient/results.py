@@ -23,13 +23,13 @@ def _first(flow, kind):
 
 
 def rain_mm_h(flow, times_h) -> np.ndarray:
-    """The intensity (mm/h) of the first rain condition at each time (0 without rain)."""
+    """The intensity (mm/h) of the first rain condition at each time, less its evaporation (0 without rain)."""
     rain = _first(flow, FluxBoundary)
     return np.array([0.0 if rain is None else rain.flux_m_s.at(t * HOUR_S) / MM_H_TO_M_S for t in times_h])
 
 
 def cumulative_rain_mm(flow, times_h) -> np.ndarray:
-    """The rain (mm) of the first rain condition fallen since t = 0, at each time."""
+    """The rain (mm) of the first rain condition fallen since t = 0, less its evaporation, at each time."""
     rain = _first(flow, FluxBoundary)
     if rain is None:
         return np.zeros(len(times_h))

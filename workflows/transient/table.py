@@ -6,7 +6,8 @@ conductivity, or Gardner's exponential model, with its saturated storage); each
 ``[[transient.boundary]]`` entry applies one condition in time to the particles of the domain's
 boundary inside its box (as ``[[boundary]]`` selects supports, a later entry over an earlier one):
 rain (a constant intensity or a history, in mm/h, per horizontal length or normal to the surface,
-held at atmospheric pressure where the surface ponds), a reservoir (a level history: its head below
+held at atmospheric pressure where the surface ponds) less an evaporation (held at the dry limit
+``surface_min_head_m`` where the soil cannot supply it), a reservoir (a level history: its head below
 the level, a seepage face above it, and its water on the face), a seepage face, a fixed total or
 pressure head.  The flow starts from a water table or from the steady flow of ``[seepage]``.
 
@@ -35,11 +36,14 @@ MODELS = ("van_genuchten", "gardner")
 CONDITIONS = ("rain", "reservoir", "seepage_face", "total_head", "pressure_head", "no_flow")
 NEEDS = {"total_head": ("total_head_m",), "reservoir": ("level_history_h_m",),
          "rain": ("rain_mm_h", "rain_history_h_mm_h")}
-"""The fields each condition takes (rain: one of the two)."""
+"""The fields each condition takes (rain: one of the two, or evaporation_mm_h alone)."""
 ONLY_FOR = {"total_head_m": "total_head", "pressure_head_m": "pressure_head", "level_history_h_m": "reservoir",
             "rain_mm_h": "rain", "rain_history_h_mm_h": "rain", "rain_direction": "rain",
-            "loading_efficiency": "reservoir"}
-DEFAULTS = {"rain_direction": "horizontal", "loading_efficiency": 1.0}
+            "evaporation_mm_h": "rain", "surface_min_head_m": "rain", "loading_efficiency": "reservoir"}
+SURFACE_MIN_HEAD_M = -1000.0
+"""The default dry limit of an evaporating surface: HYDRUS's customary hCritA (1e5 cm); by Kelvin's law
+psi = (R T / (M_w g)) ln(RH), the soil water in equilibrium with air of 93% relative humidity at 20 C."""
+DEFAULTS = {"rain_direction": "horizontal", "loading_efficiency": 1.0, "surface_min_head_m": SURFACE_MIN_HEAD_M}
 """The fields of ONLY_FOR whose default is not None."""
 MM_H_TO_M_S = 1e-3 / 3600.0
 """1 mm/h in m/s."""
@@ -79,7 +83,8 @@ class TransientBoundary(Box):
 
     name: str = name_field("name of the condition")
     condition: str = text(
-        "`rain` (rain_mm_h or rain_history_h_mm_h; atmospheric where the surface ponds, the rest runs off), "
+        "`rain` (rain_mm_h or rain_history_h_mm_h, less evaporation_mm_h; atmospheric where the surface ponds, "
+        "the rest runs off; at surface_min_head_m where it dries), "
         "`reservoir` (level_history_h_m: the reservoir's head below its level, a seepage face above, its water "
         "on the surface), `seepage_face`, `total_head`, `pressure_head` (h = y + pressure_head_m), `no_flow`",
         choices=CONDITIONS)
@@ -90,6 +95,15 @@ class TransientBoundary(Box):
     rain_direction: str = text("*condition = rain:* `horizontal` (the intensity per horizontal length, as a "
                                "rain gauge measures it) or `normal` (per length of the surface)",
                                default="horizontal", choices=("horizontal", "normal"))
+    evaporation_mm_h: float | None = number(
+        "mm h-1", "*condition = rain:* the evaporation the air demands of the surface (the potential evaporation), "
+        "taken from the rain at every time: the surface's flux is the rain less this, upward where the rain is less; "
+        "without rain_mm_h or rain_history_h_mm_h, no rain", default=None, gt=0.0)
+    surface_min_head_m: float = number(
+        "m", "*condition = rain, with evaporation_mm_h:* the driest pressure head the surface reaches: where the soil "
+        "cannot supply the evaporation the surface is held at this head and gives what the soil lifts (default: "
+        "HYDRUS's customary limit, in equilibrium with air of 93% relative humidity)", default=SURFACE_MIN_HEAD_M,
+        lt=0.0)
     level_history_h_m: tuple | None = polyline(
         "h, m", "*condition = reservoir:* the level against time [[t_h, level_m], ...] (or a CSV file), linear "
         "between the points", default=None)
@@ -108,14 +122,17 @@ class TransientBoundary(Box):
                 raise StudyError(name, f"does not apply to condition = {self.condition}")
         needed = NEEDS.get(self.condition, ())
         given = [name for name in needed if getattr(self, name) is not None]
-        if needed and not given:
+        if self.surface_min_head_m != SURFACE_MIN_HEAD_M and self.evaporation_mm_h is None:
+            raise StudyError("surface_min_head_m", "applies to an evaporating surface: give evaporation_mm_h")
+        if needed and not given and self.evaporation_mm_h is None:
             raise StudyError(needed[0], f"required by condition = {self.condition}"
                              + (f" (or {needed[1]})" if len(needed) > 1 else ""))
         if len(given) > 1:
             raise StudyError(given[1], f"give {given[0]} or {given[1]}, not both")
         history = self.rain_history_h_mm_h
         if history is not None and min(v for _, v in history) < 0.0:
-            raise StudyError("rain_history_h_mm_h", "an intensity must be >= 0 (evaporation is not modelled)")
+            raise StudyError("rain_history_h_mm_h", "an intensity must be >= 0 (give evaporation as "
+                             "evaporation_mm_h)")
         for name in ("rain_history_h_mm_h", "level_history_h_m"):
             points = getattr(self, name)
             if points is not None and points[0][0] < 0.0:
