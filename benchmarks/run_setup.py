@@ -16,7 +16,7 @@ calls are timed where it calls them:
 - first mesh: ``fos.task.first_mesh`` (Delaunay, alpha shape, adjacency, colouring; kept per cloud);
 - simulation: ``stages.running.new_simulation`` (state arrays, masses, smoothing, critical step);
 - stage set-up: ``stages.running.begin_stage`` from the gravity state;
-- steps: ``StrengthReductionStage.run_at`` (strength reduced at F, the stepping loop, rebuilds);
+- stepping: ``StrengthReductionStage.run_at`` (strength reduced at F, the stepping loop, rebuilds);
 - result dataset: ``output.stage_file.stage_dataset`` (the run's records and final particles as a dataset);
 - file bytes: ``output.writing.dataset_bytes`` (that dataset as a netCDF file in memory);
 - set-up: the run less its steps (the rest: monitors, verdict, record).
@@ -30,7 +30,8 @@ after ``begin_stage`` (an upper bound: a cache would share the mesh, which no ru
 scene + simulation + stage set-up, which it would replace.  Once per case: the gravity state's
 pickle round trip (how it reaches a worker), its file read by the client (``fos.gravity.read_gravity``,
 a resumed study), the first mesh on the first run, and a run file's bytes made with and without the
-variables every run of the case writes alike (:data:`CASE_CONSTANTS`), alternately.
+variables every run of the case writes alike (:data:`CASE_CONSTANTS`) and with its variables
+stacked into a few (:func:`stacked`), alternately.
 
     python -m benchmarks.run_setup --dask
 
@@ -53,6 +54,8 @@ import tomllib
 from collections import defaultdict
 from pathlib import Path
 
+import xarray as xr
+
 from spfem_core.warmup import warm_up
 from workflows.fos import task
 from workflows.fos.cluster import close_client, start_client
@@ -71,7 +74,7 @@ STUDIES = ("quickstart", "probabilistic_c_phi", "probabilistic_undrained")
 CASE_CONSTANTS = ("particle_x0", "particle_y0", "particle_material", "particle_mass", "monitor_particle", "monitor_x0",
                   "monitor_y0")
 """Variables of a run file that every run of a case (and every case of one cloud and density) writes alike."""
-PARTS = ("scene", "first mesh", "simulation", "stage set-up", "steps", "result dataset", "file bytes")
+PARTS = ("scene", "first mesh", "simulation", "stage set-up", "stepping", "result dataset", "file bytes")
 
 
 def case_study(name: str, spacing_m: float | None):
@@ -106,7 +109,7 @@ def timed_parts(seconds: dict):
     try:
         for name, function in originals.items():
             setattr(task, name, timing(patched[name], function))
-        StrengthReductionStage.run_at = timing("steps", run_at)
+        StrengthReductionStage.run_at = timing("stepping", run_at)
         yield
     finally:
         for name, function in originals.items():
@@ -136,7 +139,7 @@ def measure(study, srfs, repeats: int) -> tuple[list[dict], dict]:
                 result = task.run_srf(sent[0], gravity.state, sent[1], flow=gravity.flow)
             seconds["run"] = time.thread_time() - start
             seconds["run wall"] = result.finished_unix_s - result.started_unix_s
-            seconds["set-up"] = seconds["run"] - seconds["steps"]
+            seconds["set-up"] = seconds["run"] - seconds["stepping"]
             seconds["n_steps"] = result.record.n_steps
             once.setdefault("first mesh, first run", seconds["first mesh"])
             best = dict(seconds) if not best else {k: min(v, seconds[k]) for k, v in best.items()}
@@ -158,19 +161,32 @@ def measure(study, srfs, repeats: int) -> tuple[list[dict], dict]:
     return rows, once
 
 
+def stacked(dataset):
+    """``dataset`` with its variables of one set of dimensions and kind stacked into one, along a new
+    dimension each (the same values in a few variables: what a run file's bytes cost per variable)."""
+    groups: dict = {}
+    for name, variable in dataset.data_vars.items():
+        groups.setdefault((variable.dims, variable.dtype.kind), []).append(name)
+    return xr.Dataset({f"stack{i}": xr.concat([dataset[name].drop_vars(list(dataset[name].coords)) for name in names],
+                                              dim=f"stacked{i}")
+                       for i, names in enumerate(groups.values())})
+
+
 def file_parts(dataset, repeats: int) -> dict:
-    """The run file's bytes made from the whole dataset and from it without the variables every run of
-    the case writes alike (:data:`CASE_CONSTANTS`), alternately, each the least of 5 ``repeats``."""
+    """The run file's bytes made from the whole dataset, from it without the variables every run of the
+    case writes alike (:data:`CASE_CONSTANTS`) and from its variables stacked (:func:`stacked`),
+    alternately, each the least of 5 ``repeats``."""
     constants = [name for name in CASE_CONSTANTS if name in dataset.variables]
-    without = dataset.drop_vars(constants)
-    times: dict = {"file bytes": [], "file bytes, no constants": []}
+    variants = {"file bytes": dataset, "file bytes, no constants": dataset.drop_vars(constants),
+                "file bytes, stacked": stacked(dataset)}
+    times: dict = {name: [] for name in variants}
     for _ in range(5 * repeats):
-        for name, made in (("file bytes", dataset), ("file bytes, no constants", without)):
+        for name, made in variants.items():
             start = time.thread_time()
             dataset_bytes(made)
             times[name].append(time.thread_time() - start)
     return {**{name: min(values) for name, values in times.items()}, "variables": len(dataset.data_vars),
-            "constants": len(constants)}
+            "constants": len(constants), "stacks": len(variants["file bytes, stacked"].data_vars)}
 
 
 def measure_dask(client, study, srfs, repeats: int) -> list[dict]:
@@ -252,8 +268,8 @@ def main(argv=None) -> int:
                   f"(its file read by the client {1e3 * once['gravity file read']:.1f} ms; relaxing it "
                   f"{once['gravity']:.2f} s), first mesh on the first run {1e3 * once['first mesh, first run']:.1f} "
                   f"ms; a run file's {once['variables']} variables {1e3 * once['file bytes']:.1f} ms, without the "
-                  f"{once['constants']} every run writes alike {1e3 * once['file bytes, no constants']:.1f}"
-                  " ms |")
+                  f"{once['constants']} every run writes alike {1e3 * once['file bytes, no constants']:.1f} ms, "
+                  f"stacked in {once['stacks']} {1e3 * once['file bytes, stacked']:.1f} ms |")
     print(f"load {os.getloadavg()[0]:.1f}")
     return 0
 
