@@ -2,6 +2,7 @@
 
     python -m benchmarks.core_instructions --compare ../other-tree          # 1k and 10k, beta 0.1 and 0
     python -m benchmarks.core_instructions --compare ../other-tree --sizes 1k 10k 40k --steps 40
+    python -m benchmarks.core_instructions --base --sizes 10k        # a block on a fixed and on a sliding base
 
 Wall-clock throughput (``benchmarks.bench_core``) is noise on a loaded machine; the number of
 instructions a step executes is not.  For each tree, a fresh process with that tree's sources
@@ -19,6 +20,12 @@ the code counted is the code the warm-up compiled and both trees are compiled al
 one-thread kernels (the only ones a dask worker runs), and no thread pool whose spinning would
 make the counts depend on the scheduling.  Ratio other / this: at least 1.0 when this tree
 executes no more instructions per particle-step than the other one.
+
+With ``--base``, a block in place of the cantilever: the beam's rectangle of Mohr-Coulomb soil (c 10
+kPa, phi 30 deg) under gravity on its base, the base's particles held in both directions (``fixed``)
+or held normal to it and sliding along it on the soil's strength (``sliding``, a slip support as a
+slope's default rigid base).  The
+difference of the two is what the general leapfrog costs a slope that slides on its base.
 """
 
 from __future__ import annotations
@@ -53,11 +60,55 @@ void dump_stats(const char *label) { CALLGRIND_DUMP_STATS_AT(label); }
 void zero_stats(void) { CALLGRIND_ZERO_STATS; }
 """
 
-COUNT = BEAM + """
+BLOCK = """
+import numpy as np
+from spfem_core.cloud import particles_in_polygon
+from spfem_core import MaterialTable, Scene, SolverSettings
+from spfem_core.simulation import Simulation
+
+def block(h, beta, base):
+    xy = particles_in_polygon([[0.0, 0.0], [2.0, 0.0], [2.0, 0.2], [0.0, 0.2]], h)
+    soil = MaterialTable.single("soil", "mohr_coulomb", 2000.0, 50e6, 0.3, 10e3, 30.0, 0.0)
+    scene = Scene(xy, np.zeros(len(xy), dtype=np.int64), soil, h, gravity_m_s2=[0.0, -9.81])
+    on_base = scene.select_box(y_max=0.0)
+    if base == "fixed":
+        scene.fix(on_base, vx_m_s=0.0, vy_m_s=0.0)
+    else:  # held normal to the base, sliding along it on the soil's strength (a slip support)
+        scene.fix(on_base, vy_m_s=0.0)
+        scene.node_slip_length_m = np.where(np.isin(np.arange(len(xy)), on_base), h, 0.0)
+        scene.node_slip_side = np.where(np.isin(np.arange(len(xy)), on_base), -1.0, 0.0)
+    return Simulation(scene, SolverSettings(cfl=0.5, stabilisation_beta=beta))
+"""
+"""A block of soil on its base, fixed or sliding (module doc, ``--base``)."""
+
+LEAPFROG_ALONE = """
+from spfem_core.integration import leapfrog
+from spfem_core.stage_loop import _step_parameters
+for h, beta, label in {cases!r}:
+    sim = block(h, beta, label.split('_')[0])
+    sim.run(20 * sim.dt_s)
+    nodes, params = sim.nodes, _step_parameters(sim, 0.0, 0.0)
+    inertia = nodes.inertia_kg[:0] if params.inertia_is_mass else nodes.inertia_kg
+    slip_nodes = np.nonzero(nodes.slip[:, 2])[0]
+    args = (nodes.xy_m, nodes.displacement_m, nodes.velocity_m_s, sim.scratch.force_n, nodes.mass_kg, inertia,
+            nodes.fixed, nodes.fixed_velocity_m_s, nodes.slip, slip_nodes, params.gravity_m_s2, 0.7, params.dt_s, sim.walls.xy_m,
+            sim.walls.friction, params.spacing_m, sim.scratch.contact, sim.scratch.leapfrog_out, params.n_threads)
+    leapfrog(*args)
+    for steps in ({steps}, 2 * {steps}):
+        callgrind.collect_toggle()
+        for _ in range(steps):
+            leapfrog(*args)
+        callgrind.collect_toggle()
+        callgrind.dump_stats(f"leapfrog_{{label}} n={{sim.n_particles}} steps={{steps}}".encode())
+"""
+"""With ``--base``: the leapfrog alone (``integration.leapfrog``, as ``stepper.advance`` calls it, damping
+0.7), called from Python ``steps`` and ``2 * steps`` times after each block's steps: its share of a step."""
+
+COUNT = """
 import ctypes, sys
 callgrind = ctypes.CDLL({helper!r})
 for h, beta, label in {cases!r}:
-    sim = beam(h, beta)
+    sim = {build}
     sim.run(20 * sim.dt_s)  # compiled code loaded, caches hot
     callgrind.start_instrumentation()
     callgrind.zero_stats()
@@ -89,7 +140,11 @@ def build_helper(directory: Path) -> Path:
 def count_instructions(tree: Path, cases: list[tuple[float, float, str]], steps: int, helper: Path,
                        out_dir: Path) -> dict[str, tuple[int, int, int]]:
     """{case label: (particles, steps counted, instructions of those steps)} for ``tree``."""
-    code = COUNT.format(helper=str(helper), cases=cases, steps=steps)
+    if cases[0][2].startswith(("fixed", "sliding")):
+        code = (BLOCK + COUNT.format(helper=str(helper), cases=cases, steps=steps, build="block(h, beta, label.split('_')[0])")
+                + LEAPFROG_ALONE.format(cases=cases, steps=steps))
+    else:
+        code = BEAM + COUNT.format(helper=str(helper), cases=cases, steps=steps, build="beam(h, beta)")
     env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_NUM_THREADS="1", SPFEM_CACHE_DIR=str(CACHE_DIR),
                NUMBA_CPU_NAME=CPU_NAME, NUMBA_CPU_FEATURES=CPU_FEATURES)
     warm = subprocess.run([sys.executable, "-c", code], cwd=tree, env=env, capture_output=True, text=True)
@@ -122,9 +177,12 @@ def main(argv=None) -> int:
     parser.add_argument("--sizes", nargs="+", choices=tuple(SPACINGS_M), default=["1k", "10k"])
     parser.add_argument("--steps", type=int, default=20, help="the counted calls run this many and twice as many")
     parser.add_argument("--keep", type=Path, help="keep callgrind's dumps in this directory (one per tree)")
+    parser.add_argument("--base", action="store_true", help="a block on a fixed and on a sliding base (module doc)")
     args = parser.parse_args(argv)
     trees = {"this": ROOT} | ({"other": args.compare.resolve()} if args.compare else {})
-    cases = [(SPACINGS_M[size], beta, f"{size}_beta{beta}") for beta in (0.1, 0.0) for size in args.sizes]
+    kinds = ("fixed_", "sliding_") if args.base else ("",)
+    cases = [(SPACINGS_M[size], beta, f"{kind}{size}_beta{beta}") for beta in (0.1, 0.0) for size in args.sizes
+             for kind in kinds]
 
     counts = {}
     with tempfile.TemporaryDirectory() as scratch:
@@ -137,14 +195,15 @@ def main(argv=None) -> int:
             counts[label] = count_instructions(tree, cases, args.steps, helper, out_dir)
             print(f"{label}: {tree}", flush=True)
 
-    header = f"{'particles':>9} {'beta':>5}" + "".join(f" {label + ' instr/pstep':>18}" for label in trees)
+    header = f"{'scene':>16} " * args.base + f"{'particles':>9} {'beta':>5}" + "".join(f" {label + ' instr/pstep':>18}" for label in trees)
     print(header + (f" {'other/this':>10}" if len(trees) == 2 else ""))
-    for _, beta, case in cases:
+    for _, beta, case in cases + [(None, beta, f"leapfrog_{case}") for _, beta, case in cases if args.base]:
         per_step = {}
         for label in trees:
             n, steps, instructions = counts[label][case]
             per_step[label] = instructions / (n * steps)
-        row = f"{n:9d} {beta:5.2f}" + "".join(f" {value:18.1f}" for value in per_step.values())
+        scene = case.split("_")[0] + (" " + case.split("_")[1] if case.startswith("leapfrog") else "")
+        row = f"{scene:>16} " * args.base + f"{n:9d} {beta:5.2f}" + "".join(f" {value:18.1f}" for value in per_step.values())
         if len(trees) == 2:
             row += f" {per_step['other'] / per_step['this']:10.3f}"
         print(row, flush=True)

@@ -21,13 +21,21 @@ summary's SRF search elapsed E and its runs' worker time C (``time_srf_runs_elap
 ``time_srf_runs_worker_s``) and its runs R, so that
 
     fixed = W - E                     (everything but the search: ``workflows.check.STARTUP_S``)
-    per run = (2 E - C) / R           (a run's slot on a worker besides its steps: a lone search's,
-                                       the quickstart's, ``LONE_RUN_OVERHEAD_S``; many cases' searches
-                                       at once, ``--study sweep_strength``, ``SEARCH_RUN_OVERHEAD_S``)
+    per run = (2 E - C) / R           (a run's slot on a worker besides its steps: many cases'
+                                       searches at once, ``--study sweep_strength``,
+                                       ``SEARCH_RUN_OVERHEAD_S``)
 
 and the runs' steps S with C / S against ``STEP_OVERHEAD_S + N SECONDS_PER_PARTICLE_STEP``.  Each
 row the least of the repeats.  The figures of a case once pyplot is loaded (``fos.figures.draw_figures``
 on the study's results, the second of two).
+
+A lone search (a single study) keeps fewer than its 2 workers busy: it runs what its last runs
+decided, and one worker idles while the other finishes the run it waits for, for longer the longer
+its runs.  Its elapsed time E = C / P + R a; the fit of P (``LONE_SEARCH_WORKERS``) and a
+(``LONE_RUN_WAIT_S``) by least squares through single studies of short and long runs, each run
+``--repeats`` times (the repeat of least wall kept):
+
+    python -m benchmarks.startup_parts --lone quickstart published/griffiths_lane_ex4
 
 Whether the limit-equilibrium estimates of a study's predictions hold up its wall:
 
@@ -164,10 +172,30 @@ def estimates_on_the_wall(study_path: Path, repeats: int) -> None:
     circles.critical_circle = computed
 
 
+def lone_searches(names: list[str], repeats: int) -> None:
+    """The ``--lone`` fit of the module doc: E, C and R of each study, then P and a."""
+    import numpy as np
+
+    from workflows.check import LONE_RUN_WAIT_S, LONE_SEARCH_WORKERS
+
+    rows = []
+    print("| study | particles | wall W (s) | search E (s) | runs' worker time C (s) | runs R |")
+    print("|---|---|---|---|---|---|")
+    for name in names:
+        found = min((study_once(ROOT / "studies" / f"{name}.toml") for _ in range(repeats)), key=lambda r: r["wall"])
+        worker_s = found["runs' worker time"]
+        rows.append((worker_s, found["runs"], found["search elapsed"]))
+        print(f"| {name} | {found['particles']} | {found['wall']:.2f} | {found['search elapsed']:.2f} | "
+              f"{worker_s:.2f} | {found['runs']} |", flush=True)
+    (inverse_p, wait_s), *_ = np.linalg.lstsq(np.array([[c, r] for c, r, _ in rows]), np.array([e for *_, e in rows]),
+                                              rcond=None)
+    print(f"\nE = C / P + R a: P = {1.0 / inverse_p:.2f} workers (LONE_SEARCH_WORKERS {LONE_SEARCH_WORKERS}), "
+          f"a = {wait_s:.3f} s (LONE_RUN_WAIT_S {LONE_RUN_WAIT_S})")
+
+
 def main(argv=None) -> int:
     from workflows.check import (
         FIGURES_S,
-        LONE_RUN_OVERHEAD_S,
         SEARCH_RUN_OVERHEAD_S,
         SECONDS_PER_PARTICLE_STEP,
         STARTUP_S,
@@ -178,7 +206,11 @@ def main(argv=None) -> int:
     parser.add_argument("--study", default="quickstart", help="a strength-reduction study of studies/")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--estimates", metavar="STUDY", help="the study's walls with and without its estimates")
+    parser.add_argument("--lone", nargs="+", metavar="STUDY", help="single studies: the fit of a lone search's time")
     args = parser.parse_args(argv)
+    if args.lone:
+        lone_searches(args.lone, args.repeats)
+        return 0
     if args.estimates:
         estimates_on_the_wall(ROOT / "studies" / f"{args.estimates}.toml", args.repeats)
         return 0
@@ -198,8 +230,8 @@ def main(argv=None) -> int:
     print(f"\nthe study on {WORKERS} workers: wall {least['wall']:.2f} s, search {least['search elapsed']:.2f} s, "
           f"{least['runs']} runs of {least['steps']} steps in all, {least['particles']} particles")
     print(f"fixed = W - E: {fixed_s:.2f} s (STARTUP_S {STARTUP_S})")
-    print(f"per run = (2 E - C) / R: {per_run_s:.3f} s (a lone search's, LONE_RUN_OVERHEAD_S {LONE_RUN_OVERHEAD_S}; "
-          f"many cases' searches at once, SEARCH_RUN_OVERHEAD_S {SEARCH_RUN_OVERHEAD_S})")
+    print(f"per run = (2 E - C) / R: {per_run_s:.3f} s (many cases' searches at once, SEARCH_RUN_OVERHEAD_S "
+          f"{SEARCH_RUN_OVERHEAD_S}; a lone search: --lone)")
     print(f"a step: {step_s * 1e6:.1f} us measured, {model_step_s * 1e6:.1f} us by the model")
     if (ROOT / "studies" / f"{args.study}.toml").read_text().find("[sweep]") < 0:
         drawn = [figures_s(study_path) for _ in range(args.repeats)]

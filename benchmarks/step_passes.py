@@ -154,7 +154,8 @@ def packed_bonds(n, nodes, scratch, mesh, mat, packed, dt, half_beta_dt, min_bon
 def leapfrog_pass(n, nodes, scratch, mesh, mat, packed, dt, half_beta_dt, min_bond_sq, gravity, walls, h):
     for _ in range(n):  # dt = 0: the particles stay where they are
         leapfrog(nodes.xy_m, nodes.displacement_m, nodes.velocity_m_s, scratch.force_n, nodes.mass_kg,
-                 nodes.inertia_kg, nodes.fixed, nodes.fixed_velocity_m_s, nodes.slip, gravity, 0.7, 0.0,
+                 nodes.inertia_kg, nodes.fixed, nodes.fixed_velocity_m_s, nodes.slip,
+                 np.nonzero(nodes.slip[:, 2])[0], gravity, 0.7, 0.0,
                  walls.xy_m, walls.friction, h, scratch.contact, scratch.leapfrog_out, None)
 
 

@@ -22,10 +22,14 @@ Particle masses m are fixed at the start and never recomputed.  The inertia m_i 
 density-scaled relaxation of a graded cloud (``simulation.Simulation.relax``), where it is larger
 for the finer particles; the weight is always m g.
 
-A scene pays nothing for what it does not use: given no rows of inertia and of slip supports
-(arrays of length 0, as for no walls; ``stepper.advance`` passes them when
-``state.StepParameters.plain_leapfrog`` says so), the leapfrog runs :func:`leapfrog_range_plain`,
-which reads the masses as the inertia and no slip row, and steps to the same bits.
+A scene pays nothing for what it does not use: given no rows of inertia (an array of length 0, as
+for no walls; ``stepper.advance`` passes none when ``state.StepParameters.inertia_is_mass`` says
+so), the leapfrog runs :func:`leapfrog_range_plain`, which reads the masses as the inertia and no
+slip row, over every particle but those on a slip support (``slip_nodes``, in increasing order), and
+:func:`leapfrog_range` over each run of consecutive particles on one, the masses as their inertia:
+the sums go on from one range to the next in the particles' order, and the steps are the same bits
+as those of :func:`leapfrog_range` over every particle (a slope on its default rough base reads its
+base's slip rows alone).
 """
 
 from __future__ import annotations
@@ -63,13 +67,13 @@ def sign0(value):
 
 @kernel
 def leapfrog(
-    node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity, damping, dt,
-    wall_xy, wall_friction, reach, node_contact, out, n_threads,
+    node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, slip_nodes,
+    gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, out, n_threads,
 ):
     """Advance velocities and positions one step (module doc).
 
-    ``node_force`` holds f_int + f_stab on entry; ``node_inertia`` and ``node_slip`` both without
-    rows: the inertia is the mass and there is no slip support (module doc).  Fills ``out`` with the slots of
+    ``node_force`` holds f_int + f_stab on entry; ``node_inertia`` without rows: the inertia is the mass,
+    and ``node_slip`` is read only for the particles of ``slip_nodes`` (module doc).  Fills ``out`` with the slots of
     ``state.LEAPFROG_OUT`` (the largest speed squared, the unbalanced and applied forces squared,
     the damping power, the energy the walls removed, the particles touching a wall); the sums are
     taken in fixed chunks of particles (``jit``), on threads unless ``n_threads`` is None
@@ -82,25 +86,20 @@ def leapfrog(
     on a floor, a loss proportional to dt that never happened.
     """
     n_node = node_xy.shape[0]
-    plain = node_inertia.shape[0] == 0
-    if plain != (node_slip.shape[0] == 0):
-        raise ValueError("leapfrog: the inertia and the slip rows are given together or not at all")
+    if node_inertia.shape[0] != 0 and node_slip.shape[0] == 0:
+        raise ValueError("leapfrog: the inertia rows are given with the slip rows")
     n_chunk = n_chunks(n_node)
     chunk_out = np.zeros((n_chunk, LEAPFROG_OUT_WIDTH))
     if n_threads is not None:  # decided when compiling (jit.kernel_threads)
         leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                          node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, plain, chunk_out)
+                          node_slip, slip_nodes, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact,
+                          chunk_out)
     else:  # the same chunks
         for chunk in range(n_chunk):
             start, end = chunk_bounds(chunk, n_node)
-            if plain:
-                leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity,
-                                     damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
-                                     chunk_out[chunk])
-            else:
-                leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                               node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
-                               chunk_out[chunk])
+            leapfrog_chunk(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                           node_slip, slip_nodes, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact,
+                           start, end, chunk_out[chunk])
     out[:] = 0.0
     for chunk in range(n_chunk):
         fastest = chunk_out[chunk, LEAPFROG_MAX_SPEED_SQ]
@@ -110,34 +109,60 @@ def leapfrog(
 
 
 @parallel_inner_kernel
-def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
-                      damping, dt, wall_xy, wall_friction, reach, node_contact, plain, chunk_out):
-    """:func:`leapfrog_range` (:func:`leapfrog_range_plain` if ``plain``) of every chunk of particles on
-    threads, the sums in ``chunk_out`` (kept apart: a function with a parallel loop costs about 3 us a
-    call even when it runs no thread)."""
+def leapfrog_threaded(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip,
+                      slip_nodes, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, chunk_out):
+    """:func:`leapfrog_chunk` of every chunk of particles on threads, the sums in ``chunk_out`` (kept
+    apart: a function with a parallel loop costs about 3 us a call even when it runs no thread)."""
     n_node = node_xy.shape[0]
     for chunk in prange(chunk_out.shape[0]):
         start, end = chunk_bounds(chunk, n_node)
-        if plain:
+        leapfrog_chunk(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                       node_slip, slip_nodes, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact,
+                       start, end, chunk_out[chunk])
+
+
+@inner_kernel
+def leapfrog_chunk(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip,
+                   slip_nodes, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out):
+    """Particles start..end-1, their sums in ``out`` (zero on entry): :func:`leapfrog_range` given the
+    inertia rows; else :func:`leapfrog_range_plain` between the runs of consecutive particles of
+    ``slip_nodes`` and :func:`leapfrog_range` over each run, the masses as their inertia (module doc)."""
+    if node_inertia.shape[0] != 0:
+        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
+                       node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out)
+        return
+    n_slip = slip_nodes.shape[0]
+    i = np.searchsorted(slip_nodes, start)
+    done = start
+    while i < n_slip and slip_nodes[i] < end:
+        first = slip_nodes[i]
+        last = first + 1  # one past the run
+        i += 1
+        while i < n_slip and slip_nodes[i] == last and last < end:
+            last += 1
+            i += 1
+        if first > done:
             leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity,
-                                 damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, chunk_out[chunk])
-        else:
-            leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v,
-                           node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, start, end,
-                           chunk_out[chunk])
+                                 damping, dt, wall_xy, wall_friction, reach, node_contact, done, first, out)
+        leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_mass, node_fixed, node_fixed_v,
+                       node_slip, gravity, damping, dt, wall_xy, wall_friction, reach, node_contact, first, last, out)
+        done = last
+    if done < end:
+        leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity,
+                             damping, dt, wall_xy, wall_friction, reach, node_contact, done, end, out)
 
 
 @inner_kernel
 def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia, node_fixed, node_fixed_v, node_slip, gravity,
                    damping, dt, wall_xy, wall_friction, reach, node_contact, start, end, out):
-    """:func:`leapfrog` of particles start..end-1, their sums in ``out`` (its layout)."""
+    """:func:`leapfrog` of particles start..end-1, their sums added to those in ``out`` (its layout)."""
     use_walls = wall_xy.shape[0] > 0
-    max_speed_sq = 0.0
-    unbalanced_sq = 0.0
-    applied_sq = 0.0
-    damping_power = 0.0
-    contact_loss = 0.0
-    n_contact = 0
+    max_speed_sq = out[LEAPFROG_MAX_SPEED_SQ]  # the sums so far (module doc)
+    unbalanced_sq = out[LEAPFROG_UNBALANCED_FORCE_SQ]
+    applied_sq = out[LEAPFROG_APPLIED_FORCE_SQ]
+    damping_power = out[LEAPFROG_DAMPING_POWER]
+    contact_loss = out[LEAPFROG_CONTACT_LOSS]
+    n_contact = out[LEAPFROG_CONTACTS]
     for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         m = node_inertia[k]
         v_start_x = node_v[k, 0]
@@ -212,18 +237,18 @@ def leapfrog_range(node_xy, node_u, node_v, node_force, node_mass, node_inertia,
 @inner_kernel
 def leapfrog_range_plain(node_xy, node_u, node_v, node_force, node_mass, node_fixed, node_fixed_v, gravity, damping, dt,
                          wall_xy, wall_friction, reach, node_contact, start, end, out):
-    """:func:`leapfrog_range` of a scene without slip supports whose inertia is the mass: the same
+    """:func:`leapfrog_range` of particles on no slip support whose inertia is the mass: the same
     steps, without reading either (``tests/test_integration.py`` holds the two to the same bits).
     The free direction divides by the mass read where it divides, as :func:`leapfrog_range` divides
     by the inertia: with one mass for both directions numba's optimiser forms dt / m once per
     particle, which rounds differently."""
     use_walls = wall_xy.shape[0] > 0
-    max_speed_sq = 0.0
-    unbalanced_sq = 0.0
-    applied_sq = 0.0
-    damping_power = 0.0
-    contact_loss = 0.0
-    n_contact = 0
+    max_speed_sq = out[LEAPFROG_MAX_SPEED_SQ]  # the sums so far (module doc)
+    unbalanced_sq = out[LEAPFROG_UNBALANCED_FORCE_SQ]
+    applied_sq = out[LEAPFROG_APPLIED_FORCE_SQ]
+    damping_power = out[LEAPFROG_DAMPING_POWER]
+    contact_loss = out[LEAPFROG_CONTACT_LOSS]
+    n_contact = out[LEAPFROG_CONTACTS]
     for k in range(np.uint64(start), np.uint64(end)):  # unsigned: no negative-index wraparound code
         m = node_mass[k]
         v_start_x = node_v[k, 0]

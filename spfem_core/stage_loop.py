@@ -27,7 +27,7 @@ from spfem_core.records import RecordBuffers, TimeSeries, record_state
 from spfem_core.remeshing import ANGLE_MARGIN_RAD
 from spfem_core.schedule import StageSchedule
 from spfem_core.snapshot import Snapshot
-from spfem_core.state import SLIP_SIDE, StepParameters
+from spfem_core.state import StepParameters
 from spfem_core.stepper import (
     LOOP_CONTACTS,
     LOOP_LAST_MAX_SPEED,
@@ -102,17 +102,15 @@ def _step_parameters(sim, damping: float, tolerance: float) -> StepParameters:
     return StepParameters(
         sim.gravity_m_s2, sim.dt_s, float(damping), sim.beta,
         sim.scene.spacing_m, sim.speed_limit_m_s, float(tolerance), sim.remesher.threshold_rad,
-        ANGLE_MARGIN_RAD, kernel_threads(sim.threads), _plain_leapfrog(sim),
+        ANGLE_MARGIN_RAD, kernel_threads(sim.threads), _inertia_is_mass(sim),
     )
 
 
-def _plain_leapfrog(sim) -> bool:
-    """Whether the next compiled call's leapfrog can skip the slip supports and the inertia
-    (``integration`` module doc): no particle on a slip support, the inertia the masses.  Asked
-    before every call, as the supports follow the materials (a strength ramp) and a relaxation's
-    inertia follows the mesh; its cost, one pass over two columns, is that of the speed check here."""
-    nodes = sim.nodes
-    return not nodes.slip[:, SLIP_SIDE].any() and bool(np.array_equal(nodes.inertia_kg, nodes.mass_kg))
+def _inertia_is_mass(sim) -> bool:
+    """Whether the next compiled call's leapfrog can read the masses as the inertia (``integration``
+    module doc): no relaxation has scaled it.  Asked before every call, as a relaxation's inertia
+    follows the mesh; its cost, one pass over a column, is that of the speed check here."""
+    return bool(np.array_equal(sim.nodes.inertia_kg, sim.nodes.mass_kg))
 
 
 class _StageStart(NamedTuple):

@@ -145,4 +145,4 @@ class StepParameters(NamedTuple):
     angle_threshold_rad: float  # rebuild the mesh when its smallest angle falls below this
     angle_margin_rad: float  # safety margin of the cheap angle bound
     n_threads: int | None  # jit.kernel_threads: None, plain loops (the threaded code is not compiled); else threads
-    plain_leapfrog: bool  # no slip support and the inertia is the mass: the leapfrog reads neither (integration)
+    inertia_is_mass: bool  # the leapfrog reads no inertia, and slip rows only on the slip supports (integration)

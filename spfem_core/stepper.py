@@ -45,6 +45,7 @@ from spfem_core.state import (
     LEAPFROG_DAMPING_POWER,
     LEAPFROG_MAX_SPEED_SQ,
     LEAPFROG_UNBALANCED_FORCE_SQ,
+    SLIP_SIDE,
 )
 
 STATUS_DONE = 0
@@ -95,9 +96,10 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
     use_stabilisation = beta > 0.0
     speed_limit_sq = params.speed_limit_m_s * params.speed_limit_m_s
     half_dt = 0.5 * dt
-    leapfrog_inertia, leapfrog_slip = nodes.inertia_kg, nodes.slip
-    if params.plain_leapfrog:  # no slip support, inertia = mass: the leapfrog reads neither
-        leapfrog_inertia, leapfrog_slip = nodes.inertia_kg[:0], nodes.slip[:0]
+    leapfrog_inertia = nodes.inertia_kg
+    if params.inertia_is_mass:  # the leapfrog reads no inertia, and slip rows only on the slip supports
+        leapfrog_inertia = nodes.inertia_kg[:0]
+    slip_nodes = np.nonzero(nodes.slip[:, SLIP_SIDE])[0]
     for s in range(n_steps):
         n_inverted, max_rate_sq = smooth_velocity_gradient(
             node_xy, node_v, elem_nodes, mesh.elem_block_ptr, mesh.elem_colour_ptr, mesh.elem_colour_block,
@@ -123,7 +125,7 @@ def advance(nodes, scratch, mesh, materials, walls, loads, params, n_steps, time
                                 time_start_s + s * dt, scratch.pore_pressure_pa, scratch.external_force_n, node_force)
         leapfrog(
             node_xy, nodes.displacement_m, node_v, node_force, nodes.mass_kg, leapfrog_inertia, nodes.fixed,
-            nodes.fixed_velocity_m_s, leapfrog_slip,
+            nodes.fixed_velocity_m_s, nodes.slip, slip_nodes,
             params.gravity_m_s2, params.damping, dt, walls.xy_m, walls.friction, params.spacing_m, scratch.contact,
             step_out, params.n_threads,
         )

@@ -14,10 +14,13 @@ from workflows.check import (
     FIGURES_S,
     FULL_SEARCH_RUNS,
     GRAVITY_S_PER_PARTICLE,
-    LONE_RUN_OVERHEAD_S,
+    LONE_RUN_WAIT_S,
+    LONE_SEARCH_WORKERS,
     RUN_OVERHEAD_S,
     SEARCH_RUN_OVERHEAD_S,
+    SECONDS_PER_PARTICLE_STEP,
     STARTUP_S,
+    STEP_OVERHEAD_S,
     WINDOW_RUNS,
     ClientWork,
     run_time_estimate,
@@ -73,9 +76,10 @@ def test_check_refuses_what_the_scene_refuses_and_writes_nothing(tmp_path):
 
 def test_the_estimate_follows_its_model():
     """dt = h / V_p and T = 4 H_domain / V_s with the runs' moduli (the quickstart's are scaled by
-    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps, LONE_RUN_OVERHEAD_S in a lone search,
-    SEARCH_RUN_OVERHEAD_S in many cases' searches; a sweep of k cases costs one full search and k - 1
-    searches in predicted windows; a verdict-mode realisation one run."""
+    the stiffness factor); a run is RUN_OVERHEAD_S plus its steps; a lone search keeps LONE_SEARCH_WORKERS
+    busy and waits LONE_RUN_WAIT_S a run, many cases' searches keep both busy and wait SEARCH_RUN_OVERHEAD_S
+    a run; a sweep of k cases costs one full search and k - 1 searches in predicted windows; a
+    verdict-mode realisation one run."""
     study = load_study(QUICKSTART)
     scene = build_scene(study)
     estimate = run_time_estimate(study, scene, workers=2)
@@ -88,8 +92,8 @@ def test_the_estimate_follows_its_model():
     assert RUN_OVERHEAD_S < estimate.stable_run_s < estimate.failed_run_s
     full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
     window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
-    lone_wait_s = sum(FULL_SEARCH_RUNS) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)  # a single study's lone search
-    assert estimate.study_s == pytest.approx(STARTUP_S + (full_s + lone_wait_s) / 2)
+    lone_s = full_s / LONE_SEARCH_WORKERS + sum(FULL_SEARCH_RUNS) * LONE_RUN_WAIT_S  # a single study's lone search
+    assert estimate.study_s == pytest.approx(STARTUP_S + lone_s)
     swept = parse_study(QUICKSTART.read_text() + '\n[sweep]\n[[sweep.axes]]\npath = "materials.soil.cohesion_pa"\n'
                         'values = [8e3, 10e3, 12e3]\n')  # (one gravity state: an elastic stage ignores the strength)
     search_wait_s = (sum(FULL_SEARCH_RUNS) + 2 * sum(WINDOW_RUNS)) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
@@ -228,8 +232,10 @@ def test_a_sweep_the_limit_equilibrium_estimate_is_blind_to_counts_full_searches
 
 def test_the_water_a_study_solves_is_counted_as_check_measured_it(tmp_path):
     """Before: studies/seepage_perched.toml was estimated at 0.34 of its measured time: its steady flow
-    (most of the study) was not counted.  Check solves the same flow as the run, in a process like the
-    run's own: its processor time is the estimate's."""
+    (most of the study) was not counted; then at 0.68: the report's section figure builds the scene
+    and solves the flow again (``html_report``), which was not counted.  Check solves the same flow as
+    the run, in a process like the run's own: its processor time is the estimate's, twice for a study
+    that draws figures."""
     from workflows.cases import RunOptions
     from workflows.check import check_study
     from workflows.study_types import study_type
@@ -237,9 +243,13 @@ def test_the_water_a_study_solves_is_counted_as_check_measured_it(tmp_path):
     study = load_study(REPO / "studies" / "seepage_dam.toml")
     found = check_study(study, study_type(study, tmp_path), tmp_path, RunOptions(workers=2))
     assert found.client.flow_s > 0.0 and found.client.estimate_s == 0.0  # (a single study makes no prediction)
+    assert found.client.scene_s == found.client.flow_s and study.output.figures
     scene = build_scene(study)
     dry = run_time_estimate(study, scene, workers=2)
-    assert found.estimate.study_s == pytest.approx(dry.study_s + found.client.flow_s)
+    assert found.estimate.study_s == pytest.approx(dry.study_s + 2 * found.client.flow_s)
+    no_figures = parse_study(study.source_text + "\n[output]\nfigures = false\n")
+    assert run_time_estimate(no_figures, scene, 2, found.client).study_s == pytest.approx(
+        dry.study_s + found.client.flow_s)
 
 
 def test_the_fos_against_time_counts_each_times_gravity_state_figures_and_runout():
@@ -252,13 +262,45 @@ def test_the_fos_against_time_counts_each_times_gravity_state_figures_and_runout
     times = len(study.transient.fos_times())
     full_s = FULL_SEARCH_RUNS[0] * estimate.stable_run_s + FULL_SEARCH_RUNS[1] * estimate.failed_run_s
     window_s = WINDOW_RUNS[0] * estimate.stable_run_s + WINDOW_RUNS[1] * estimate.failed_run_s
-    lone_wait_s = (sum(FULL_SEARCH_RUNS) + (times - 1) * sum(WINDOW_RUNS)) * (LONE_RUN_OVERHEAD_S - RUN_OVERHEAD_S)
-    searches_s = (full_s + (times - 1) * window_s + lone_wait_s) / 2
+    searches_s = ((full_s + (times - 1) * window_s) / LONE_SEARCH_WORKERS
+                  + (sum(FULL_SEARCH_RUNS) + (times - 1) * sum(WINDOW_RUNS)) * LONE_RUN_WAIT_S)
     each_time_s = scene.n_particles * GRAVITY_S_PER_PARTICLE + (FIGURES_S if study.output.figures else 0.0)
     step_s = (estimate.stable_run_s - RUN_OVERHEAD_S) / (min(3.0 * estimate.response_time_s,
                                                              study.strength_reduction.duration_s) / estimate.time_step_s)
     runout_s = study.transient.runout_duration_s / estimate.time_step_s * step_s
     assert estimate.study_s == pytest.approx(STARTUP_S + 2.0 + times * each_time_s + runout_s + searches_s)
+
+
+def test_a_refinement_studys_levels_run_at_their_own_particles_and_steps_one_after_another():
+    """Before: studies/fos_controlled.toml was estimated at 1.40 of its measured time, refinement_levels
+    at 1.17: a level's runs cost the first level's times (n_k / n_0) (h_0 / h_k), a run's fixed
+    RUN_OVERHEAD_S and the first level's per-step cost scaled with them, and the repeated level and its
+    twin were counted as lone searches.  A level's run is RUN_OVERHEAD_S plus its steps, K T / dt_k with
+    dt_k = dt_0 h_k / h_0, at STEP_OVERHEAD_S + n_k SECONDS_PER_PARTICLE_STEP each; level 1 and its repeat
+    are two searches sharing the workers; every level after the first relaxes its gravity state in the
+    study's process."""
+    study = load_study(REPO / "studies" / "refinement_levels.toml")
+    scene = build_scene(study)
+    estimate = run_time_estimate(study, scene, workers=2)
+    n0 = scene.n_particles
+    steps0 = [(run_s - RUN_OVERHEAD_S) / (STEP_OVERHEAD_S + n0 * SECONDS_PER_PARTICLE_STEP)
+              for run_s in (estimate.stable_run_s, estimate.failed_run_s)]
+    spacings = study.refinement.spacings(study.geometry.spacing_m)
+    assert study.refinement.jitter > 0.0 and len(spacings) == 4
+    expected_s = STARTUP_S
+    for k, h in enumerate(spacings):
+        n = n0 * (spacings[0] / h) ** 2
+        stable_s, failed_s = (RUN_OVERHEAD_S + steps * spacings[0] / h * (STEP_OVERHEAD_S + n * SECONDS_PER_PARTICLE_STEP)
+                              for steps in steps0)
+        runs = FULL_SEARCH_RUNS if k == 0 else WINDOW_RUNS
+        worker_s = runs[0] * stable_s + runs[1] * failed_s
+        if k == 1:  # and its repeat, at once
+            expected_s += 2 * (worker_s + sum(runs) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)) / 2
+            expected_s += 2 * n * GRAVITY_S_PER_PARTICLE
+        else:
+            expected_s += worker_s / LONE_SEARCH_WORKERS + sum(runs) * LONE_RUN_WAIT_S
+            expected_s += n * GRAVITY_S_PER_PARTICLE if k > 0 else 0.0
+    assert estimate.study_s == pytest.approx(expected_s)
 
 
 def test_the_point_estimate_method_counts_its_two_to_the_n_points():

@@ -35,7 +35,7 @@ def step(xy, v, wall_xy, wall_friction, fixed=None, gravity=(0.0, -G), dt=DT, re
     contact = np.zeros(n, dtype=np.int64)
     out = np.zeros(LEAPFROG_OUT_WIDTH)
     leapfrog(xy, np.zeros((n, 2)), v, np.zeros((n, 2)), np.ones(n), np.ones(n), fixed, v.copy(), np.zeros((n, 3)),
-             np.array(gravity, dtype=float),
+             np.zeros(0, dtype=np.int64), np.array(gravity, dtype=float),
              0.0, dt, wall_xy, wall_friction, reach, contact, out, 1)
     return contact, int(out[5])
 

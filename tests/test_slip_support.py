@@ -27,7 +27,7 @@ def slide(force_xy, cohesion_n, tan_friction=0.0, n_steps=100, damping=0.0, v0=0
     for _ in range(n_steps):
         force = np.array([force_xy], dtype=float)
         leapfrog(xy, u, v, force, np.full(1, MASS), np.full(1, MASS), fixed, np.zeros((1, 2)), slip,
-                 np.zeros(2), damping, DT, np.zeros((0, 4)), np.zeros(0), 0.1, np.zeros(1, dtype=np.int64), out, None)
+                 np.zeros(1, dtype=np.int64), np.zeros(2), damping, DT, np.zeros((0, 4)), np.zeros(0), 0.1, np.zeros(1, dtype=np.int64), out, None)
         velocities.append(v[0, 0])
         losses.append(out[LEAPFROG_CONTACT_LOSS])
         unbalanced.append(out[LEAPFROG_UNBALANCED_FORCE_SQ])

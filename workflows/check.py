@@ -27,15 +27,17 @@ with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RES
 one that slides (at most ``duration_s``).  A search over the stage's range makes about
 ``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (random fields:
 ``FIELD_WINDOW_RUNS``; a full search where the prediction does not see what the cases differ in:
-:func:`windows_miss`), a verdict-mode realisation one; a refinement study's levels cost in
-proportion to their particles and time steps (:func:`study_runs_s`).  The runs, and a sweep's
-gravity states with their water (:func:`worker_gravities`), are shared by the workers; the study's
-own process adds ``STARTUP_S`` (Python, the cluster, one gravity state, the figures) and what the
-workers wait for (:func:`client_s`): its water's solve and its limit-equilibrium estimates as check
-measures them here (:class:`ClientWork`), and for the FOS against time each time's gravity state
-and figures.  Every constant is measured with the command its docstring names (docs/benchmarks.md,
-"Run-time estimate", with the command that compares the estimate with the measured time of every
-shipped study).
+:func:`windows_miss`), a verdict-mode realisation one; a refinement study's levels run at
+their own particles and time steps (:func:`study_runs_s`).  Many cases' searches share the workers
+(:func:`many_searches_s`), and so do a sweep's gravity states with their water
+(:func:`worker_gravities`); a lone search keeps ``LONE_SEARCH_WORKERS`` of them busy and waits
+``LONE_RUN_WAIT_S`` a run for its decisions (:func:`lone_search_s`).  The study's own process adds
+``STARTUP_S`` (Python, the cluster, one gravity state, the figures) and what the workers wait for
+(:func:`client_s`): its water's solve and its limit-equilibrium estimates as check measures them
+here (:class:`ClientWork`), the report's scene with its water again, a refinement level's gravity
+state, and for the FOS against time each time's gravity state and figures.  Every constant is
+measured with the command its docstring names (docs/benchmarks.md, "Run-time estimate", with the
+command that compares the estimate with the measured time of every shipped study).
 """
 
 from __future__ import annotations
@@ -80,10 +82,16 @@ the waits of the generations (a case handed out once the ones it is predicted fr
 steps by the step model: derived, not measured alone (``python -m benchmarks.startup_parts --study
 sweep_strength`` measures it on an idle machine; it gave 0.71 s at load 9, when the lone search's
 below gave 0.78 s)."""
-LONE_RUN_OVERHEAD_S = 0.32
-"""... of a lone search (a single study, each time of the FOS against time, each level of a refinement
-study): besides the above, the workers' wait while the search decides its next runs from its last.
-(2 E - C) / R of the quickstart, 0.32 s at load 0.3-1 (``python -m benchmarks.startup_parts``)."""
+LONE_SEARCH_WORKERS = 1.6
+"""Workers a lone search (a single study, each time of the FOS against time, each level of a refinement
+study but the repeated one) keeps busy on 2: it runs only what its last runs decided, so one worker
+idles while the other finishes the run the search waits for, for a share of its runs' time that grows
+with their length.  Its elapsed time is C / LONE_SEARCH_WORKERS + R ``LONE_RUN_WAIT_S`` (C its runs'
+worker time, R its runs): the fit through the quickstart (short runs) and
+studies/published/griffiths_lane_ex4.toml (long ones), ``python -m benchmarks.startup_parts --lone
+quickstart published/griffiths_lane_ex4`` (docs/benchmarks.md "Run-time estimate")."""
+LONE_RUN_WAIT_S = 0.10
+"""... and each of its runs' wait for the decision that starts it, besides ``RUN_OVERHEAD_S`` (the same fit)."""
 
 GRAVITY_S_PER_PARTICLE = 70e-6
 """A gravity state's time per particle: the elastic stage's direct solves (0.05 s at 669 particles, 0.13
@@ -123,10 +131,12 @@ class ClientWork:
     """What ``check`` measures on this machine (processor time) of the work a study does in its own process, once:
     ``flow_s`` a solve of its water (the steady flow of ``[seepage]``, a transient flow to its last
     time), ``estimate_s`` a limit-equilibrium estimate (``fos.critical_circle(quick=True)``, what each
-    predicted case asks)."""
+    predicted case asks), ``scene_s`` the study's scene with its water (``scene.scene_and_flow``), which
+    the report's section figure builds again (``html_report``) when the study draws figures."""
 
     flow_s: float = 0.0
     estimate_s: float = 0.0
+    scene_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -155,15 +165,18 @@ def run_time_estimate(study: Study, scene, workers: int, client: ClientWork = Cl
     response_s = stage.response_time_s(study, factor)
     step_s = STEP_OVERHEAD_S + n_particles * SECONDS_PER_PARTICLE_STEP
 
-    def run_s(response_times: float) -> float:
-        return RUN_OVERHEAD_S + min(response_times * response_s, stage.duration_s) / time_step_s * step_s
+    def run_s(response_times: float, particles: float = n_particles, finer: float = 1.0) -> float:
+        """A run of ``particles`` whose time step is ``finer`` times shorter than the study's."""
+        steps = min(response_times * response_s, stage.duration_s) / time_step_s * finer
+        return RUN_OVERHEAD_S + steps * (STEP_OVERHEAD_S + particles * SECONDS_PER_PARTICLE_STEP)
 
     stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
     cases = case_count(study)
     gravities = worker_gravities(study)
-    workers_s = (study_runs_s(study, stable_s, failed_s, n_particles, time_step_s)
-                 + max(gravities - 1, 0) * n_particles * GRAVITY_S_PER_PARTICLE + gravities * client.flow_s)
-    study_s = STARTUP_S + client_s(study, n_particles, time_step_s, step_s, client) + workers_s / max(workers, 1)
+    gravities_s = max(gravities - 1, 0) * n_particles * GRAVITY_S_PER_PARTICLE + gravities * client.flow_s
+    workers = max(workers, 1)
+    study_s = (STARTUP_S + client_s(study, n_particles, time_step_s, step_s, client)
+               + study_runs_s(study, run_s, n_particles, workers) + gravities_s / workers)
     return RunTimeEstimate(time_step_s, response_s, stable_s, failed_s, cases, workers, study_s, windows_miss(study))
 
 
@@ -171,10 +184,13 @@ def client_s(study: Study, n_particles: int, time_step_s: float, step_s: float, 
     """The study's own process's work besides ``STARTUP_S``, which the workers wait for: its water's
     solve (a sweep's cases solve theirs with their gravity states, on the workers: :func:`worker_gravities`),
     its limit-equilibrium estimates (a sweep's cases, a probabilistic study's realisations of random
-    variables in fos mode; one for realisations of fields alone), and for the FOS against time each
-    time's gravity state and figures, and the runout of the time that failed (its steps on the threads
-    of this process)."""
+    variables in fos mode; one for realisations of fields alone), the report's section figure's scene
+    with its water when the study draws figures, and for the FOS against time each time's gravity
+    state and figures, and the runout of the time that failed (its steps on the threads of this
+    process)."""
     total = (0.0 if study.sweep is not None else client.flow_s) + estimates(study) * client.estimate_s
+    if study.output.figures:
+        total += client.scene_s
     transient = study.transient
     if transient is not None and transient.against_time:
         times = len(transient.fos_times())
@@ -217,43 +233,66 @@ def windows_miss(study: Study) -> bool:
     return study.sweep is not None and any(axis.path.startswith(NOT_SEEN) for axis in study.sweep.axes)
 
 
-def study_runs_s(study: Study, stable_s: float, failed_s: float, n_particles: int, time_step_s: float) -> float:
-    """The worker time of a study's SRF runs: one full search per study, a sweep's first case and a
-    refinement study's first level; windowed searches for the cases after the first (full ones where
-    the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a refinement
-    study's levels at their own particles and time steps.  A search's runs wait for its decisions: a
-    lone search's (a single study, the FOS against time, refinement levels: one search at a time) take
-    ``LONE_RUN_OVERHEAD_S`` each, those of many cases' searches ``SEARCH_RUN_OVERHEAD_S``."""
-    lone = study.refinement is not None or study.sweep is None and study.probabilistic is None
-    wait_s = (LONE_RUN_OVERHEAD_S if lone else SEARCH_RUN_OVERHEAD_S) - RUN_OVERHEAD_S
+def worker_time_s(runs: tuple[float, float], stable_s: float, failed_s: float) -> float:
+    """C, the worker time of a search's (stable, failed) runs."""
+    return runs[0] * stable_s + runs[1] * failed_s
 
-    def search(runs: tuple[float, float], scale: float = 1.0) -> float:
-        return scale * (runs[0] * stable_s + runs[1] * failed_s) + (runs[0] + runs[1]) * wait_s
 
+def lone_search_s(runs: tuple[float, float], stable_s: float, failed_s: float, workers: int) -> float:
+    """The elapsed time of a lone search: C / min(``LONE_SEARCH_WORKERS``, workers) + R ``LONE_RUN_WAIT_S``."""
+    return (worker_time_s(runs, stable_s, failed_s) / min(LONE_SEARCH_WORKERS, workers)
+            + sum(runs) * LONE_RUN_WAIT_S)
+
+
+def many_searches_s(runs: tuple[float, float], stable_s: float, failed_s: float, workers: int) -> float:
+    """A search's share of the elapsed time of many searches at once (sweeps, fos mode, a refinement
+    level and its repeat), which keep every worker busy: (C + R (``SEARCH_RUN_OVERHEAD_S`` -
+    ``RUN_OVERHEAD_S``)) / workers."""
+    return (worker_time_s(runs, stable_s, failed_s) + sum(runs) * (SEARCH_RUN_OVERHEAD_S - RUN_OVERHEAD_S)) / workers
+
+
+def study_runs_s(study: Study, run_s, n_particles: int, workers: int) -> float:
+    """The elapsed time of a study's SRF runs on ``workers``: one full search per study, a sweep's first
+    case and a refinement study's first level; windowed searches for the cases after the first (full
+    ones where the windows miss: :func:`windows_miss`); one run per realisation in verdict mode; a
+    refinement study's levels at their own particles and time steps.  A lone search (a single study,
+    each time of the FOS against time) waits for its decisions (:func:`lone_search_s`); many cases'
+    searches at once keep the workers busy (:func:`many_searches_s`).  ``run_s(response_times,
+    particles, finer)`` is a run's worker time."""
+    stable_s, failed_s = run_s(STABLE_RESPONSE_TIMES), run_s(FAILED_RESPONSE_TIMES)
     if study.refinement is not None:
-        return _refinement_runs_s(study, search, n_particles, time_step_s)
+        return _refinement_runs_s(study, run_s, n_particles, workers)
     cases = case_count(study)
     if study.probabilistic is not None:
         if not study.probabilistic.computation.searches:
-            return cases * stable_s
+            return cases * stable_s / workers
         later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
         studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full
-        return studies * search(FULL_SEARCH_RUNS) + (cases - studies) * search(later)
-    return search(FULL_SEARCH_RUNS) + (cases - 1) * search(FULL_SEARCH_RUNS if windows_miss(study) else WINDOW_RUNS)
+        return (studies * many_searches_s(FULL_SEARCH_RUNS, stable_s, failed_s, workers)
+                + (cases - studies) * many_searches_s(later, stable_s, failed_s, workers))
+    if study.sweep is None:  # one search, or the times of the FOS against time one after another
+        return (lone_search_s(FULL_SEARCH_RUNS, stable_s, failed_s, workers)
+                + (cases - 1) * lone_search_s(WINDOW_RUNS, stable_s, failed_s, workers))
+    later = FULL_SEARCH_RUNS if windows_miss(study) else WINDOW_RUNS
+    return (many_searches_s(FULL_SEARCH_RUNS, stable_s, failed_s, workers)
+            + (cases - 1) * many_searches_s(later, stable_s, failed_s, workers))
 
 
-def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: float) -> float:
-    """The levels of a refinement study (``[refinement]``): a run at level k costs the first level's times
-    (particles_k / particles_0) (h_0 / h_k); uniform levels hold n_0 (h_0 / h_k)^2 particles, adaptive
-    ones add bands along the critical circle (``fos.critical_circle``), a reach of band_reach spacings of
-    the level before on either side, at h_k; level 1 runs twice (the scatter)."""
+def _refinement_runs_s(study: Study, run_s, n_particles: int, workers: int) -> float:
+    """The levels of a refinement study (``[refinement]``), one after another: a level at spacing h_k of
+    n_k particles runs at n_k particles and a time step h_k / h_0 of the first level's; uniform levels
+    hold n_0 (h_0 / h_k)^2 particles, adaptive ones add bands along the critical circle
+    (``fos.critical_circle``), a reach of band_reach spacings of the level before on either side, at
+    h_k.  Each level after the first relaxes its own gravity state in the study's process before its
+    runs; level 1 runs twice at once (the scatter, with a jitter): two searches sharing the workers,
+    every other level a lone search (:func:`lone_search_s`)."""
+    from workflows.refinement.study_type import REPEAT_LEVEL
+
     table = study.refinement
     spacings = table.spacings(study.geometry.spacing_m)
     h0 = spacings[0]
     if table.adaptive:
         spacings = spacings[:min(ADAPTIVE_LEVELS, table.max_levels)]
-        from workflows.fos.critical_circle import critical_circle
-
         circle = critical_circle(study, quick=True)
         arc_m = (abs(circle.exit_x_m - circle.entry_x_m) * 1.2) if circle is not None else study.slope_height_m * 2.0
         particles = [n_particles + sum(arc_m * 2.0 * table.band_reach * spacings[j - 1] / spacings[j] ** 2
@@ -262,8 +301,16 @@ def _refinement_runs_s(study: Study, search, n_particles: int, time_step_s: floa
         particles = [n_particles * (h0 / h) ** 2 for h in spacings]
     total = 0.0
     for k, (h, n) in enumerate(zip(spacings, particles)):
-        scale = (n / n_particles) * (h0 / h)
-        total += search(FULL_SEARCH_RUNS if k == 0 else WINDOW_RUNS, scale) * (2 if k == 1 and table.jitter > 0 else 1)
+        stable_s = run_s(STABLE_RESPONSE_TIMES, n, h0 / h)
+        failed_s = run_s(FAILED_RESPONSE_TIMES, n, h0 / h)
+        runs = FULL_SEARCH_RUNS if k == 0 else WINDOW_RUNS
+        repeated = k == REPEAT_LEVEL and table.jitter > 0
+        if repeated:
+            total += 2 * many_searches_s(runs, stable_s, failed_s, workers)
+        else:
+            total += lone_search_s(runs, stable_s, failed_s, workers)
+        if k > 0:
+            total += (2 if repeated else 1) * n * GRAVITY_S_PER_PARTICLE
     return total
 
 
@@ -342,7 +389,8 @@ def client_work(study: Study, flow, scene_s: float) -> ClientWork:
     as every constant of the estimate: a loaded machine slows the study and check alike): its water's
     solve as check made it (``scene_s``, the scene's build with its ``flow``), for the FOS against time
     the transient flow solved again to its last time, as the run solves it; one limit-equilibrium
-    estimate when the study's predictions ask for any (:func:`estimates`)."""
+    estimate when the study's predictions ask for any (:func:`estimates`); the scene with its water
+    (``scene_s``), which the report builds again."""
     flow_s = scene_s if flow is not None else 0.0
     if isinstance(flow, WaterAt) and study.transient.against_time:
         start = time.process_time()
@@ -356,7 +404,7 @@ def client_work(study: Study, flow, scene_s: float) -> ClientWork:
         except (ValueError, IndexError, ZeroDivisionError):  # (the prediction then has none: as costly)
             pass
         estimate_s = time.process_time() - start
-    return ClientWork(flow_s, estimate_s)
+    return ClientWork(flow_s, estimate_s, scene_s)
 
 
 SECTION_FIGURE = "section.png"
