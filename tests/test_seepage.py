@@ -139,9 +139,12 @@ def test_the_particles_carry_the_flows_pore_pressure_and_weigh_saturated_below_t
 def test_a_study_writes_its_flow_and_every_stage_uses_it(tmp_path, monkeypatch):
     """The gravity stage of the dam: seepage.nc (mass balance closed, the pond on the upstream face
     alone) and seepage.png beside the stage file, whose pore pressures are the flow's; the flow is
-    solved once, and the scene's flow is the one written (passed on as a value: no process keeps one)."""
+    solved once (the report's section on the one the process remembers: ``scene.water_flow``), and the
+    scene's flow is the one written."""
     import workflows.seepage.flow as flow_module
+    from workflows.scene import water_flow
 
+    water_flow.cache_clear()  # (an earlier test's remembered flow of the same study)
     solve, solved = flow_module._flow, []
     monkeypatch.setattr(flow_module, "_flow", lambda *inputs: solved.append(inputs) or solve(*inputs))
     run_study(parse_study(DAM), tmp_path, RunOptions())

@@ -50,7 +50,7 @@ from pathlib import Path
 from workflows.fos.critical_circle import CriticalCircle, critical_circle, domain_warnings
 from workflows.memory_guard import BYTES_PER_PARTICLE
 from workflows.output.writing import make_output_folder
-from workflows.scene import monitor_particles, random_field_notes, scene_and_flow
+from workflows.scene import monitor_particles, random_field_notes, scene_and_flow, water_flow
 from workflows.section_figure import draw_section
 from workflows.seepage.results import flow_line
 from workflows.stages.running import new_simulation
@@ -131,8 +131,9 @@ class ClientWork:
     """What ``check`` measures on this machine (processor time) of the work a study does in its own process, once:
     ``flow_s`` a solve of its water (the steady flow of ``[seepage]``, a transient flow to its last
     time), ``estimate_s`` a limit-equilibrium estimate (``fos.critical_circle(quick=True)``, what each
-    predicted case asks), ``scene_s`` the study's scene with its water (``scene.scene_and_flow``), which
-    the report's section figure builds again (``html_report``) when the study draws figures."""
+    predicted case asks), ``scene_s`` the study's scene on its solved water (``scene.scene_and_flow``), which
+    the report's section figure builds again (``html_report``; the flow remembered) when the study draws
+    figures."""
 
     flow_s: float = 0.0
     estimate_s: float = 0.0
@@ -185,12 +186,12 @@ def client_s(study: Study, n_particles: int, time_step_s: float, step_s: float, 
     solve (a sweep's cases solve theirs with their gravity states, on the workers: :func:`worker_gravities`),
     its limit-equilibrium estimates (a sweep's cases, a probabilistic study's realisations of random
     variables in fos mode; one for realisations of fields alone), the report's section figure's scene
-    with its water when the study draws figures, and for the FOS against time each time's gravity
+    on its remembered water (a sweep's solved again) when the study draws figures, and for the FOS against time each time's gravity
     state and figures, and the runout of the time that failed (its steps on the threads of this
     process)."""
     total = (0.0 if study.sweep is not None else client.flow_s) + estimates(study) * client.estimate_s
-    if study.output.figures:
-        total += client.scene_s
+    if study.output.figures:  # (a sweep's own study's flow was solved by none of its cases)
+        total += client.flow_s if study.sweep is not None else client.scene_s
     transient = study.transient
     if transient is not None and transient.against_time:
         times = len(transient.fos_times())
@@ -384,14 +385,14 @@ def _seconds(value_s: float) -> str:
     return f"{value_s:.2g} s" if value_s < 60.0 else f"{value_s / 60.0:.2g} min"
 
 
-def client_work(study: Study, flow, scene_s: float) -> ClientWork:
+def client_work(study: Study, flow, solve_s: float, scene_s: float) -> ClientWork:
     """The :class:`ClientWork` of ``study`` measured here, in processor time (its wall on an idle machine,
     as every constant of the estimate: a loaded machine slows the study and check alike): its water's
-    solve as check made it (``scene_s``, the scene's build with its ``flow``), for the FOS against time
+    solve as check made it (``solve_s``, with the scene's build ``scene_s``), for the FOS against time
     the transient flow solved again to its last time, as the run solves it; one limit-equilibrium
-    estimate when the study's predictions ask for any (:func:`estimates`); the scene with its water
-    (``scene_s``), which the report builds again."""
-    flow_s = scene_s if flow is not None else 0.0
+    estimate when the study's predictions ask for any (:func:`estimates`); the scene on its water
+    (``scene_s``), which the report builds again (its flow remembered: ``scene.water_flow``)."""
+    flow_s = solve_s + scene_s if flow is not None else 0.0
     if isinstance(flow, WaterAt) and study.transient.against_time:
         start = time.process_time()
         transient_flow(study, until_h=study.transient.end_time_h)
@@ -418,14 +419,16 @@ def check_study(study: Study, kind, out_dir: Path, options) -> StudyCheck:
     kind.check(options)
     kind.check_every_case()
     start_s = time.process_time()
-    scene, flow = scene_and_flow(study)
-    scene_s = time.process_time() - start_s
+    flow = water_flow(study)
+    solve_s = time.process_time() - start_s
+    scene, flow = scene_and_flow(study, flow)
+    scene_s = time.process_time() - start_s - solve_s
     monitor_particles(study, scene)
     new_simulation(study, scene)
     make_output_folder(out_dir)
     critical = critical_circle(study) if study.strength_reduction is not None else None
     path = draw_section(study, scene, out_dir / SECTION_FIGURE, critical, flow)
-    client = client_work(study, flow, scene_s) if study.strength_reduction is not None else ClientWork()
+    client = client_work(study, flow, solve_s, scene_s) if study.strength_reduction is not None else ClientWork()
     return StudyCheck(scene.n_particles, scene.n_particles * BYTES_PER_PARTICLE, kind.processes(options),
                       run_time_estimate(study, scene, options.workers, client), path, flow, critical,
                       (tuple(domain_warnings(study, critical)) if critical is not None else ())
