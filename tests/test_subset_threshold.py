@@ -107,3 +107,22 @@ def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(tmp_
             assert study.level_fos[i] < level["threshold"] <= threshold_srf(level["threshold"])
             assert abs(study.level_fos[i] - f_star[i]) <= 0.002
     assert sum(runs.values()) < 0.8 * sum(reference_runs.values())
+
+
+def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_leaves_the_full_search(tmp_path):
+    """b_k rounded up onto the 1e-4 grid (stable there: a FOS above b_k); a threshold that is infinite (more
+    than 1 - p0 of the level above srf_max) gives its candidates their full search, not an overflow."""
+    from workflows.cases import RunOptions
+    from workflows.probabilistic.subset_study import threshold_srf
+    from workflows.progress import Progress
+    from workflows.study_types import study_type
+
+    assert threshold_srf(1.2007) == 1.2007 and threshold_srf(1.20071) == 1.2008 and threshold_srf(1.0) == 1.0
+    kind = study_type(parse_study(_study_text(1)), tmp_path)
+    kind.check(RunOptions(workers=1))
+    kind.cases()
+    kind.chains, kind.threshold = [[0], [1]], math.inf
+    kind._round(Progress())
+    points = kind.realisations
+    assert points.count == 102 and not points.srf_max
+    assert points.study_of(101, text=False).strength_reduction.srf_max == 2.0

@@ -179,7 +179,8 @@ class SubsetStudy(DesignPointStudy):
             for k, chain in enumerate(self.chains)]
         for k, chain in enumerate(self.chains):
             self.level_of[start + k] = len(self.levels)
-            points.srf_max[start + k] = threshold_srf(self.threshold)  # its search runs b_k first (module doc)
+            if math.isfinite(self.threshold):  # its search runs b_k first (module doc; infinite: most of the level
+                points.srf_max[start + k] = threshold_srf(self.threshold)  # lies above srf_max, a full search)
             if self.study.random_field is not None:  # the fields' xi moves with u (module doc)
                 state = chain[-1]
                 points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
