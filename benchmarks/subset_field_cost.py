@@ -43,6 +43,25 @@ def study_text(spacing_m: float, factor: float, method: str, compute: str, reali
     return text.replace("seed = 1\n", f"seed = {seed}\n")
 
 
+def level_lines(result_path: Path, level_covs: list) -> str:
+    """Each level's points, SRF runs, candidates rejected by their one run at the threshold and coefficient of
+    variation (from ``probabilistic.nc``): what an extrapolation to other level sizes needs."""
+    import numpy as np
+    import xarray as xr
+
+    ds = xr.load_dataset(result_path)
+    level, runs = ds["subset_level"].values, ds["n_runs"].values
+    one_run = (ds["status"].values == "above_srf_max") & (level > 0)
+    lines = []
+    for k in range(int(level.max()) + 1):
+        at = level == k
+        lines.append(f"level {k}: {int(at.sum())} points, {int(runs[at].sum())} SRF runs ({runs[at].mean():.2f} a point), "
+                     f"{int(one_run[at].sum())} rejected by their one run at the threshold, "
+                     f"{int(np.sum(at & (ds['subset_accepted'].values == 1)))} accepted"
+                     + (f", level cov {level_covs[k]:.3g}" if k < len(level_covs) else ""))
+    return "\n".join(lines)
+
+
 def load() -> str:
     return f"{os.getloadavg()[0]:.1f}"
 
@@ -72,6 +91,7 @@ def main(argv=None) -> int:
         out = run_study(parse_study(study_text(args.spacing, args.factor, "subset_simulation", "fos", 20 * args.samples,
                                                args.samples, args.seed)), Path(scratch) / "subset", options)
         wall_s = time.perf_counter() - start
+        print(level_lines(Path(scratch) / "subset" / "probabilistic.nc", out.level_covs), flush=True)
     needed = (1.0 - out.pf) / (out.pf * out.cov**2) if out.pf > 0.0 and math.isfinite(out.cov) else math.inf
     print("| h (m) | factor | N a level | subset pf (cov) [approx. 95% interval] | levels | FOS searches | SRF runs | "
           "wall (s) | load | crude MC for this cov: realisations | its wall at the measured rate (s) |")

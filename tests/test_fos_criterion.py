@@ -380,3 +380,43 @@ def test_failures_known_early_do_not_change_the_fos(f_star):
     assert ({f: o for f, o in signalled.outcomes.items() if f <= first_failure}
             == {f: o for f, o in plain.outcomes.items() if f <= first_failure})
     assert len(signalled.outcomes) <= len(plain.outcomes)
+
+
+@pytest.mark.parametrize("window", [None, (1.30, 1.38, 0.02)])
+def test_a_search_that_runs_its_top_first_decides_as_the_full_search(window):
+    """Subset simulation's candidate (``top_first``, srf_max its level's threshold b): stable at b, the search
+    ends after that one run (FOS above b); failed, it goes on below b to the FOS.  Over F* on both sides of b,
+    its verdict is the full search's (the full search's FOS above b exactly when the top-first one stopped
+    at one run, but for F* within the tolerance of b) and its FOS is the full search's within the tolerance."""
+    from workflows.fos.search import STABLE_AT_TOP
+
+    tolerance, b = 0.002, 1.3456
+    for f_star in np.round(np.linspace(1.2, 1.5, 61), 4):
+        full = SrfSearch(0.5, 2.0, 0.1, tolerance=tolerance, floor_m=FLOOR_M, n_parallel=2, window=window)
+        drive(full, lambda f, f_star=f_star: slope_response(f, f_star), f_star)
+        top = SrfSearch(0.5, b, 0.1, tolerance=tolerance, floor_m=FLOOR_M, n_parallel=2, window=window, top_first=True)
+        first = top.next_values()
+        assert first == [b]  # the top alone, first
+        drive(top, lambda f, f_star=f_star: slope_response(f, f_star), f_star)
+        rejected = len(top.outcomes) == 1
+        if abs(f_star - b) > tolerance:
+            assert rejected == (full.knee().fos > b), f_star
+        if rejected:
+            assert top.outcomes[b].status == STABLE and top.stop_reason == STABLE_AT_TOP.format(b)
+            assert math.isnan(top.knee().fos)
+        else:
+            fos = top.knee()
+            assert fos.fos_low <= f_star < fos.fos_high <= b and fos.fos_high - fos.fos_low <= tolerance
+            assert abs(fos.fos - full.knee().fos) <= tolerance, f_star
+
+
+def test_a_top_known_to_fail_lets_the_search_go_on_while_it_runs():
+    """The run at the top passed the failure displacement (step 5): the runs below it start at once (one
+    beside it on two workers)."""
+    search = SrfSearch(0.5, 1.4, 0.1, tolerance=0.002, floor_m=FLOOR_M, n_parallel=2, window=(1.2, 1.3, 0.05),
+                       top_first=True)
+    assert search.next_values() == [1.4]
+    search.started(1.4)
+    assert search.next_values() == []
+    search.passed_failure(1.4)
+    assert search.next_values() == [1.2]

@@ -87,6 +87,23 @@ def test_a_prediction_outside_the_stages_range_gives_the_full_search():
     assert predictor.ratios == []
 
 
+def test_a_case_that_runs_its_top_first_is_predicted_below_it():
+    """A subset simulation's candidate searches on only once its srf_max (its level's threshold) has failed:
+    a prediction above srf_max places the window below it, not the full search of the range."""
+    import dataclasses
+
+    study = load_study(REPO / "studies" / "quickstart.toml")
+    stage = study.strength_reduction
+    case = Case(study, REPO, case_id="candidate", top_first=True)
+    above = stage.srf_max + 0.3
+    low, high, step = WindowPredictor().window(case, [0.0], above)
+    assert high == pytest.approx(stage.srf_max + 2 * step) and low == pytest.approx(stage.srf_max - 2 * step)
+    search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, 1e-3, window=(low, high, step),
+                       top_first=True)
+    assert max(search.sweep) == stage.srf_max and min(search.sweep) == pytest.approx(stage.srf_max - 2 * step)
+    assert WindowPredictor().window(dataclasses.replace(case, top_first=False), [0.0], above) is None
+
+
 def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error():
     """F = E (1.02 + 0.05 x): exact once four cases are known; before, limit equilibrium alone (6%),
     one case's ratio, the mean of two."""

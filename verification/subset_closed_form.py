@@ -10,14 +10,17 @@ at COVs that put pf near 1e-3 and 1e-4, over independent seeds.
 0.002.  For phi = 0 the FOS is proportional to cu, so pf = Phi((ln(mean cu / F_det) - mu_ln) / sigma_ln)
 with the project's own F_det at the same spacing; the COV for a target pf solves that for sigma_ln.
 Each row: subset simulation's pf with its coefficient of variation and approximate 95% interval, whether
-the interval holds the closed form, the FOS searches and SRF runs it made, and the realisations crude
-Monte Carlo would need for the same coefficient of variation, (1 - pf) / (pf cov^2).
+the interval holds the closed form, the FOS searches and SRF runs it made (and how many of the searches
+were a chain's candidate rejected by its one run at its level's threshold), the realisations crude Monte
+Carlo would need for the same coefficient of variation, (1 - pf) / (pf cov^2), and the load average
+before and after (the machine is shared).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import sys
 import tempfile
@@ -69,19 +72,21 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as scratch:
         f_det = deterministic_fos(text, 0.002, options, Path(scratch) / "det")
         print("| target pf | COV | seed | subset pf (cov) [approx. 95% interval] | closed form | holds | levels | "
-              "FOS searches | SRF runs | crude MC for this cov | wall (s) |")
-        print("|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+              "FOS searches | SRF runs | of them one-run rejections | crude MC for this cov | wall (s) | load |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
         for target in args.targets:
             cov = cov_for(target, f_det)
             exact = lognormal_strength_pf(1.0, cov, f_det)
             for seed in args.seeds:
                 case = subset_text(text, cov, seed, args.samples, 20 * args.samples, args.field)
+                load_before = os.getloadavg()[0]
                 out = run_study(parse_study(case), Path(scratch) / f"pf_{target:g}_seed_{seed}", options)
                 crude = (1.0 - out.pf) / (out.pf * out.cov**2) if out.pf > 0 else math.inf
                 holds = out.pf_low <= exact <= out.pf_high
                 print(f"| {target:g} | {cov:.4f} | {seed} | {out.pf:.3g} ({out.cov:.2f}) [{out.pf_low:.3g}, "
                       f"{out.pf_high:.3g}] | {exact:.3g} | {'yes' if holds else 'NO'} | {len(out.thresholds) + 1} | "
-                      f"{out.n_searches} | {out.runs_made} | {crude:,.0f} | {out.timings_s['total']:.0f} |",
+                      f"{out.n_searches} | {out.runs_made} | {out.threshold_verdicts} | {crude:,.0f} | "
+                      f"{out.timings_s['total']:.0f} | {load_before:.1f} -> {os.getloadavg()[0]:.1f} |",
                       flush=True)
     print(f"(beta of the targets: {', '.join(f'{-stats.norm.ppf(t):.2f}' for t in args.targets)})")
     return 0

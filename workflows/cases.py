@@ -50,6 +50,7 @@ class Case:
     write_gravity: bool = True  # False: its gravity state is kept in memory only (recomputed if needed again)
     runs: RunPolicy | None = None  # what its SRF runs keep and when they end (default: every run kept whole)
     window: tuple[float, float, float] | None = None  # (low, high, step) its FOS search starts in (fos.prediction)
+    top_first: bool = False  # its search runs srf_max first, alone: stable there ends it (``fos.search``, step 6)
     flow: object = None  # the flow its water comes from, when its type has it (``scene.water_flow``): not solved again
 
 
@@ -168,7 +169,7 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         searches = [CaseSearch(made + k, case.study, case.out_dir, label=case.case_id,
                                gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
                                write_gravity=case.write_gravity, policy=case.runs or RunPolicy(),
-                               window=case.window, flow=case.flow)
+                               window=case.window, top_first=case.top_first, flow=case.flow)
                     for k, case in enumerate(more)]
         made += len(more)
         return searches

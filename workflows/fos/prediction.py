@@ -16,12 +16,15 @@ deviation) is the fit's residual scatter times E_i, floored at ``MIN_SIGMA``, or
 (``ONE_CASE_SIGMA``) of E_i with no (one) concluded case.
 
 The window: ``WINDOW_STEPS`` steps d below and above F_i, d = max(tolerance, ``SIGMA_PER_STEP`` sigma)
-(:func:`search_window`).  A window that misses grows (``SrfSearch``), so a poor prediction costs runs,
+(:func:`search_window`).  A case whose search runs its ``srf_max`` first (``fos.search``, step 6: a
+chain candidate of subset simulation) searches on only once that run has failed, so its FOS lies below
+``srf_max``: a prediction above it is taken as ``srf_max``.  A window that misses grows (``SrfSearch``), so a poor prediction costs runs,
 never the answer: the knee and the bracket are found as without a window.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -186,6 +189,8 @@ class WindowPredictor:
         self.pending[case.case_id] = (np.asarray(features, dtype=float).ravel(), estimate)
         prediction = self.predictor.predict(features, estimate)
         stage = case.study.strength_reduction
+        if prediction is not None and getattr(case, "top_first", False) and prediction.fos > stage.srf_max:
+            prediction = dataclasses.replace(prediction, fos=stage.srf_max, basis=prediction.basis + ", below srf_max")
         if prediction is None or not stage.srf_min <= prediction.fos <= stage.srf_max:
             return None  # the full search of the stage's range (a FOS outside it is found as without a window)
         window = search_window(prediction, stage.fos_tolerance)
@@ -207,8 +212,6 @@ class WindowPredictor:
 
     def with_window(self, case, features, estimate: float | None = None):
         """``case`` with its window (module doc)."""
-        import dataclasses
-
         window = self.window(case, features, estimate)
         return case if window is None else dataclasses.replace(case, window=window)
 

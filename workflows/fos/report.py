@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from workflows.fos.search import STABLE_AT_TOP
 from workflows.fos.slip_surface import CROSS_CHECK_MARGIN
 from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
@@ -20,7 +21,9 @@ def verdict_line(knee, status, agree, runs, stage, stop_reason: str = "") -> str
             parts.append(f"FOS < {runs[0].srf:g}: every run failed")
         elif all(r.status == STABLE for r in runs if r.status != DIVERGED):
             highest = max(r.srf for r in runs if r.status == STABLE)
-            if stop_reason.startswith("stopped at max_runs"):
+            if stop_reason == STABLE_AT_TOP.format(highest):  # (a subset simulation's candidate: its threshold)
+                parts.append(f"FOS > {highest:g}: {stop_reason}")
+            elif stop_reason.startswith("stopped at max_runs"):
                 parts.append(f"FOS > {highest:g}: no run failed, and the search stopped at max_runs = "
                              f"{stage.max_runs} after {len(runs)} runs, before srf_max = {stage.srf_max:g} (raise "
                              "max_runs or srf_step)")

@@ -35,6 +35,12 @@ maximum displacement and verdict, and says which SRF values to start next.
    held back, runs above it that were started are stopped (:meth:`SrfSearch.deferred`: asked
    for again only if it diverges), and an idle worker speculates on its failed branch alone.
    None of this changes the runs used or the FOS: it only frees workers sooner.
+6. **The top first** (``top_first``, a chain candidate of subset simulation, whose ``srf_max`` is its
+   level's threshold): the run at ``srf_max`` is made first, alone.  Stable there, the search ends
+   (status above ``srf_max``: one run, the FOS above the threshold); failed (or known to fail, step 5)
+   or diverged, the search goes on below it as above, the top one of its sweep values (as the full
+   sweep's ``srf_max`` always is), so its FOS lies below the failed top.  The verdict at the top is the
+   verdict that brackets every search (the lowest failed run is the top of the FOS bracket).
 """
 
 from __future__ import annotations
@@ -49,6 +55,9 @@ from workflows.fos.verdict import DIVERGED, FAILED, STABLE
 
 CANCELLED_ABOVE_FAILURE = "cancelled: above the failed SRF {:g}, cannot move the knee"
 """Why a started run was stopped once a run below it had failed."""
+
+STABLE_AT_TOP = "stable at srf_max {:g}, run first: the FOS lies above it"
+"""Why a search whose top was run first (module doc, step 6) ended after it."""
 
 MIN_KNEE_RUNS = 3
 """Runs up to the first failure that the knee needs (``criterion.pick_knee``): a sweep with fewer is
@@ -81,7 +90,7 @@ class SrfSearch:
     """The sweep-then-refine plan (module doc)."""
 
     def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40,
-                 failure_m=math.inf, window: tuple[float, float, float] | None = None):
+                 failure_m=math.inf, window: tuple[float, float, float] | None = None, top_first: bool = False):
         self.range = (round(float(srf_min), 4), round(float(srf_max), 4))
         self.full_step = round(float(srf_step), 4)
         self.grown = False  # has the window grown (module doc, step 1)
@@ -97,6 +106,9 @@ class SrfSearch:
             self.sweep = sweep_values(*self.window)
         else:
             self.sweep = sweep_values(srf_min, srf_max, srf_step)
+        self.top_first = top_first  # module doc, step 6
+        if top_first:
+            self.sweep = sorted(set(self.sweep) | {self.range[1]})
         self.sweep_set = set(self.sweep)
         self.tolerance = float(tolerance)
         self.floor_m = float(floor_m)
@@ -203,6 +215,15 @@ class SrfSearch:
     # ------------------------------------------------------------------ planning
     def next_values(self) -> list[float]:
         """SRF values to start now (may be empty while runs are pending); [] and ``done`` at the end."""
+        top = self.range[1]
+        if self.top_first and top not in self.failing:  # step 6: the top alone, first
+            if top in self.pending:
+                return []
+            if top not in self.outcomes:
+                return [top]
+            if self.outcomes[top].status == STABLE:
+                self.stop_reason = STABLE_AT_TOP.format(top)
+                return []
         if len(self.outcomes) + len(self.pending) >= self.max_runs:
             if not self.pending and not self.stop_reason:
                 self.stop_reason = f"stopped at max_runs = {self.max_runs} before the bracket reached the tolerance"

@@ -72,6 +72,7 @@ class DesignPoints(Realisations):
             raise StudyError("probabilistic.correlation", str(error)) from None
         self.u = np.empty((0, len(self.marginals)))
         self.field_terms: dict[int, tuple] = {}  # point -> its fields' (realisation, weight) terms, where not its own
+        self.srf_max: dict[int, float] = {}  # point -> the srf_max its search runs first (subset simulation's threshold)
         return np.empty((0, len(self.marginals)))
 
     def add(self, values: np.ndarray, u: np.ndarray | None = None) -> None:
@@ -90,11 +91,17 @@ class DesignPoints(Realisations):
 
     def raw_of(self, i: int) -> dict:
         """The study dict of point ``i``; with its fields' ``combination`` where a Markov chain moved them
-        (``field_terms``: subset simulation)."""
+        (``field_terms``), and its ``srf_max`` where its search runs its level's threshold first (``srf_max``:
+        subset simulation)."""
         case_raw = super().raw_of(i)
         terms = self.field_terms.get(i)
         if terms is not None:
             case_raw["random_field"]["combination"] = [[realisation, weight] for realisation, weight in terms]
+        if i in self.srf_max:  # (its step within the range it leaves: the stage's own check)
+            node, key, _ = resolve_sweep_path(case_raw, f"stages.{self.study.strength_reduction.name}.srf_max")
+            node[key] = self.srf_max[i]
+            if self.study.strength_reduction.srf_step > self.srf_max[i] - node["srf_min"]:
+                node["srf_step"] = round(self.srf_max[i] - node["srf_min"], 4)
         return case_raw
 
     def x_of(self, u: np.ndarray) -> np.ndarray:

@@ -12,6 +12,17 @@ its own), all searched at once on the cluster; ``1 / p0 - 1`` rounds make a leve
 depend only on the seed and the FOS before them: a stopped study makes the same points again and reads
 their runs back.  A point's FOS for the levels is its search's (a FOS above ``srf_max``: infinite, never
 below a threshold; below ``srf_min``: the bracket's top).  ``realisations`` bounds the searches.
+
+A candidate's FOS matters only below its level's threshold b_k (accepted, it is ranked for the next
+threshold; rejected, the chain repeats its state and its FOS is never used), so its search has b_k
+as its ``srf_max`` (on the 1e-4 grid of the SRF values, rounded up: :func:`threshold_srf`) and runs it
+first, alone (``fos.search``, step 6): stable there, the candidate is rejected after that one run
+(its FOS above ``srf_max``: infinite, as before); failed there, the search goes on below b_k to the FOS,
+in a window predicted as any point's, below the failed b_k.  The run at b_k is judged by the verdict
+that makes the lowest failed run the top of every search's bracket, so a candidate is rejected exactly
+when its full search would have bracketed its FOS above b_k, but for a FOS within the search's
+tolerance of b_k (the knee's bracket and the verdicts' agree within it).  Level 0 is full searches (no
+threshold yet).
 """
 
 from __future__ import annotations
@@ -30,10 +41,17 @@ from workflows.probabilistic.design_points import DesignPointOutcome, DesignPoin
 from workflows.probabilistic.reliability import reliability_index
 from workflows.probabilistic.study_type import FIRST_REALISATIONS
 from workflows.study import Study
-from workflows.sweep.results import BELOW, case_result, diverged_result
+from workflows.sweep.results import ABOVE, BELOW, case_result, diverged_result
 
 MAX_LEVELS = 12
 """Levels at most (p0^12 = 1e-12 at p0 = 0.1)."""
+SRF_GRID = 1e-4
+"""SRF values lie on this grid (``fos.search``)."""
+
+
+def threshold_srf(threshold: float) -> float:
+    """b_k rounded up onto the SRF grid: a candidate stable there has a FOS above b_k (module doc)."""
+    return round(math.ceil(round(threshold / SRF_GRID, 6)) * SRF_GRID, 4)
 
 
 @dataclass
@@ -45,6 +63,7 @@ class SubsetOutcome(DesignPointOutcome):
     thresholds: list = dataclasses.field(default_factory=list)  # b_k of each level but the last
     level_covs: list = dataclasses.field(default_factory=list)
     accepted_share: float = math.nan  # of the chains' candidates
+    threshold_verdicts: int = 0  # candidates rejected by their one run at their level's threshold (module doc)
 
     @property
     def verdict(self) -> str:
@@ -68,6 +87,7 @@ class SubsetStudy(DesignPointStudy):
         self.levels: list[dict] = []  # each finished level: its samples' FOS, threshold, fraction, gamma
         self.chains: list[list[int]] = []  # the current level's chains: their states (point numbers)
         self.threshold = math.nan
+        self.threshold_verdicts = 0  # candidates rejected by their one run at the threshold (module doc)
 
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
@@ -93,8 +113,10 @@ class SubsetStudy(DesignPointStudy):
                 self.level_fos[i] = result.fos
             elif result.status == BELOW and math.isfinite(result.fos_high):
                 self.level_fos[i] = result.fos_high
-            else:  # above srf_max, or no verdict: never below a threshold
+            else:  # above srf_max (a candidate stable at its threshold), or no verdict: never below a threshold
                 self.level_fos[i] = math.inf
+            if self.level_of[i] > 0 and result.status == ABOVE:
+                self.threshold_verdicts += 1
 
     def next_cases(self, outcomes: dict, progress) -> list:
         """The next round of the chains, or the next level's first; none once a level reaches the factor
@@ -157,6 +179,8 @@ class SubsetStudy(DesignPointStudy):
             for k, chain in enumerate(self.chains)]
         for k, chain in enumerate(self.chains):
             self.level_of[start + k] = len(self.levels)
+            if math.isfinite(self.threshold):  # its search runs b_k first (module doc; infinite: most of the level
+                points.srf_max[start + k] = threshold_srf(self.threshold)  # lies above srf_max, a full search)
             if self.study.random_field is not None:  # the fields' xi moves with u (module doc)
                 state = chain[-1]
                 points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
@@ -165,6 +189,12 @@ class SubsetStudy(DesignPointStudy):
         points.add_u(np.array(candidates))
         self.batch_end = points.count
         return self.more_cases(FIRST_REALISATIONS)
+
+    def _placed(self, case):
+        """A point as any realisation (``ProbabilisticStudy._placed``); a chain's candidate runs its level's
+        threshold, its ``srf_max``, first (module doc)."""
+        case = super()._placed(case)
+        return dataclasses.replace(case, top_first=True) if case.position[0] in self.realisations.srf_max else case
 
     def _field_estimate(self, case) -> float | None:
         """None: a point's window is predicted from its fields' strength near the mean soil's critical circle
@@ -206,6 +236,7 @@ class SubsetStudy(DesignPointStudy):
         result.thresholds = [level["threshold"] for level in levels if not level["last"]]
         chained = [i for i in self.level_of if self.level_of[i] > 0]
         result.accepted_share = (sum(i in self.accepted for i in chained) / len(chained)) if chained else math.nan
+        result.threshold_verdicts = self.threshold_verdicts
         first = np.array([self.level_fos[i] for i in range(n) if i in self.level_fos and math.isfinite(self.level_fos[i])])
         if first.size >= 3:  # level 0 is a Monte Carlo sample: its moment indices
             result.fos_mean, result.fos_std = float(first.mean()), float(first.std(ddof=1))
@@ -232,7 +263,8 @@ class SubsetStudy(DesignPointStudy):
                          pf_at_zero_spacing=f"{result.discretised[2]:.4g} {result.discretised[3]:.4g}")
         attrs.update(pf=result.pf, pf_low=result.pf_low, pf_high=result.pf_high, pf_cov=result.cov,
                      p0=table.p0, samples_per_level=n, subset_levels=len(levels),
-                     subset_accepted_share=result.accepted_share, subset_stop_reason=result.stop_reason)
+                     subset_accepted_share=result.accepted_share, subset_threshold_verdicts=result.threshold_verdicts,
+                     subset_stop_reason=result.stop_reason)
         return ds
 
     def _figure(self, ds) -> Path:
@@ -254,7 +286,8 @@ class SubsetStudy(DesignPointStudy):
                if math.isfinite(outcome.accepted_share) else ""),
             _discretisation_line(outcome),
             f"crude Monte Carlo would need about {crude:,.0f} realisations for this pf at this coefficient of "
-            f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches"]
+            f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches, "
+            f"{outcome.threshold_verdicts} of them a chain's candidate rejected by its one run at its level's threshold"]
         return report
 
 

@@ -1,0 +1,128 @@
+"""Subset simulation's per-level verdict (``workflows.probabilistic.subset_study``): a chain's candidate is
+searched with its level's threshold as its ``srf_max``, run first (``fos.search``, step 6).  Driven without
+dask: every point's search is an ``SrfSearch`` on a scripted slope whose FOS is proportional to cu (the
+undrained slope with one lognormal cu, F* = F_det cu / mean cu), against the same study with every point's
+full search (the reference: what the study did before)."""
+
+from __future__ import annotations
+
+import math
+import re
+from types import SimpleNamespace
+
+import pytest
+
+from verification.undrained_variants import shipped_text, single_variable_text
+from workflows.fos.criterion import status_bracket
+from workflows.fos.search import RunOutcome, SrfSearch
+from workflows.fos.verdict import FAILED, STABLE
+from workflows.study import parse_study
+
+F_DET = 1.46
+MEAN_CU_PA = 50e3
+
+
+def _study_text(seed: int) -> str:
+    """One lognormal cu (COV 0.12: pf near 1e-3 at factor 1), 100 points a level, h = 2 m."""
+    text = single_variable_text(shipped_text(2.0), 0.12, 2000)
+    text = re.sub(r'(?m)^method = .*$', 'method = "subset_simulation"\nsamples_per_level = 100', text, count=1)
+    text = re.sub(r"(?m)^seed = 1$", f"seed = {seed}", text, count=1)
+    return re.sub(r'(?m)^compute = .*$', 'compute = "fos"', text, count=1)
+
+
+def _searched(stage, f_star: float, top_first: bool):
+    """A concluded case (``cases.Concluded``) of the stage's search on a slope that fails above ``f_star``
+    (5 mm growing gently below it, 2 m above), runs finished in start order, and its number of runs."""
+    from workflows.cases import Concluded
+
+    search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, 1e-3, n_parallel=2,
+                       max_runs=stage.max_runs, top_first=top_first)
+    queue: list[float] = []
+    while True:
+        for srf in search.next_values():
+            search.started(srf)
+            queue.append(srf)
+        if not queue:
+            break
+        srf = queue.pop(0)
+        failed = srf > f_star
+        search.finished(RunOutcome(srf, 2.0 if failed else 0.005 * math.exp(2.0 * (srf - 1.0)),
+                                   FAILED if failed else STABLE))
+    knee = search.knee()
+    runs = [SimpleNamespace(srf=o.srf, status=o.status) for o in search.outcomes.values()]
+    status = status_bracket([r.srf for r in runs], [r.status for r in runs])
+    return Concluded(SimpleNamespace(runs=runs, fos=knee.fos, fos_low=knee.fos_low, fos_high=knee.fos_high,
+                                     criteria_agree=True, knee_srf=knee.knee_srf, n_particles=0, verdict="",
+                                     status_low=status.fos_low, status_high=status.fos_high)), len(runs)
+
+
+def _levels(tmp_path, seed: int, per_level_verdict: bool):
+    """The study driven to its end: (the study type, each point's runs, its F*)."""
+    from workflows.cases import Case, RunOptions
+    from workflows.probabilistic.subset_study import SubsetStudy
+    from workflows.progress import Progress
+    from workflows.study_types import study_type
+
+    kind = study_type(parse_study(_study_text(seed)), tmp_path)
+    assert isinstance(kind, SubsetStudy)
+    kind.check(RunOptions(workers=1))
+    kind.cases()
+    points, outcomes, runs, f_star = kind.realisations, {}, {}, {}
+    base = points.study_of(0, text=False).strength_reduction
+    while True:
+        for i in range(len(outcomes), points.count):
+            stage, top_first = base, False
+            if per_level_verdict and i in points.srf_max:  # a candidate: its case as the study makes it
+                study = points.study_of(i, text=False)
+                top_first = kind._placed(Case(study, tmp_path, points.case_id(i), (i,), {})).top_first
+                stage = study.strength_reduction
+                assert top_first and stage.srf_max == points.srf_max[i] and stage.srf_min == base.srf_min
+            f_star[i] = F_DET * float(points.values[i, 0]) / MEAN_CU_PA
+            outcomes[points.case_id(i)], runs[i] = _searched(stage, f_star[i], top_first)
+        if not kind.next_cases(outcomes, Progress()) and kind.finished:
+            return kind, runs, f_star
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(tmp_path, seed):
+    """The same thresholds (within the search's tolerance), the same accepted candidates, the same pf; every
+    rejected candidate cost one run (before: a whole search), and the study fewer runs."""
+    from workflows.probabilistic.subset_study import threshold_srf
+
+    reference, reference_runs, _ = _levels(tmp_path / "full", seed, per_level_verdict=False)
+    study, runs, f_star = _levels(tmp_path / "verdict", seed, per_level_verdict=True)
+    assert study.realisations.count == reference.realisations.count
+    thresholds = [level["threshold"] for level in study.levels]
+    assert len(thresholds) == len(reference.levels) >= 3
+    assert thresholds == pytest.approx([level["threshold"] for level in reference.levels], abs=0.002)
+    assert study.accepted == reference.accepted
+    assert study.levels[-1]["fraction"] == reference.levels[-1]["fraction"]
+    rejected = [i for i in study.level_of if study.level_of[i] > 0 and i not in study.accepted]
+    assert rejected and all(runs[i] == 1 for i in rejected)
+    assert study.threshold_verdicts == len(rejected)
+    assert all(reference_runs[i] > 3 for i in rejected)
+    for i in study.accepted:  # an accepted candidate's FOS lies below its threshold, failed there
+        if study.level_of[i] > 0:
+            level = study.levels[study.level_of[i] - 1]
+            assert study.level_fos[i] < level["threshold"] <= threshold_srf(level["threshold"])
+            assert abs(study.level_fos[i] - f_star[i]) <= 0.002
+    assert sum(runs.values()) < 0.8 * sum(reference_runs.values())
+
+
+def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_leaves_the_full_search(tmp_path):
+    """b_k rounded up onto the 1e-4 grid (stable there: a FOS above b_k); a threshold that is infinite (more
+    than 1 - p0 of the level above srf_max) gives its candidates their full search, not an overflow."""
+    from workflows.cases import RunOptions
+    from workflows.probabilistic.subset_study import threshold_srf
+    from workflows.progress import Progress
+    from workflows.study_types import study_type
+
+    assert threshold_srf(1.2007) == 1.2007 and threshold_srf(1.20071) == 1.2008 and threshold_srf(1.0) == 1.0
+    kind = study_type(parse_study(_study_text(1)), tmp_path)
+    kind.check(RunOptions(workers=1))
+    kind.cases()
+    kind.chains, kind.threshold = [[0], [1]], math.inf
+    kind._round(Progress())
+    points = kind.realisations
+    assert points.count == 102 and not points.srf_max
+    assert points.study_of(101, text=False).strength_reduction.srf_max == 2.0
