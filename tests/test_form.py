@@ -131,6 +131,23 @@ def test_form_with_a_random_field_is_refused_naming_the_method():
     assert error.value.field == "probabilistic.method"
 
 
+@pytest.mark.parametrize("method", ["form", "subset_simulation", "point_estimate"])
+def test_every_point_is_searched_from_half_the_factor_to_twice_it(method):
+    """A factor of 5 over a search to srf_max = 2: FORM's points near its design point (FOS = 5) lay above
+    every search (beta -29, "NOT converged"), and subset simulation counted a FOS above srf_max as never below
+    the factor (pf too low).  Each point's range now holds [factor / 2, 2 factor]; the stage's own when wider."""
+    from workflows.probabilistic.design_points import DesignPoints
+
+    text = _method(C_PHI, method, 100).replace("factor = 1.0", "factor = 5.0")
+    if method == "subset_simulation":
+        text = text.replace("realisations = 100", "realisations = 100\nsamples_per_level = 50")
+    stage = DesignPoints(parse_study(text)).raw["stages"][1]
+    assert (stage["srf_min"], stage["srf_max"]) == (1.0, 10.0)
+    stage = DesignPoints(parse_study(_method(C_PHI, method, 100).replace("realisations = 100", "realisations = 100"
+                         + ("\nsamples_per_level = 50" if method == "subset_simulation" else "")))).raw["stages"][1]
+    assert (stage["srf_min"], stage["srf_max"]) == (0.5, 2.0)
+
+
 @pytest.mark.slow
 def test_a_form_study_gives_beta_beside_fosm_and_resumes_without_a_run(tmp_path):
     """The c-phi slope (lognormal c, truncated normal phi, correlated -0.5), FORM at h = 1 m: converged, the

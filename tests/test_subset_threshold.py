@@ -109,9 +109,11 @@ def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(tmp_
     assert sum(runs.values()) < 0.8 * sum(reference_runs.values())
 
 
-def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_leaves_the_full_search(tmp_path):
-    """b_k rounded up onto the 1e-4 grid (stable there: a FOS above b_k); a threshold that is infinite (more
-    than 1 - p0 of the level above srf_max) gives its candidates their full search, not an overflow."""
+def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_stops_the_study_naming_srf_max(tmp_path):
+    """b_k rounded up onto the 1e-4 grid (stable there: a FOS above b_k).  A threshold that is infinite (more
+    than 1 - p0 of the level above srf_max, whose FOS is only known to be above it) ended in an overflow, then
+    gave the next level every point below srf_max as if it were a p0 share: a biased pf.  It stops the study,
+    no pf, naming the field to raise."""
     from workflows.cases import RunOptions
     from workflows.probabilistic.subset_study import threshold_srf
     from workflows.progress import Progress
@@ -121,8 +123,8 @@ def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_leaves_the_
     kind = study_type(parse_study(_study_text(1)), tmp_path)
     kind.check(RunOptions(workers=1))
     kind.cases()
-    kind.chains, kind.threshold = [[0], [1]], math.inf
-    kind._round(Progress())
-    points = kind.realisations
-    assert points.count == 102 and not points.srf_max
-    assert points.study_of(101, text=False).strength_reduction.srf_max == 2.0
+    samples = list(range(100))
+    kind.level_fos = {i: (1.3 + 0.001 * i if i < 5 else math.inf) for i in samples}
+    kind._finish_level(samples, Progress())
+    assert kind.finished and not kind.chains
+    assert "raise stages.srf.srf_max" in kind.stop_reason and "above srf_max = 2" in kind.stop_reason

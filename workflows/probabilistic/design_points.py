@@ -5,8 +5,9 @@ simulation (``subset_study``) share.  Points are realisations of the study in
 paths, from ``u`` by the Nataf transform of ``workflows.probabilistic.sampling``.
 
 Every search is to ``fos_tolerance`` (the stage's, set tighter: FORM's differences must stand above the
-FOS's own noise, the search's bracket), from an ``srf_min`` of at most half the factor (the design point
-lies at FOS = factor, below the range a study of the mean soil may give).  The points are a function of the FOS values before them
+FOS's own noise, the search's bracket), from an ``srf_min`` of at most half the factor to an ``srf_max`` of at
+least twice it (the design point lies at FOS = factor, perhaps outside the range a study of the mean soil
+may give).  The points are a function of the FOS values before them
 only, so a study stopped part way computes again only what it had not: the points it made are the same,
 and their runs are read back from disk.  ``OUT/probabilistic.nc`` lists the points with their FOS (its
 pf and running pf are NaN: the points are no sample), beta, the design point, the sensitivity factors or
@@ -44,7 +45,9 @@ NOISE_BRACKETS = 3.0
 sensitivity: the report names the variable."""
 FIGURES = ("form.png", "point_estimate.png", "subset_simulation.png")
 SRF_MIN_SHARE = 0.5
-"""Each point's search starts at most at this share of the factor (FORM's design point has FOS = factor)."""
+"""Each point's search starts at most at this share of the factor and ends at least at the factor over it
+(FORM's design point has FOS = factor; subset simulation counts the FOS below the factor, and one above
+``srf_max`` is only known to be above it: with a factor above ``srf_max`` such a point never counted)."""
 
 
 class DesignPoints(Realisations):
@@ -59,6 +62,8 @@ class DesignPoints(Realisations):
         node[key] = study.probabilistic.fos_tolerance
         node, key, _ = resolve_sweep_path(self.raw, f"stages.{stage}.srf_min")  # FORM's points reach FOS = factor
         node[key] = min(study.strength_reduction.srf_min, SRF_MIN_SHARE * study.probabilistic.factor)
+        node, key, _ = resolve_sweep_path(self.raw, f"stages.{stage}.srf_max")  # (a FOS above it: only "above")
+        node[key] = max(study.strength_reduction.srf_max, study.probabilistic.factor / SRF_MIN_SHARE)
 
     def _sampled(self) -> np.ndarray:
         """No point yet: the marginals and the Nataf transform (StudyError naming the field)."""

@@ -37,7 +37,7 @@ import numpy as np
 from workflows.cases import Report
 from workflows.distributions import DISTRIBUTIONS
 from workflows.probabilistic import subset
-from workflows.probabilistic.design_points import DesignPointOutcome, DesignPoints, DesignPointStudy
+from workflows.probabilistic.design_points import SRF_MIN_SHARE, DesignPointOutcome, DesignPoints, DesignPointStudy
 from workflows.probabilistic.reliability import reliability_index
 from workflows.probabilistic.study_type import FIRST_REALISATIONS
 from workflows.study import Study
@@ -160,6 +160,14 @@ class SubsetStudy(DesignPointStudy):
         if len(self.levels) >= MAX_LEVELS:
             self.stop_reason, self.finished = f"{MAX_LEVELS} levels and the factor not reached", True
             return
+        if not math.isfinite(threshold):  # a FOS above srf_max is only known to be above it
+            stage = self.study.strength_reduction
+            top = max(stage.srf_max, table.factor / SRF_MIN_SHARE)  # (the points' srf_max: DesignPoints)
+            self.stop_reason = (f"level {len(self.levels) - 1}: more than {1.0 - table.p0:.0%} of its points have a FOS "
+                                f"above srf_max = {top:g}, so its threshold (the {table.p0:g}-quantile) lies "
+                                f"above the search: raise stages.{stage.name}.srf_max")
+            self.finished = True
+            return
         progress.message(f"subset level {len(self.levels) - 1}: threshold FOS {threshold:.4f} (p0 = {table.p0:g})")
         self.threshold = threshold
         self.chains = [[samples[j]] for j in order]
@@ -179,8 +187,7 @@ class SubsetStudy(DesignPointStudy):
             for k, chain in enumerate(self.chains)]
         for k, chain in enumerate(self.chains):
             self.level_of[start + k] = len(self.levels)
-            if math.isfinite(self.threshold):  # its search runs b_k first (module doc; infinite: most of the level
-                points.srf_max[start + k] = threshold_srf(self.threshold)  # lies above srf_max, a full search)
+            points.srf_max[start + k] = threshold_srf(self.threshold)  # its search runs b_k first (module doc)
             if self.study.random_field is not None:  # the fields' xi moves with u (module doc)
                 state = chain[-1]
                 points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
