@@ -62,6 +62,21 @@ def test_a_windowed_search_finds_the_full_sweeps_fos_and_a_window_that_misses_gr
     assert all(1.0 <= srf <= 2.0 for srf in made)
 
 
+@pytest.mark.parametrize("window", [(1.38, 1.42, 0.01), (1.33, 1.37, 0.01), (1.3, 1.36, 0.02), (1.4, 1.48, 0.02),
+                                    (1.37, 1.41, 0.01)])
+def test_a_window_that_misses_by_less_than_two_steps_costs_one_run_beyond_it(window):
+    """The FOS 1.3742 just below or above the window, or in its first step with no room for a third run
+    below the first failure (1.37 stable, 1.38 failed, one tolerance apart): one value twice the
+    window's step beyond its end holds it (3-7 runs).  Before: the stage's full sweep joined on that
+    side (8-10 runs, as many as the full search's 10), from srf_min upwards when the FOS lay below the
+    window."""
+    full, full_search = _search(None)
+    made, search = _search(window)
+    assert search.knee().fos_low <= FOS <= search.knee().fos_high
+    assert abs(search.knee().fos - full_search.knee().fos) <= 0.01
+    assert len(made) <= 7 < len(full)
+
+
 @pytest.mark.parametrize("window", [(1.0, 1.01, 0.002), (1.9, 1.95, 0.002), (6.0e13, 7.0e13, 1e12), (0.01, 0.02, 0.005)])
 def test_a_window_far_from_the_fos_or_beyond_the_range_costs_no_more_than_the_full_sweep(window):
     """Before: a window wholly above srf_max ran SRF values up to 6e13 (its ends were clamped apart), and
@@ -98,7 +113,7 @@ def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error()
     guess = predictor.predict([1.5], 1.45)
     assert guess.fos == pytest.approx(1.45 * (1.02 + 0.05 * 1.5)) and guess.sigma == pytest.approx(0.004 * 1.45)
     low, high, step = search_window(guess, 0.01)
-    assert step == 0.01 and low < guess.fos < high and high - low == pytest.approx(0.04)
+    assert step == 0.01 and low == pytest.approx(guess.fos - 0.01, abs=1e-4) and high == pytest.approx(low + 0.04)
 
 
 def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_ones_only():
@@ -151,3 +166,35 @@ def test_a_case_handed_out_late_in_its_generation_is_predicted_from_the_earlier_
             feed.concluded(case.case_id, 1.0)
     first_three = sorted(case.case_id for case in feed.cases[:3])
     assert [seen[case.case_id] for case in feed.cases[3:7]] == [first_three] * 4
+
+
+def test_a_realisation_of_a_field_is_estimated_on_its_weakest_circle_among_all_those_of_the_mean_soil(monkeypatch):
+    """The undrained random-field study (h = 2 m) with cu at 30% of its mean in a band along one circle
+    whose mean-soil F is 25% above the least: the realisation's estimate is at most that circle's F
+    times 0.3 (circles along the band share its weakness), although the circle is not among the 40 least of the mean soil (before: those alone,
+    read at equal steps of x: the estimate stayed near the least circle's F)."""
+    from workflows.fos.critical_circle import candidate_circles
+    from workflows.probabilistic import field_mechanisms
+    from workflows.probabilistic.study_type import ProbabilisticStudy, Realisations
+    from workflows.scene import cloud
+    from workflows.study import parse_study
+
+    text = (REPO / "studies" / "probabilistic_undrained.toml").read_text()
+    text = (text.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("realisations = 200", "realisations = 2")
+            .replace('compute = "verdict"', 'compute = "fos"'))
+    study = parse_study(text)
+    circles = candidate_circles(study, 100_000)
+    least = circles[0].fos
+    weak = next(circle for circle in circles if circle.fos > 1.25 * least)
+    assert weak not in circles[:40]
+    node_xy_m, node_spacing_m = cloud(study)
+    (xc, yc), radius = weak.centre_m, weak.radius_m
+    low, high = sorted((weak.entry_x_m, weak.exit_x_m))
+    band = ((np.abs(np.hypot(node_xy_m[:, 0] - xc, node_xy_m[:, 1] - yc) - radius) <= 1.5 * study.geometry.spacing_m)
+            & (node_xy_m[:, 0] >= low - 2.0) & (node_xy_m[:, 0] <= high + 2.0) & (node_xy_m[:, 1] < yc))
+    cu_pa = np.where(band, 0.3 * 50e3, 50e3)
+    monkeypatch.setattr(field_mechanisms, "node_properties", lambda *args: {"cohesion_pa": cu_pa})
+    case = Realisations(study).case(1)
+    probabilistic = ProbabilisticStudy(study, Path("."))
+    estimate = probabilistic._field_estimate(case)
+    assert 0.3 * least <= estimate <= 1.01 * 0.3 * weak.fos < 0.6 * least

@@ -15,9 +15,12 @@ mean ratio (one case: its own), or 1 with none.  The expected error sigma (of F,
 deviation) is the fit's residual scatter times E_i, floored at ``MIN_SIGMA``, or ``NO_CASE_SIGMA``
 (``ONE_CASE_SIGMA``) of E_i with no (one) concluded case.
 
-The window: ``WINDOW_STEPS`` steps d below and above F_i, d = max(tolerance, ``SIGMA_PER_STEP`` sigma)
-(:func:`search_window`).  A window that misses grows (``SrfSearch``), so a poor prediction costs runs,
-never the answer: the knee and the bracket are found as without a window.
+The window: ``WINDOW_BELOW`` step d below F_i and ``WINDOW_ABOVE`` steps above it, d = max(tolerance,
+``SIGMA_PER_STEP`` sigma) (:func:`search_window`).  Its values run upwards and stop at the first
+failure, so a value above the FOS costs nothing and each one below it a run: one below gives the knee
+its third run when the prediction holds (the run below F_i, the one at it, the first above).  A
+window that misses grows (``SrfSearch``: a near miss by one value at twice its step), so a poor
+prediction costs runs, never the answer: the knee and the bracket are found as without a window.
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ ONE_CASE_SIGMA = 0.03
 MIN_SIGMA = 0.004
 """The least expected error of a fitted ratio, a fraction of F: the cases' own search resolution and
 path scatter."""
-WINDOW_STEPS = 2
+WINDOW_BELOW = 1
+WINDOW_ABOVE = 3
 SIGMA_PER_STEP = 1.0
 TRUSTED_RATIO = (0.5, 2.0)
 """F_i / E_i of a concluded case outside this range means its limit-equilibrium estimate missed the
@@ -95,8 +99,8 @@ class FosPredictor:
 def search_window(prediction: Prediction, tolerance: float) -> tuple[float, float, float]:
     """(low, high, step) of the module doc, rounded to 1e-4."""
     step = round(max(tolerance, SIGMA_PER_STEP * prediction.sigma), 4)
-    low = max(round(prediction.fos - WINDOW_STEPS * step, 4), 0.01)
-    return low, round(low + 2 * WINDOW_STEPS * step, 4), step
+    low = max(round(prediction.fos - WINDOW_BELOW * step, 4), 0.01)
+    return low, round(low + (WINDOW_BELOW + WINDOW_ABOVE) * step, 4), step
 
 
 def maximin_order(features: np.ndarray) -> list[int]:
@@ -153,7 +157,7 @@ class Generations:
         self.given += count
 
     def hold(self, order: int, observation) -> None:
-        """What a concluded case taught (its FOS, its slip line), kept until its whole generation has
+        """What a concluded case taught (its FOS), kept until its whole generation has
         concluded: a case handed out late in its generation is predicted from the earlier
         generations alone, as the others of it, whichever of its own generation finished first (so
         a resumed study, whose cases on disk conclude first, repeats the uninterrupted one)."""
