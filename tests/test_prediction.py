@@ -116,6 +116,15 @@ def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error()
     assert step == 0.01 and low == pytest.approx(guess.fos - 0.01, abs=1e-4) and high == pytest.approx(low + 0.04)
 
 
+@pytest.mark.parametrize("sigma, step", [(0.004, 0.01), (0.01, 0.01), (0.0101, 0.02), (0.033, 0.04), (0.04, 0.04),
+                                         (0.05, 0.08)])
+def test_a_windows_step_is_the_tolerance_times_a_power_of_two_at_least_the_expected_error(sigma, step):
+    """The bracket a window leaves is one step, which bisection brings to the tolerance 0.01: 0.04 in two
+    runs, as 0.033 would take.  Before: the step was sigma itself (0.033), missing more for no fewer runs."""
+    low, high, found = search_window(Prediction(1.3, sigma, ""), 0.01)
+    assert found == pytest.approx(step) and low == pytest.approx(1.3 - step) and high == pytest.approx(1.3 + 3 * step)
+
+
 def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_ones_only():
     grid = list(itertools.product([5e3, 10e3, 15e3], [15.0, 20.0, 25.0]))
     order = maximin_order(np.array(grid))

@@ -15,8 +15,10 @@ mean ratio (one case: its own), or 1 with none.  The expected error sigma (of F,
 deviation) is the fit's residual scatter times E_i, floored at ``MIN_SIGMA``, or ``NO_CASE_SIGMA``
 (``ONE_CASE_SIGMA``) of E_i with no (one) concluded case.
 
-The window: ``WINDOW_BELOW`` step d below F_i and ``WINDOW_ABOVE`` steps above it, d = max(tolerance,
-``SIGMA_PER_STEP`` sigma) (:func:`search_window`).  Its values run upwards and stop at the first
+The window: ``WINDOW_BELOW`` step d below F_i and ``WINDOW_ABOVE`` steps above it, d the least
+tolerance x 2^k (k = 0, 1, ...) at least ``SIGMA_PER_STEP`` sigma (:func:`search_window`): the window
+leaves a bracket of one step, which bisection brings to the tolerance in k runs, as it would any step
+above tolerance x 2^(k-1), so the wider step costs no more runs and misses less.  Its values run upwards and stop at the first
 failure, so a value above the FOS costs nothing and each one below it a run: one below gives the knee
 its third run when the prediction holds (the run below F_i, the one at it, the first above).  A
 window that misses grows (``SrfSearch``: a near miss by one value at twice its step), so a poor
@@ -98,7 +100,8 @@ class FosPredictor:
 
 def search_window(prediction: Prediction, tolerance: float) -> tuple[float, float, float]:
     """(low, high, step) of the module doc, rounded to 1e-4."""
-    step = round(max(tolerance, SIGMA_PER_STEP * prediction.sigma), 4)
+    halvings = max(0, math.ceil(math.log2(max(SIGMA_PER_STEP * prediction.sigma / tolerance, 1.0)) - 1e-9))
+    step = round(tolerance * 2**halvings, 4)
     low = max(round(prediction.fos - WINDOW_BELOW * step, 4), 0.01)
     return low, round(low + (WINDOW_BELOW + WINDOW_ABOVE) * step, 4), step
 
