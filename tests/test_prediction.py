@@ -207,3 +207,27 @@ def test_a_realisation_of_a_field_is_estimated_on_its_weakest_circle_among_all_t
     probabilistic = ProbabilisticStudy(study, Path("."))
     estimate = probabilistic._field_estimate(case)
     assert 0.3 * least <= estimate <= 1.01 * 0.3 * weak.fos < 0.6 * least
+
+
+def test_the_full_sweep_joins_a_window_that_missed_twice_no_closer_than_its_step():
+    """The 45 degree, 6 m slope of studies/sweep_geometry.toml (its displacements, interpolated): a
+    window 1.2884-1.3284 below the FOS 1.364, its neighbour 1.3484 stable too.  Before, the stage's full
+    sweep joined from 1.35, 0.0016 above 1.3484: that pair's rise per unit SRF was the steepest and the
+    FOS 1.3492 (the full search's 1.3640).  Now the sweep joins from 1.5 and the bracket is refined
+    about the FOS."""
+    srf = [0.6, 0.9, 1.2, 1.2884, 1.3284, 1.3484, 1.35, 1.3594, 1.3687, 1.3875, 1.5]
+    u_m = [1.8e-6, 2.0e-4, 2.21e-3, 4.19e-3, 6.35e-3, 1.013e-2, 1.084e-2, 1.933e-2, 4.611e-2, 0.1398, 0.6059]
+
+    def search(window):
+        found = SrfSearch(0.6, 3.0, 0.15, 0.01, 1e-5, n_parallel=1, failure_m=0.03, window=window)
+        while True:
+            values = found.next_values()
+            if not values and not found.pending:
+                return found
+            for value in values:
+                found.started(value)
+                u = math.exp(np.interp(value, srf, np.log(u_m)))
+                found.finished(RunOutcome(value, u, "failed" if u > 0.03 else "stable"))
+
+    full, windowed = search(None).knee(), search((1.2884, 1.3284, 0.01))
+    assert abs(windowed.knee().fos - full.fos) <= 0.01 and windowed.knee().fos_low >= 1.355

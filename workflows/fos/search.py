@@ -12,7 +12,7 @@ maximum displacement and verdict, and says which SRF values to start next.
    one did and no run below that failure is stable (with one, the denser sweep of step 2 gives the knee
    its runs), or when there is no upturn: first by one value twice the window's step beyond that end
    (the window's step doubled: a near miss costs one run), and if that misses too, the stage's full
-   sweep joins beyond it.  A window that misses by far costs its own few runs and that one value
+   sweep joins beyond it (its values more than a step beyond).  A window that misses by far costs its own few runs and that one value
    besides what the full sweep would have run.  The knee and the bracket are then found as without a
    window.
 2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
@@ -250,7 +250,9 @@ class SrfSearch:
 
     def _grown_window(self) -> list[float]:
         """The window's miss (module doc, step 1): the value twice the window's step beyond its end on the
-        side where the FOS lies, then the stage's full sweep beyond that.  [] without a window, once the
+        side where the FOS lies, then the stage's full sweep more than a step beyond that (a value of it
+        closer to the end would make a pair of runs whose tiny difference of SRF gives the steepest rise of
+        the displacement, and the FOS, wherever the curve merely bends).  [] without a window, once the
         full sweep has joined, while the denser sweep can give the knee its runs (:meth:`_denser_points`),
         or when no value is left on that side."""
         if self.window is None or self.grown >= 2:
@@ -269,7 +271,7 @@ class SrfSearch:
         self.grown = 2
         end = max(self.sweep) if upwards else min(self.sweep)
         full = sweep_values(self.range[0], self.range[1], self.full_step)
-        return self._join([f for f in full if (f > end if upwards else f < end)
+        return self._join([f for f in full if (f > end + step if upwards else f < end - step)
                            and f not in self.outcomes and f not in self.sweep_set])
 
     def _join(self, values: list[float]) -> list[float]:
