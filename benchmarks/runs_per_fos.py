@@ -16,7 +16,7 @@ in both trees, each with its 95% interval: the mean and standard deviation of th
 ``probabilistic_undrained:fos`` (not in the default set: about 8 minutes a tree at 2 workers) is
 ``studies/probabilistic_undrained.toml`` with ``compute = "fos"`` (written into the scratch folder):
 200 FOS searches on a random field; its runs are also given per realisation (those whose every run
-failed make one).  The wall time is given with the load average before and after the command.
+failed make one or a few) and per FOS found counting only the searches that found one.  The wall time is given with the load average before and after the command.
 
 """
 
@@ -66,15 +66,17 @@ def run(tree: Path, study_path: Path, out: Path) -> tuple[float, str]:
     return time.perf_counter() - start, f"load {before:.1f}, {os.getloadavg()[0]:.1f}"
 
 
-def factors(out: Path) -> tuple[dict[str, float], int]:
-    """(FOS by case or level folder, the runs they rest on) from the study's summaries."""
-    fos, runs = {}, 0
+def factors(out: Path) -> tuple[dict[str, float], int, int]:
+    """(FOS by case or level folder, the runs they rest on, the runs of the searches that found a FOS) from
+    the study's summaries."""
+    fos, runs, runs_found = {}, 0, 0
     for summary in sorted(out.rglob("summary.nc")):
         with xr.open_dataset(summary) as ds:
             name = str(summary.parent.relative_to(out))
             fos[name] = float(ds["fos"])
             runs += int(ds.sizes["srf"])
-    return fos, runs
+            runs_found += int(ds.sizes["srf"]) if math.isfinite(fos[name]) else 0
+    return fos, runs, runs_found
 
 
 def fos_statistics(out: Path) -> str:
@@ -116,17 +118,18 @@ def main(argv=None) -> int:
             for label, tree in trees.items():
                 out = Path(scratch) / label
                 wall, load = run(tree, path, out)
-                fos, runs = factors(out)
-                found[label] = (fos, runs, f"{wall:.1f} ({load})")
+                fos, runs, runs_found = factors(out)
+                found[label] = (fos, runs, runs_found, f"{wall:.1f} ({load})")
                 statistics[label] = fos_statistics(out)
         common = sorted(set(found["this"][0]) & set(found["other"][0]))
         differences = [abs(found["this"][0][k] - found["other"][0][k]) for k in common
                        if math.isfinite(found["this"][0][k]) and math.isfinite(found["other"][0][k])]
         largest = f"{max(differences):.4f} over {len(differences)} cases" if differences else "-"
         for label in trees:
-            fos, runs, wall = found[label]
+            fos, runs, runs_found, wall = found[label]
             n = sum(math.isfinite(v) for v in fos.values())
-            per = f"{runs / max(n, 1):.2f}" + (f" ({runs / len(fos):.2f} per realisation)" if statistics[label] else "")
+            per = f"{runs / max(n, 1):.2f}" + (f" ({runs / len(fos):.2f} per realisation, {runs_found / max(n, 1):.2f} "
+                                               "in the searches that found one)" if statistics[label] else "")
             print(f"| {study} | {label} | {n} | {runs} | {per} | {wall} | "
                   f"{largest if label == 'this' else ''} |", flush=True)
         if differences:
