@@ -15,6 +15,8 @@ import pytest
 from workflows.cases import Case
 from workflows.fos.prediction import (
     NO_CASE_SIGMA,
+    WINDOW_ABOVE,
+    WINDOW_BELOW,
     FosPredictor,
     PredictedFeed,
     Prediction,
@@ -62,6 +64,21 @@ def test_a_windowed_search_finds_the_full_sweeps_fos_and_a_window_that_misses_gr
     assert all(1.0 <= srf <= 2.0 for srf in made)
 
 
+@pytest.mark.parametrize("window", [(1.38, 1.42, 0.01), (1.33, 1.37, 0.01), (1.3, 1.36, 0.02), (1.4, 1.48, 0.02),
+                                    (1.37, 1.41, 0.01)])
+def test_a_window_that_misses_by_less_than_two_steps_costs_one_run_beyond_it(window):
+    """The FOS 1.3742 just below or above the window, or in its first step with no room for a third run
+    below the first failure (1.37 stable, 1.38 failed, one tolerance apart): one value twice the
+    window's step beyond its end holds it (3-7 runs).  Before: the stage's full sweep joined on that
+    side (8-10 runs, as many as the full search's 10), from srf_min upwards when the FOS lay below the
+    window."""
+    full, full_search = _search(None)
+    made, search = _search(window)
+    assert search.knee().fos_low <= FOS <= search.knee().fos_high
+    assert abs(search.knee().fos - full_search.knee().fos) <= 0.01
+    assert len(made) <= 7 < len(full)
+
+
 @pytest.mark.parametrize("window", [(1.0, 1.01, 0.002), (1.9, 1.95, 0.002), (6.0e13, 7.0e13, 1e12), (0.01, 0.02, 0.005)])
 def test_a_window_far_from_the_fos_or_beyond_the_range_costs_no_more_than_the_full_sweep(window):
     """Before: a window wholly above srf_max ran SRF values up to 6e13 (its ends were clamped apart), and
@@ -89,7 +106,8 @@ def test_a_prediction_outside_the_stages_range_gives_the_full_search():
 
 def test_a_case_that_runs_its_top_first_is_predicted_below_it():
     """A subset simulation's candidate searches on only once its srf_max (its level's threshold) has failed:
-    a prediction above srf_max places the window below it, not the full search of the range."""
+    a prediction above srf_max places the window below it, not the full search of the range, and the window
+    ends at srf_max (its values above would be runs above a failure)."""
     import dataclasses
 
     study = load_study(REPO / "studies" / "quickstart.toml")
@@ -97,10 +115,11 @@ def test_a_case_that_runs_its_top_first_is_predicted_below_it():
     case = Case(study, REPO, case_id="candidate", top_first=True)
     above = stage.srf_max + 0.3
     low, high, step = WindowPredictor().window(case, [0.0], above)
-    assert high == pytest.approx(stage.srf_max + 2 * step) and low == pytest.approx(stage.srf_max - 2 * step)
+    width = WINDOW_BELOW + WINDOW_ABOVE
+    assert high == pytest.approx(stage.srf_max) and low == pytest.approx(stage.srf_max - width * step)
     search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, 1e-3, window=(low, high, step),
                        top_first=True)
-    assert max(search.sweep) == stage.srf_max and min(search.sweep) == pytest.approx(stage.srf_max - 2 * step)
+    assert max(search.sweep) == stage.srf_max and min(search.sweep) == pytest.approx(stage.srf_max - width * step)
     assert WindowPredictor().window(dataclasses.replace(case, top_first=False), [0.0], above) is None
 
 
@@ -115,7 +134,16 @@ def test_the_predictor_fits_the_ratio_to_limit_equilibrium_and_knows_its_error()
     guess = predictor.predict([1.5], 1.45)
     assert guess.fos == pytest.approx(1.45 * (1.02 + 0.05 * 1.5)) and guess.sigma == pytest.approx(0.004 * 1.45)
     low, high, step = search_window(guess, 0.01)
-    assert step == 0.01 and low < guess.fos < high and high - low == pytest.approx(0.04)
+    assert step == 0.01 and low == pytest.approx(guess.fos - 0.01, abs=1e-4) and high == pytest.approx(low + 0.04)
+
+
+@pytest.mark.parametrize("sigma, step", [(0.004, 0.01), (0.01, 0.01), (0.0101, 0.02), (0.033, 0.04), (0.04, 0.04),
+                                         (0.05, 0.08)])
+def test_a_windows_step_is_the_tolerance_times_a_power_of_two_at_least_the_expected_error(sigma, step):
+    """The bracket a window leaves is one step, which bisection brings to the tolerance 0.01: 0.04 in two
+    runs, as 0.033 would take.  Before: the step was sigma itself (0.033), missing more for no fewer runs."""
+    low, high, found = search_window(Prediction(1.3, sigma, ""), 0.01)
+    assert found == pytest.approx(step) and low == pytest.approx(1.3 - step) and high == pytest.approx(1.3 + 3 * step)
 
 
 def test_a_grid_comes_corners_first_and_in_generations_predicted_from_earlier_ones_only():
@@ -168,3 +196,59 @@ def test_a_case_handed_out_late_in_its_generation_is_predicted_from_the_earlier_
             feed.concluded(case.case_id, 1.0)
     first_three = sorted(case.case_id for case in feed.cases[:3])
     assert [seen[case.case_id] for case in feed.cases[3:7]] == [first_three] * 4
+
+
+def test_a_realisation_of_a_field_is_estimated_on_its_weakest_circle_among_all_those_of_the_mean_soil(monkeypatch):
+    """The undrained random-field study (h = 2 m) with cu at 30% of its mean in a band along one circle
+    whose mean-soil F is 25% above the least: the realisation's estimate is at most that circle's F
+    times 0.3 (circles along the band share its weakness), although the circle is not among the 40 least of the mean soil (before: those alone,
+    read at equal steps of x: the estimate stayed near the least circle's F)."""
+    from workflows.fos.critical_circle import candidate_circles
+    from workflows.probabilistic import field_mechanisms
+    from workflows.probabilistic.study_type import ProbabilisticStudy, Realisations
+    from workflows.scene import cloud
+    from workflows.study import parse_study
+
+    text = (REPO / "studies" / "probabilistic_undrained.toml").read_text()
+    text = (text.replace("spacing_m = 1.0", "spacing_m = 2.0").replace("realisations = 200", "realisations = 2")
+            .replace('compute = "verdict"', 'compute = "fos"'))
+    study = parse_study(text)
+    circles = candidate_circles(study, 100_000)
+    least = circles[0].fos
+    weak = next(circle for circle in circles if circle.fos > 1.25 * least)
+    assert weak not in circles[:40]
+    node_xy_m, node_spacing_m = cloud(study)
+    (xc, yc), radius = weak.centre_m, weak.radius_m
+    low, high = sorted((weak.entry_x_m, weak.exit_x_m))
+    band = ((np.abs(np.hypot(node_xy_m[:, 0] - xc, node_xy_m[:, 1] - yc) - radius) <= 1.5 * study.geometry.spacing_m)
+            & (node_xy_m[:, 0] >= low - 2.0) & (node_xy_m[:, 0] <= high + 2.0) & (node_xy_m[:, 1] < yc))
+    cu_pa = np.where(band, 0.3 * 50e3, 50e3)
+    monkeypatch.setattr(field_mechanisms, "node_properties", lambda *args: {"cohesion_pa": cu_pa})
+    case = Realisations(study).case(1)
+    probabilistic = ProbabilisticStudy(study, Path("."))
+    estimate = probabilistic._field_estimate(case)
+    assert 0.3 * least <= estimate <= 1.01 * 0.3 * weak.fos < 0.6 * least
+
+
+def test_the_full_sweep_joins_a_window_that_missed_twice_no_closer_than_its_step():
+    """The 45 degree, 6 m slope of studies/sweep_geometry.toml (its displacements, interpolated): a
+    window 1.2884-1.3284 below the FOS 1.364, its neighbour 1.3484 stable too.  Before, the stage's full
+    sweep joined from 1.35, 0.0016 above 1.3484: that pair's rise per unit SRF was the steepest and the
+    FOS 1.3492 (the full search's 1.3640).  Now the sweep joins from 1.5 and the bracket is refined
+    about the FOS."""
+    srf = [0.6, 0.9, 1.2, 1.2884, 1.3284, 1.3484, 1.35, 1.3594, 1.3687, 1.3875, 1.5]
+    u_m = [1.8e-6, 2.0e-4, 2.21e-3, 4.19e-3, 6.35e-3, 1.013e-2, 1.084e-2, 1.933e-2, 4.611e-2, 0.1398, 0.6059]
+
+    def search(window):
+        found = SrfSearch(0.6, 3.0, 0.15, 0.01, 1e-5, n_parallel=1, failure_m=0.03, window=window)
+        while True:
+            values = found.next_values()
+            if not values and not found.pending:
+                return found
+            for value in values:
+                found.started(value)
+                u = math.exp(np.interp(value, srf, np.log(u_m)))
+                found.finished(RunOutcome(value, u, "failed" if u > 0.03 else "stable"))
+
+    full, windowed = search(None).knee(), search((1.2884, 1.3284, 0.01))
+    assert abs(windowed.knee().fos - full.fos) <= 0.01 and windowed.knee().fos_low >= 1.355

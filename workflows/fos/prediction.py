@@ -15,11 +15,16 @@ mean ratio (one case: its own), or 1 with none.  The expected error sigma (of F,
 deviation) is the fit's residual scatter times E_i, floored at ``MIN_SIGMA``, or ``NO_CASE_SIGMA``
 (``ONE_CASE_SIGMA``) of E_i with no (one) concluded case.
 
-The window: ``WINDOW_STEPS`` steps d below and above F_i, d = max(tolerance, ``SIGMA_PER_STEP`` sigma)
-(:func:`search_window`).  A case whose search runs its ``srf_max`` first (``fos.search``, step 6: a
-chain candidate of subset simulation) searches on only once that run has failed, so its FOS lies below
-``srf_max``: a prediction above it is taken as ``srf_max``.  A window that misses grows (``SrfSearch``), so a poor prediction costs runs,
-never the answer: the knee and the bracket are found as without a window.
+The window: ``WINDOW_BELOW`` step d below F_i and ``WINDOW_ABOVE`` steps above it, d the least
+tolerance x 2^k (k = 0, 1, ...) at least ``SIGMA_PER_STEP`` sigma (:func:`search_window`): the window
+leaves a bracket of one step, which bisection brings to the tolerance in k runs, as it would any step
+above tolerance x 2^(k-1), so the wider step costs no more runs and misses less.  Its values run upwards and stop at the first
+failure, so a value above the FOS costs nothing and each one below it a run: one below gives the knee
+its third run when the prediction holds (the run below F_i, the one at it, the first above).  A case whose
+search runs its ``srf_max`` first (``fos.search``, step 6: a chain candidate of subset simulation) searches
+on only once that run has failed, so its FOS lies below ``srf_max``: a prediction above it is taken as
+``srf_max``, and its window is moved down to end there.  A window that misses grows (``SrfSearch``: a near miss by one value at twice its step), so a poor
+prediction costs runs, never the answer: the knee and the bracket are found as without a window.
 """
 
 from __future__ import annotations
@@ -38,7 +43,8 @@ ONE_CASE_SIGMA = 0.03
 MIN_SIGMA = 0.004
 """The least expected error of a fitted ratio, a fraction of F: the cases' own search resolution and
 path scatter."""
-WINDOW_STEPS = 2
+WINDOW_BELOW = 1
+WINDOW_ABOVE = 3
 SIGMA_PER_STEP = 1.0
 TRUSTED_RATIO = (0.5, 2.0)
 """F_i / E_i of a concluded case outside this range means its limit-equilibrium estimate missed the
@@ -97,9 +103,10 @@ class FosPredictor:
 
 def search_window(prediction: Prediction, tolerance: float) -> tuple[float, float, float]:
     """(low, high, step) of the module doc, rounded to 1e-4."""
-    step = round(max(tolerance, SIGMA_PER_STEP * prediction.sigma), 4)
-    low = max(round(prediction.fos - WINDOW_STEPS * step, 4), 0.01)
-    return low, round(low + 2 * WINDOW_STEPS * step, 4), step
+    halvings = max(0, math.ceil(math.log2(max(SIGMA_PER_STEP * prediction.sigma / tolerance, 1.0)) - 1e-9))
+    step = round(tolerance * 2**halvings, 4)
+    low = max(round(prediction.fos - WINDOW_BELOW * step, 4), 0.01)
+    return low, round(low + (WINDOW_BELOW + WINDOW_ABOVE) * step, 4), step
 
 
 def maximin_order(features: np.ndarray) -> list[int]:
@@ -156,7 +163,7 @@ class Generations:
         self.given += count
 
     def hold(self, order: int, observation) -> None:
-        """What a concluded case taught (its FOS, its slip line), kept until its whole generation has
+        """What a concluded case taught (its FOS), kept until its whole generation has
         concluded: a case handed out late in its generation is predicted from the earlier
         generations alone, as the others of it, whichever of its own generation finished first (so
         a resumed study, whose cases on disk conclude first, repeats the uninterrupted one)."""
@@ -194,6 +201,9 @@ class WindowPredictor:
         if prediction is None or not stage.srf_min <= prediction.fos <= stage.srf_max:
             return None  # the full search of the stage's range (a FOS outside it is found as without a window)
         window = search_window(prediction, stage.fos_tolerance)
+        if getattr(case, "top_first", False) and window[1] > stage.srf_max:  # (its srf_max has failed)
+            shift = window[1] - stage.srf_max
+            window = (max(round(window[0] - shift, 4), 0.01), stage.srf_max, window[2])
         self.windows[case.case_id] = (prediction, window)
         return window
 

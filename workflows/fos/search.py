@@ -7,11 +7,14 @@ maximum displacement and verdict, and says which SRF values to start next.
    order.  Once a run has failed, sweep values above it are not started (they cannot move the knee, which
    lies before the first failure); they are listed in :attr:`SrfSearch.skipped`.  With a **window**
    (``low, high, step`` about a predicted FOS, ``workflows.fos.prediction``) the sweep is the window's
-   values instead, within [srf_min, srf_max]; when its runs give no knee (the prediction missed), the
-   full sweep's values join on the side where the FOS lies: above the window when none of its runs
-   failed, below it when one did (too few stable runs below it, or no upturn).  A window that misses
-   costs its own few runs besides what the full sweep would have run.  The knee and the bracket are then
-   found as without a window.
+   values instead, within [srf_min, srf_max]; when its runs give no knee (the prediction missed), it
+   grows on the side where the FOS lies, above the window when none of its runs failed, below it when
+   one did and no run below that failure is stable (with one, the denser sweep of step 2 gives the knee
+   its runs), or when there is no upturn: first by one value twice the window's step beyond that end
+   (the window's step doubled: a near miss costs one run), and if that misses too, the stage's full
+   sweep joins beyond it (its values more than a step beyond).  A window that misses by far costs its own few runs and that one value
+   besides what the full sweep would have run.  The knee and the bracket are then found as without a
+   window.
 2. **Refinement**: when the sweep is done (made denser between its last stable run and its first
    failure while it has fewer than ``MIN_KNEE_RUNS`` runs up to that failure), the FOS bracket (the steepest rise after the
    knee, see :mod:`workflows.fos.criterion`) is split by at most ``REFINE_SPLIT`` equally
@@ -93,7 +96,7 @@ class SrfSearch:
                  failure_m=math.inf, window: tuple[float, float, float] | None = None, top_first: bool = False):
         self.range = (round(float(srf_min), 4), round(float(srf_max), 4))
         self.full_step = round(float(srf_step), 4)
-        self.grown = False  # has the window grown (module doc, step 1)
+        self.grown = 0  # how far the window has grown: 1 by its neighbour, 2 by the full sweep (module doc, step 1)
         self.window = None
         if window is not None:
             low, high, step = window
@@ -267,37 +270,54 @@ class SrfSearch:
         return points
 
     def _grown_window(self) -> list[float]:
-        """The window's miss (module doc, step 1): the stage's full sweep joins on the side where the FOS
-        lies, above the window when no run failed, below it when one did.  [] without a window, once
-        it has joined, or when no value of it is left on that side."""
-        if self.window is None or self.grown:
+        """The window's miss (module doc, step 1): the value twice the window's step beyond its end on the
+        side where the FOS lies, then the stage's full sweep more than a step beyond that (a value of it
+        closer to the end would make a pair of runs whose tiny difference of SRF gives the steepest rise of
+        the displacement, and the FOS, wherever the curve merely bends).  [] without a window, once the
+        full sweep has joined, while the denser sweep can give the knee its runs (:meth:`_denser_points`),
+        or when no value is left on that side."""
+        if self.window is None or self.grown >= 2:
             return []
-        self.grown = True
-        low, high, _ = self.window
+        ceiling = self.lowest_failed
+        upwards = math.isinf(ceiling)
+        if not upwards and self._denser_points():
+            return []
+        _, _, step = self.window
+        if self.grown == 0:
+            self.grown = 1
+            end = max(self.sweep) if upwards else min(self.sweep)
+            neighbour = round(min(end + 2 * step, self.range[1]) if upwards else max(end - 2 * step, self.range[0]), 4)
+            if neighbour not in self.outcomes and neighbour not in self.sweep_set:
+                return self._join([neighbour])
+        self.grown = 2
+        end = max(self.sweep) if upwards else min(self.sweep)
         full = sweep_values(self.range[0], self.range[1], self.full_step)
-        upwards = math.isinf(self.lowest_failed)
-        values = [f for f in full if (f > high if upwards else f < low)
-                  and f not in self.outcomes and f not in self.sweep_set]
-        if not values:
-            return []
+        return self._join([f for f in full if (f > end + step if upwards else f < end - step)
+                           and f not in self.outcomes and f not in self.sweep_set])
+
+    def _join(self, values: list[float]) -> list[float]:
+        """``values`` join the sweep; those at or below the lowest failure, to run."""
         self.sweep = sorted(self.sweep_set | set(values))
         self.sweep_set = set(self.sweep)
         return [f for f in values if f <= self.lowest_failed]
+
+    def _denser_points(self) -> list[float]:
+        """Where a sweep too coarse for a knee is made denser (:meth:`_denser_sweep`): fewer than
+        ``MIN_KNEE_RUNS`` runs up to its first failure, split between its last stable run and that failure
+        while they lie more than the tolerance apart; [] otherwise."""
+        ceiling = self.lowest_failed
+        sweep = [o for o in self.outcomes.values() if o.srf in self.sweep_set and o.srf <= ceiling and o.status != DIVERGED]
+        stable = [o.srf for o in sweep if o.status == STABLE and o.srf < ceiling]
+        if len(sweep) >= MIN_KNEE_RUNS or not stable or not math.isfinite(ceiling):
+            return []
+        return [f for f in refinement_points(max(stable), ceiling, self.tolerance, REFINE_SPLIT) if f not in self.outcomes]
 
     def _denser_sweep(self) -> list[float]:
         """A sweep too coarse for a knee (fewer than ``MIN_KNEE_RUNS`` runs up to its first failure,
         e.g. stable at 1.0 and failed at 1.5) is made denser between its last stable run and that
         failure (step 2's split): the new values join the sweep.  [] when the sweep has enough runs,
-        or no stable run below a failure to split from."""
-        ceiling = self.lowest_failed
-        sweep = sorted(o.srf for o in self.outcomes.values()
-                       if o.srf in self.sweep_set and o.srf <= ceiling and o.status != DIVERGED)
-        stable = [o.srf for o in self.outcomes.values()
-                  if o.srf in self.sweep_set and o.srf < ceiling and o.status == STABLE]
-        if len(sweep) >= MIN_KNEE_RUNS or not stable or not math.isfinite(ceiling):
-            return []
-        points = [f for f in refinement_points(max(stable), ceiling, self.tolerance, REFINE_SPLIT)
-                  if f not in self.outcomes]
+        no stable run below a failure to split from, or one within the tolerance of it."""
+        points = self._denser_points()
         self.sweep = sorted(set(self.sweep) | set(points))
         self.sweep_set = set(self.sweep)
         return points

@@ -444,37 +444,23 @@ class ProbabilisticStudy(SweepStudy):
 
     def features(self, case: Case) -> list[float]:
         """A realisation's numbers for the prediction of its FOS: its random variables (a friction angle as
-        its tangent) and, with random fields, each field's mean over the particles near the critical circle
-        of the mean soil (``fos.critical_circle``), where its mechanism runs."""
-        features = [math.tan(math.radians(float(value))) if variable.path.endswith("_deg") else float(value)
-                    for variable, value in zip(self.study.probabilistic.variables, case.values.values())]
-        if case.study.random_field is not None:
-            from workflows.probabilistic.field_mechanisms import mechanism_means  # the core (numba): on use
-
-            features += mechanism_means(case.study, self._mechanism_zone())
-        return features
+        its tangent); its random fields enter through its limit-equilibrium estimate
+        (:meth:`_field_estimate`)."""
+        return [math.tan(math.radians(float(value))) if variable.path.endswith("_deg") else float(value)
+                for variable, value in zip(self.study.probabilistic.variables, case.values.values())]
 
     def _field_estimate(self, case: Case) -> float | None:
-        """With random fields, the realisation's estimated FOS from the mechanisms of the realisations
-        concluded before (``probabilistic.field_mechanisms.FieldMechanisms``; over the candidate circles of the
-        mean soil while none is known); None without random fields (the critical circle's F)."""
+        """With random fields, the realisation's limit-equilibrium estimate through its fields
+        (``probabilistic.field_mechanisms.FieldCircles``: the least over the circles of the mean soil of
+        each one's F times its fields' mean strength along it over their mean); None without random
+        fields (the critical circle's F)."""
         if case.study.random_field is None:
             return None
         if getattr(self, "_circles", None) is None:
-            from workflows.fos.critical_circle import candidate_circles
-            from workflows.probabilistic.field_mechanisms import FieldMechanisms  # the core (numba): on use
+            from workflows.probabilistic.field_mechanisms import FieldCircles  # the core (numba): on use
 
-            self._circles = candidate_circles(self.study)
-            self._mechanisms = FieldMechanisms(self.study)
-        return self._mechanisms.estimate(case.study, self._circles)
-
-    def _mechanism_zone(self):
-        """The particles near the critical circle of the study's mean soil (once)."""
-        if getattr(self, "_zone", None) is None:
-            from workflows.probabilistic.field_mechanisms import critical_zone  # the core (numba): on use
-
-            self._zone = critical_zone(self.study)
-        return self._zone
+            self._circles = FieldCircles(self.study)
+        return self._circles.estimate(case.study)
 
     def feed(self) -> CaseFeed:
         return CaseFeed(self.more_cases, lambda: self.batch_end - self.next_index)
@@ -498,9 +484,7 @@ class ProbabilisticStudy(SweepStudy):
         tally = self.tally
         if self.generation_windows is not None:
             self.n_concluded += 1
-            slip = getattr(outcome.result, "slip", None)
-            self.generation_windows[0].hold(int(case_id[len(CASE_PREFIX):]), (
-                case_id, outcome.fos, self.study_of.get(case_id), (slip.x_m, slip.y_m) if hasattr(slip, "x_m") else None))
+            self.generation_windows[0].hold(int(case_id[len(CASE_PREFIX):]), (case_id, outcome.fos))
         result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
         verdict = realisation_verdict(result, table.computation, table.factor)
         tally[verdict] += 1
@@ -523,13 +507,10 @@ class ProbabilisticStudy(SweepStudy):
 
     def _observe(self, concluded: list) -> None:
         """A generation's realisations join the prediction once all of them have concluded
-        (``fos.prediction.Generations.released``): their FOS, and with random fields their slip lines."""
+        (``fos.prediction.Generations.released``): their FOS."""
         _, windows = self.generation_windows
-        mechanisms = getattr(self, "_mechanisms", None)
-        for case_id, fos, study, line in concluded:
+        for case_id, fos in concluded:
             windows.concluded(case_id, fos)
-            if mechanisms is not None and line is not None and study is not None:
-                mechanisms.add(study, line[0], line[1], fos)
 
     def _mechanism(self, case_id: str, outcome) -> tuple[tuple | None, list]:
         """The slip line (x, y) of a failed realisation and the supports its mechanism reaches: its

@@ -203,13 +203,6 @@ class SubsetStudy(DesignPointStudy):
         case = super()._placed(case)
         return dataclasses.replace(case, top_first=True) if case.position[0] in self.realisations.srf_max else case
 
-    def _field_estimate(self, case) -> float | None:
-        """None: a point's window is predicted from its fields' strength near the mean soil's critical circle
-        (``ProbabilisticStudy.features``), never from the mechanisms of the points concluded before, which a
-        resumed study reads back without all of their slip lines: its windows, runs and FOS would differ, and
-        with them the chains (module doc: the points depend only on the seed and the FOS before them)."""
-        return None
-
     def _discretisation(self, result: SubsetOutcome) -> tuple | None:
         """The expected excess of every point's FOS at the study's spacing (``fos.discretisation``: the measured
         slopes near its friction angle), low and high, and pf with every FOS lowered by it: P(FOS < factor (1 +
