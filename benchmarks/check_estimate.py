@@ -98,7 +98,7 @@ def main(argv=None) -> int:
             before = load_average()
             wall_s = run_study(name, out)
             load = f"{before}, {load_average()}"
-            _, runs = factors(out)
+            _, runs, _ = factors(out)
         if found.estimate is None:  # (no strength reduction to estimate: a runout sweep's last stage)
             print(f"| {name} | {found.n_particles} | - | no estimate | {wall_s:.1f} | - |{' - | - |' * bool(other)} "
                   f"{runs} | {load} |", flush=True)
