@@ -332,3 +332,19 @@ def test_a_studys_flow_is_solved_once_in_a_process(monkeypatch):
     other = scene_module.scene_and_flow(parse_study(text.replace("spacing_m = 0.25", "spacing_m = 0.5")))[1]
     assert other is not first and len(solves) == 2  # another study: its own flow
     scene_module.water_flow.cache_clear()
+
+
+def test_a_probabilistic_study_of_random_variables_counts_its_own_measured_windows(monkeypatch):
+    """Its realisations are predicted by a fit over many before them: 3.2 runs a window on
+    studies/probabilistic_c_phi.toml, where a sweep's few cases need 4.6 (``WINDOW_RUNS``), with which the
+    study was estimated at 1.50 of its idle wall.  Its windows are VARIABLE_WINDOW_RUNS; a sweep's are not."""
+    import workflows.check as check
+
+    assert sum(check.VARIABLE_WINDOW_RUNS) < sum(check.WINDOW_RUNS)
+    probabilistic = load_study(REPO / "studies" / "probabilistic_c_phi.toml")
+    swept = load_study(REPO / "studies" / "sweep_strength.toml")
+    scenes = {id(study): build_scene(study) for study in (probabilistic, swept)}
+    before = {id(s): run_time_estimate(s, scenes[id(s)], workers=2).study_s for s in (probabilistic, swept)}
+    monkeypatch.setattr(check, "VARIABLE_WINDOW_RUNS", (10.0, 0.0))
+    assert run_time_estimate(probabilistic, scenes[id(probabilistic)], workers=2).study_s > before[id(probabilistic)]
+    assert run_time_estimate(swept, scenes[id(swept)], workers=2).study_s == before[id(swept)]

@@ -25,8 +25,8 @@ time a P wave takes to cross the finest spacing, dt ~ h_min / V_p (equalised ine
 
 with K = ``STABLE_RESPONSE_TIMES`` for a run that comes to rest and ``FAILED_RESPONSE_TIMES`` for
 one that slides (at most ``duration_s``).  A search over the stage's range makes about
-``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (random fields:
-``FIELD_WINDOW_RUNS``; a full search where the prediction does not see what the cases differ in:
+``FULL_SEARCH_RUNS`` (stable, failed) runs, one in a predicted window ``WINDOW_RUNS`` (a probabilistic
+study's realisations: ``VARIABLE_WINDOW_RUNS``, random fields ``FIELD_WINDOW_RUNS``; a full search where the prediction does not see what the cases differ in:
 :func:`windows_miss`), a verdict-mode realisation one; a refinement study's levels run at
 their own particles and time steps (:func:`study_runs_s`).  Many cases' searches share the workers
 (:func:`many_searches_s`), and so do a sweep's gravity states with their water
@@ -111,6 +111,11 @@ WINDOW_RUNS = (3, 1.6)
 """... of a search in a window about a predicted FOS (``fos.prediction``: a sweep's cases after the
 first, a probabilistic study's realisations in fos mode, a refinement study's levels after the first;
 4.6 runs per FOS on studies/sweep_strength.toml)."""
+VARIABLE_WINDOW_RUNS = (2.1, 1.1)
+"""... of a realisation of random variables in fos mode, predicted by the fit over the realisations before it
+(its variables as features): studies/probabilistic_c_phi.toml's 39 realisations after the first made 2.08
+stable and 1.10 failed runs each, counted in their summaries (131 runs in all; with WINDOW_RUNS, which a
+sweep's few cases need, check estimated that study at 1.50 of its idle wall)."""
 FIELD_WINDOW_RUNS = (2.7, 2.1)
 """... of a realisation of random fields, whose FOS is predicted less well: on the undrained random-field
 study in fos mode (200 realisations), 2.74 stable and 2.10 failed runs per FOS found, counted in the
@@ -268,7 +273,7 @@ def study_runs_s(study: Study, run_s, n_particles: int, workers: int) -> float:
     if study.probabilistic is not None:
         if not study.probabilistic.computation.searches:
             return cases * stable_s / workers
-        later = FIELD_WINDOW_RUNS if study.random_field is not None else WINDOW_RUNS
+        later = FIELD_WINDOW_RUNS if study.random_field is not None else VARIABLE_WINDOW_RUNS
         studies = len(sweep_cases(study)) if study.sweep is not None else 1  # each its first search in full
         return (studies * many_searches_s(FULL_SEARCH_RUNS, stable_s, failed_s, workers)
                 + (cases - studies) * many_searches_s(later, stable_s, failed_s, workers))
