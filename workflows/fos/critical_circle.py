@@ -132,7 +132,6 @@ class _Section:
         cohesion, tan_phi = material_strengths(study.materials)  # c = inf: no strength (elastic)
         self.cohesion = np.append(cohesion, 0.0).astype(float)  # (the last: no soil, material -1)
         self.tan_phi = np.append(tan_phi, 0.0).astype(float)
-        self.ys = ys
         # the searched section faces +x: x' = sign x
         order = np.argsort(self.sign * xs)
         self.x = np.ascontiguousarray((self.sign * xs)[order], dtype=float)

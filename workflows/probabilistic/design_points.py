@@ -63,7 +63,7 @@ class DesignPoints(Realisations):
         node, key, _ = resolve_sweep_path(self.raw, f"stages.{stage}.srf_min")  # FORM's points reach FOS = factor
         node[key] = min(study.strength_reduction.srf_min, SRF_MIN_SHARE * study.probabilistic.factor)
         node, key, _ = resolve_sweep_path(self.raw, f"stages.{stage}.srf_max")  # (a FOS above it: only "above")
-        node[key] = max(study.strength_reduction.srf_max, study.probabilistic.factor / SRF_MIN_SHARE)
+        node[key] = self.srf_top = max(study.strength_reduction.srf_max, study.probabilistic.factor / SRF_MIN_SHARE)
 
     def _sampled(self) -> np.ndarray:
         """No point yet: the marginals and the Nataf transform (StudyError naming the field)."""

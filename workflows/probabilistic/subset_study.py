@@ -37,7 +37,7 @@ import numpy as np
 from workflows.cases import Report
 from workflows.distributions import DISTRIBUTIONS
 from workflows.probabilistic import subset
-from workflows.probabilistic.design_points import SRF_MIN_SHARE, DesignPointOutcome, DesignPoints, DesignPointStudy
+from workflows.probabilistic.design_points import DesignPointOutcome, DesignPoints, DesignPointStudy
 from workflows.probabilistic.reliability import reliability_index
 from workflows.probabilistic.study_type import FIRST_REALISATIONS
 from workflows.study import Study
@@ -162,9 +162,8 @@ class SubsetStudy(DesignPointStudy):
             return
         if not math.isfinite(threshold):  # a FOS above srf_max is only known to be above it
             stage = self.study.strength_reduction
-            top = max(stage.srf_max, table.factor / SRF_MIN_SHARE)  # (the points' srf_max: DesignPoints)
             self.stop_reason = (f"level {len(self.levels) - 1}: more than {1.0 - table.p0:.0%} of its points have a FOS "
-                                f"above srf_max = {top:g}, so its threshold (the {table.p0:g}-quantile) lies "
+                                f"above srf_max = {self.realisations.srf_top:g}, so its threshold (the {table.p0:g}-quantile) lies "
                                 f"above the search: raise stages.{stage.name}.srf_max")
             self.finished = True
             return
