@@ -226,7 +226,7 @@ def test_a_realisation_of_a_field_is_estimated_on_its_weakest_circle_among_all_t
     monkeypatch.setattr(field_mechanisms, "node_properties", lambda *args: {"cohesion_pa": cu_pa})
     case = Realisations(study).case(1)
     probabilistic = ProbabilisticStudy(study, Path("."))
-    estimate = probabilistic._field_estimate(case)
+    estimate = probabilistic._field_estimate(case.study)
     assert 0.3 * least <= estimate <= 1.01 * 0.3 * weak.fos < 0.6 * least
 
 

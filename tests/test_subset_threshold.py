@@ -58,7 +58,7 @@ def _searched(stage, f_star: float, top_first: bool):
 
 def _levels(tmp_path, seed: int, per_level_verdict: bool):
     """The study driven to its end: (the study type, each point's runs, its F*)."""
-    from workflows.cases import Case, RunOptions
+    from workflows.cases import RunOptions
     from workflows.probabilistic.subset_study import SubsetStudy
     from workflows.progress import Progress
     from workflows.study_types import study_type
@@ -66,20 +66,24 @@ def _levels(tmp_path, seed: int, per_level_verdict: bool):
     kind = study_type(parse_study(_study_text(seed)), tmp_path)
     assert isinstance(kind, SubsetStudy)
     kind.check(RunOptions(workers=1))
-    kind.cases()
+    cases = kind.cases()
     points, outcomes, runs, f_star = kind.realisations, {}, {}, {}
     base = points.study_of(0, text=False).strength_reduction
     while True:
-        for i in range(len(outcomes), points.count):
-            stage, top_first = base, False
-            if per_level_verdict and i in points.srf_max:  # a candidate: its case as the study makes it
-                study = points.study_of(i, text=False)
-                top_first = kind._placed(Case(study, tmp_path, points.case_id(i), (i,), {})).top_first
-                stage = study.strength_reduction
-                assert top_first and stage.srf_max == points.srf_max[i] and stage.srf_min == base.srf_min
-            f_star[i] = F_DET * float(points.values[i, 0]) / MEAN_CU_PA
-            outcomes[points.case_id(i)], runs[i] = _searched(stage, f_star[i], top_first)
-        if not kind.next_cases(outcomes, Progress()) and kind.finished:
+        while cases:  # a round, generation by generation (the scripted searches take no window)
+            for case in cases:
+                i = case.position[0]
+                assert points.case_id(i) not in outcomes  # each point is searched once
+                stage, top_first = base, False
+                if per_level_verdict and case.top_first:  # its case as the study makes it
+                    stage, top_first = case.study.strength_reduction, True
+                    assert stage.srf_max == points.srf_max[i] and stage.srf_min == base.srf_min
+                f_star[i] = F_DET * float(points.values[i, 0]) / MEAN_CU_PA
+                outcomes[points.case_id(i)], runs[i] = _searched(stage, f_star[i], top_first)
+            kind.n_concluded += len(cases)
+            cases = kind.more_cases(10**6)
+        cases = kind.next_cases(outcomes, Progress())
+        if not cases and kind.finished:
             return kind, runs, f_star
 
 
@@ -128,3 +132,27 @@ def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_stops_the_s
     kind._finish_level(samples, Progress())
     assert kind.finished and not kind.chains
     assert "raise stages.srf.srf_max" in kind.stop_reason and "above srf_max = 2" in kind.stop_reason
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_level_0_searches_its_lowest_predicted_points_and_runs_the_others_top_first(tmp_path, seed):
+    """Level 0 needs its N p0 + 1 lowest FOS exactly: the 2 (N p0 + 1) points of lowest predicted FOS are searched
+    in full, every other one runs its top first (the N p0 + 1-th lowest FOS found, at least) and stops there when
+    stable (one run; before: every point a whole search).  The same threshold and seeds as full searches."""
+    from workflows.probabilistic.subset_study import threshold_srf
+
+    reference, reference_runs, _ = _levels(tmp_path / "full", seed, per_level_verdict=False)
+    study, runs, f_star = _levels(tmp_path / "verdict", seed, per_level_verdict=True)
+    n = 100
+    first = study.level0_order[:study.level0_first]
+    assert study.level0_first == 22 and sorted(study.level0_order) == list(range(n))
+    second = [i for i in range(n) if i not in first]
+    assert study.levels[0]["threshold"] == pytest.approx(reference.levels[0]["threshold"], abs=0.002)
+    lowest = sorted(range(n), key=lambda i: f_star[i])[:11]
+    top = study.level0_top
+    assert math.isfinite(top) and top >= sorted(f_star[i] for i in first)[10] - 0.002
+    assert all(study.realisations.srf_max[i] == threshold_srf(top) for i in second)
+    stable = [i for i in second if f_star[i] > study.realisations.srf_max[i]]
+    assert stable and all(runs[i] == 1 for i in stable) and study.level0_verdicts == len(stable)
+    assert all(math.isfinite(study.level_fos[i]) for i in lowest)  # the N p0 + 1 lowest: found, every one
+    assert sum(runs[i] for i in range(n)) < 0.6 * sum(reference_runs[i] for i in range(n))

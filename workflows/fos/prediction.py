@@ -192,7 +192,7 @@ class WindowPredictor:
     def window(self, case, features, estimate: float | None = None) -> tuple[float, float, float] | None:
         """The window of ``case`` (a ``cases.Case``) with its numbers ``features`` and its limit-equilibrium
         ``estimate`` (default: its critical circle's F); None: none."""
-        estimate = self._estimate(case.study) if estimate is None else estimate
+        estimate = self.limit_equilibrium(case.study) if estimate is None else estimate
         self.pending[case.case_id] = (np.asarray(features, dtype=float).ravel(), estimate)
         prediction = self.predictor.predict(features, estimate)
         stage = case.study.strength_reduction
@@ -207,7 +207,7 @@ class WindowPredictor:
         self.windows[case.case_id] = (prediction, window)
         return window
 
-    def _estimate(self, study) -> float:
+    def limit_equilibrium(self, study) -> float:
         """The study's limit-equilibrium F (NaN: none), once per section, soil, water and loads."""
         from workflows.fos.critical_circle import critical_circle
 

@@ -159,8 +159,12 @@ class DesignPointStudy(ProbabilisticStudy):
         from workflows.fos.prediction import Generations, WindowPredictor  # (as the base class: on use)
 
         self.generation_windows = (Generations(points.budget, LARGEST_GENERATION), WindowPredictor())
-        self.batch_end = points.count
+        self.batch_end = self.first_round_end()
         return self.more_cases(FIRST_REALISATIONS)
+
+    def first_round_end(self) -> int:
+        """How many of the points made so far the first round hands out (here all: each method's)."""
+        return self.realisations.count
 
     def case_concluded(self, case_id: str, outcome, progress) -> None:
         super().case_concluded(case_id, outcome, progress)

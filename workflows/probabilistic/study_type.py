@@ -427,7 +427,7 @@ class ProbabilisticStudy(SweepStudy):
             count = min(count, generations.room(self.n_concluded))
         cases: list[Case] = []
         while len(cases) < count and self.next_index < self.batch_end:
-            i = self.next_index
+            i = self.realisation_at(self.next_index)
             case = self.first[i] if i < len(self.first) else self.realisations.case(i)
             self.next_index += 1
             folder = self.out_dir / CASES_FOLDER / case.case_id
@@ -438,9 +438,14 @@ class ProbabilisticStudy(SweepStudy):
             if self.generation_windows is not None:
                 generations, windows = self.generation_windows
                 generations.take(1)
-                made = windows.with_window(made, self.features(made), self._field_estimate(made))
+                made = windows.with_window(made, self.features(made), self._field_estimate(made.study))
             cases.append(made)
         return cases
+
+    def realisation_at(self, position: int) -> int:
+        """The realisation made at ``position`` of the order the study hands them out in (here their own; subset
+        simulation's level 0 hands out its lowest predicted first)."""
+        return position
 
     def features(self, case: Case) -> list[float]:
         """A realisation's numbers for the prediction of its FOS: its random variables (a friction angle as
@@ -449,18 +454,18 @@ class ProbabilisticStudy(SweepStudy):
         return [math.tan(math.radians(float(value))) if variable.path.endswith("_deg") else float(value)
                 for variable, value in zip(self.study.probabilistic.variables, case.values.values())]
 
-    def _field_estimate(self, case: Case) -> float | None:
+    def _field_estimate(self, study: Study) -> float | None:
         """With random fields, the realisation's limit-equilibrium estimate through its fields
         (``probabilistic.field_mechanisms.FieldCircles``: the least over the circles of the mean soil of
         each one's F times its fields' mean strength along it over their mean); None without random
         fields (the critical circle's F)."""
-        if case.study.random_field is None:
+        if study.random_field is None:
             return None
         if getattr(self, "_circles", None) is None:
             from workflows.probabilistic.field_mechanisms import FieldCircles  # the core (numba): on use
 
             self._circles = FieldCircles(self.study)
-        return self._circles.estimate(case.study)
+        return self._circles.estimate(study)
 
     def feed(self) -> CaseFeed:
         return CaseFeed(self.more_cases, lambda: self.batch_end - self.next_index)

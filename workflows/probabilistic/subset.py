@@ -94,11 +94,14 @@ def interval(pf: float, cov: float, z: float = 1.96) -> tuple[float, float]:
     return pf * math.exp(-z * s), pf * math.exp(z * s)
 
 
-def pf_below(p0: float, level_fos: list, thresholds: list, value: float) -> float:
+def pf_below(p0: float, level_fos: list, thresholds: list, value: float, level0_known_below: float = math.inf) -> float:
     """P(FOS < value) from the deepest level whose samples hold it: level k's samples are conditional on
     FOS < b_k-1 (level 0's on nothing), so for value <= b_k-1, P = p0^k #(F_k < value) / N (``level_fos``:
-    each level's samples' FOS; ``thresholds``: b_0, b_1, ... of the levels but the last)."""
+    each level's samples' FOS; ``thresholds``: b_0, b_1, ... of the levels but the last); NaN for a value above
+    ``level0_known_below`` that only level 0 holds (its FOS above that are known only to lie above it)."""
     for k in range(len(level_fos) - 1, -1, -1):
+        if k == 0 and value > level0_known_below:
+            return math.nan
         if k == 0 or value <= thresholds[k - 1]:
             return p0**k * float(np.mean(np.asarray(level_fos[k], float) < value))
     return math.nan

@@ -21,8 +21,19 @@ first, alone (``fos.search``, step 6): stable there, the candidate is rejected a
 in a window predicted as any point's, below the failed b_k.  The run at b_k is judged by the verdict
 that makes the lowest failed run the top of every search's bracket, so a candidate is rejected exactly
 when its full search would have bracketed its FOS above b_k, but for a FOS within the search's
-tolerance of b_k (the knee's bracket and the verdicts' agree within it).  Level 0 is full searches (no
-threshold yet).
+tolerance of b_k (the knee's bracket and the verdicts' agree within it).
+
+Level 0 needs the same only: its ``N p0 + 1`` lowest FOS exactly (the threshold, the seeds), every other
+point only as above them.  It is two rounds.  The first searches in full the ``M = LEVEL0_FIRST_SHARE
+(N p0 + 1)`` points of lowest predicted FOS (each one's limit-equilibrium estimate, ``fos.prediction``:
+through its own fields with random fields); the ``N p0 + 1``-th lowest of their FOS, c, is at least the
+level's own (M of the N points hold ``N p0 + 1`` below it).  The second runs every other point's
+``srf_max`` first at ``max(c, factor (1 + e))`` (on the grid, rounded up; e the expected discretisation
+excess, 0 where none is known), as a candidate's: stable there, its FOS lies above the ``N p0 + 1``
+lowest and above what pf counts (one run); failed, it is searched below.  The prediction decides only
+the cost: a point it ranks too high is searched in the second round.  Level 0's FOS are then known exactly
+below that top only (:func:`workflows.probabilistic.subset.pf_below`), so a subset study gives no moment
+indices of the FOS (a ``monte_carlo`` study does).
 """
 
 from __future__ import annotations
@@ -47,6 +58,9 @@ MAX_LEVELS = 12
 """Levels at most (p0^12 = 1e-12 at p0 = 0.1)."""
 SRF_GRID = 1e-4
 """SRF values lie on this grid (``fos.search``)."""
+LEVEL0_FIRST_SHARE = 2.0
+"""Level 0's first round searches this many times ``N p0 + 1`` points in full (module doc): c is then about the
+median of their FOS, robust to a few the prediction ranks too low."""
 
 
 def threshold_srf(threshold: float) -> float:
@@ -64,6 +78,8 @@ class SubsetOutcome(DesignPointOutcome):
     level_covs: list = dataclasses.field(default_factory=list)
     accepted_share: float = math.nan  # of the chains' candidates
     threshold_verdicts: int = 0  # candidates rejected by their one run at their level's threshold (module doc)
+    level0_verdicts: int = 0  # level 0's points of its second round stable at its top, after one run (module doc)
+    level0_searched: int = 0  # level 0's points searched in full (its first round)
 
     @property
     def verdict(self) -> str:
@@ -88,6 +104,11 @@ class SubsetStudy(DesignPointStudy):
         self.chains: list[list[int]] = []  # the current level's chains: their states (point numbers)
         self.threshold = math.nan
         self.threshold_verdicts = 0  # candidates rejected by their one run at the threshold (module doc)
+        self.level0_order: list[int] = []  # level 0's points, lowest predicted FOS first (module doc)
+        self.level0_first = 0  # how many of them its first round searches in full
+        self.level0_top = math.inf  # its second round's srf_max: level 0's FOS are known exactly below it
+        self.level0_verdicts = 0  # its second round's points stable at level0_top
+        self.round_points: list[int] = []  # the points of the round under way
 
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
@@ -100,13 +121,34 @@ class SubsetStudy(DesignPointStudy):
             self.accepted.add(i)
         return points
 
+    def first_round_end(self) -> int:
+        """Level 0's first round (module doc): its points ordered by their predicted FOS, the first M handed out."""
+        table = self.study.probabilistic
+        n = table.samples_per_level
+        predicted = np.array([self._predicted_fos(i) for i in range(n)])
+        self.level0_order = [int(i) for i in np.argsort(np.where(np.isfinite(predicted), predicted, np.inf),
+                                                        kind="stable")]
+        self.level0_first = min(n, math.ceil(LEVEL0_FIRST_SHARE * (round(table.p0 * n) + 1)))
+        self.round_points = self.level0_order[:self.level0_first]
+        return self.level0_first
+
+    def _predicted_fos(self, i: int) -> float:
+        """Point i's limit-equilibrium estimate (through its fields with random fields; NaN: none)."""
+        study = self.realisations.study_of(i, text=False)
+        estimate = self._field_estimate(study)
+        return self.generation_windows[1].limit_equilibrium(study) if estimate is None else estimate
+
+    def realisation_at(self, position: int) -> int:
+        """Level 0's points in :attr:`level0_order`, the chains' candidates in their own order."""
+        return self.level0_order[position] if position < len(self.level0_order) else position
+
     def case_concluded(self, case_id: str, outcome, progress) -> None:
         super().case_concluded(case_id, outcome, progress)
         progress.tally(f"{self.n_concluded} FOS searches, level {len(self.levels)}")
 
     def _read_round(self, outcomes: dict) -> None:
         points = self.realisations
-        for i in range(self.round_start, points.count):
+        for i in self.round_points:
             outcome = outcomes[points.case_id(i)]
             result = diverged_result("", 0) if outcome.diverged else case_result(outcome.result)
             if math.isfinite(result.fos):
@@ -115,8 +157,11 @@ class SubsetStudy(DesignPointStudy):
                 self.level_fos[i] = result.fos_high
             else:  # above srf_max (a candidate stable at its threshold), or no verdict: never below a threshold
                 self.level_fos[i] = math.inf
-            if self.level_of[i] > 0 and result.status == ABOVE:
-                self.threshold_verdicts += 1
+            if i in points.srf_max and result.status == ABOVE:
+                if self.level_of[i] > 0:
+                    self.threshold_verdicts += 1
+                else:
+                    self.level0_verdicts += 1
 
     def next_cases(self, outcomes: dict, progress) -> list:
         """The next round of the chains, or the next level's first; none once a level reaches the factor
@@ -137,10 +182,33 @@ class SubsetStudy(DesignPointStudy):
             if len(self.chains[0]) < round(1.0 / table.p0):
                 return self._round(progress)
             samples = [state for chain in self.chains for state in chain]
+        elif self.batch_end < table.samples_per_level:  # level 0's first round: its second (module doc)
+            return self._level0_second_round(progress)
         else:
             samples = list(range(table.samples_per_level))
         self._finish_level(samples, progress)
         return [] if self.finished else self._round(progress)
+
+    def _level0_second_round(self, progress) -> list:
+        """Level 0's points not yet searched, each with its ``srf_max`` at ``max(c, factor (1 + e))`` run first
+        (module doc); c infinite (fewer than N p0 + 1 FOS found below srf_max): full searches."""
+        from workflows.fos.discretisation import expected_excess
+
+        table = self.study.probabilistic
+        first = sorted(self.level_fos[i] for i in self.round_points)
+        c = first[round(table.p0 * table.samples_per_level)]
+        expected = expected_excess(self.study)
+        self.level0_top = max(c, table.factor * (1.0 + (0.0 if expected is None else max(expected[1], 0.0))))
+        self.round_points = self.level0_order[self.level0_first:]
+        if math.isfinite(self.level0_top):
+            for i in self.round_points:
+                self.realisations.srf_max[i] = threshold_srf(self.level0_top)
+            self.first = [self.realisations.case(case.position[0]) if case.position[0] in self.realisations.srf_max
+                          else case for case in self.first]  # (made by check, before their srf_max)
+            progress.message(f"subset level 0: {self.level0_first} points of lowest predicted FOS searched; the other "
+                             f"{len(self.round_points)} run SRF {threshold_srf(self.level0_top):.4f} first")
+        self.batch_end = table.samples_per_level
+        return self.more_cases(FIRST_REALISATIONS)
 
     def _finish_level(self, samples: list[int], progress) -> None:
         """The level's threshold and its statistics; the next level's chains from its seeds (module doc)."""
@@ -192,6 +260,7 @@ class SubsetStudy(DesignPointStudy):
                 points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
                                                                    start + k)
         self.round_start = start
+        self.round_points = list(range(start, start + len(self.chains)))
         points.add_u(np.array(candidates))
         self.batch_end = points.count
         return self.more_cases(FIRST_REALISATIONS)
@@ -215,7 +284,7 @@ class SubsetStudy(DesignPointStudy):
         low, high, _ = expected
         level_fos = [[self.level_fos[i] for i in level["samples"]] for level in self.levels]
         thresholds = [level["threshold"] for level in self.levels[:-1]]
-        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e))
+        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e), self.level0_top)
                             for e in (low, high))
 
     def _method_results(self, result: SubsetOutcome, ds, attrs: dict):  # type: ignore[override]
@@ -236,8 +305,9 @@ class SubsetStudy(DesignPointStudy):
         chained = [i for i in self.level_of if self.level_of[i] > 0]
         result.accepted_share = (sum(i in self.accepted for i in chained) / len(chained)) if chained else math.nan
         result.threshold_verdicts = self.threshold_verdicts
+        result.level0_verdicts, result.level0_searched = self.level0_verdicts, min(self.level0_first, len(self.level_fos))
         first = np.array([self.level_fos[i] for i in range(n) if i in self.level_fos and math.isfinite(self.level_fos[i])])
-        if first.size >= 3:  # level 0 is a Monte Carlo sample: its moment indices
+        if first.size >= 3 and not math.isfinite(self.level0_top):  # every FOS of level 0 known: its moment indices
             result.fos_mean, result.fos_std = float(first.mean()), float(first.std(ddof=1))
             attrs.update(fos_mean=result.fos_mean, fos_std=result.fos_std,
                          reliability_index_normal=reliability_index(first, DISTRIBUTIONS["normal"]),
@@ -263,6 +333,7 @@ class SubsetStudy(DesignPointStudy):
         attrs.update(pf=result.pf, pf_low=result.pf_low, pf_high=result.pf_high, pf_cov=result.cov,
                      p0=table.p0, samples_per_level=n, subset_levels=len(levels),
                      subset_accepted_share=result.accepted_share, subset_threshold_verdicts=result.threshold_verdicts,
+                     subset_level0_searched=result.level0_searched, subset_level0_verdicts=result.level0_verdicts,
                      subset_stop_reason=result.stop_reason)
         return ds
 
@@ -279,14 +350,16 @@ class SubsetStudy(DesignPointStudy):
         levels = ", ".join(f"FOS < {b:.4f}: {table.p0 ** (k + 1):.3g}" for k, b in enumerate(outcome.thresholds))
         crude = (1.0 - outcome.pf) / (outcome.pf * outcome.cov**2) if outcome.pf > 0.0 else math.inf
         report.lines[1:1] = [
-            f"levels ({table.samples_per_level} FOS searches each, p0 = {table.p0:g}): {levels or '-'}; the level "
+            f"levels ({table.samples_per_level} points each, p0 = {table.p0:g}): {levels or '-'}; the level "
             f"covs {', '.join(f'{c:.3g}' for c in outcome.level_covs)} (with the chains' correlation)"
             + (f"; {100 * outcome.accepted_share:.0f}% of the chains' candidates accepted"
                if math.isfinite(outcome.accepted_share) else ""),
             _discretisation_line(outcome),
             f"crude Monte Carlo would need about {crude:,.0f} realisations for this pf at this coefficient of "
-            f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches, "
-            f"{outcome.threshold_verdicts} of them a chain's candidate rejected by its one run at its level's threshold"]
+            f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches: level 0 "
+            f"searched {outcome.level0_searched} of its points of lowest predicted FOS in full and ran the others' "
+            f"top first ({outcome.level0_verdicts} stable there after one run); {outcome.threshold_verdicts} chains' "
+            "candidates rejected by their one run at their level's threshold"]
         return report
 
 
