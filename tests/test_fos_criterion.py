@@ -410,6 +410,34 @@ def test_a_search_that_runs_its_top_first_decides_as_the_full_search(window):
             assert abs(fos.fos - full.knee().fos) <= tolerance, f_star
 
 
+@pytest.mark.parametrize("window", [None, (1.20, 1.28, 0.02)])
+def test_a_guard_below_the_top_ends_a_failed_top_between_them_and_otherwise_decides_as_the_full_search(window):
+    """A top-first search with a guard g below its top b (subset simulation: a FOS above g is not needed): stable
+    at b, one run; failed at b and stable at g, two runs and no FOS (the verdicts' bracket [g, b]); failed at g,
+    the search goes on below g to the full search's FOS within the tolerance."""
+    from workflows.fos.criterion import status_bracket
+    from workflows.fos.search import STABLE_AT_GUARD
+
+    tolerance, b, g = 0.002, 1.3456, 1.2711
+    for f_star in np.round(np.linspace(1.1, 1.5, 81), 4):
+        full = SrfSearch(0.5, 2.0, 0.1, tolerance=tolerance, floor_m=FLOOR_M, n_parallel=2, window=window)
+        drive(full, lambda f, f_star=f_star: slope_response(f, f_star), f_star)
+        guarded = SrfSearch(0.5, b, 0.1, tolerance=tolerance, floor_m=FLOOR_M, n_parallel=2, window=window,
+                            top_first=True, guard=g)
+        drive(guarded, lambda f, f_star=f_star: slope_response(f, f_star), f_star)
+        runs = sorted(guarded.outcomes)
+        if abs(f_star - b) > tolerance and abs(f_star - g) > tolerance:
+            assert (runs == [b]) == (full.knee().fos > b), f_star
+            assert (runs == [g, b]) == (g < full.knee().fos < b), f_star
+        if runs == [g, b]:
+            assert guarded.stop_reason == STABLE_AT_GUARD.format(g, b) and math.isnan(guarded.knee().fos)
+            bracket = status_bracket(runs, [guarded.outcomes[f].status for f in runs])
+            assert (bracket.fos_low, bracket.fos_high) == (g, b)
+        elif runs != [b]:
+            fos = guarded.knee()
+            assert fos.fos_high <= g and abs(fos.fos - full.knee().fos) <= tolerance, f_star
+
+
 def test_a_top_known_to_fail_lets_the_search_go_on_while_it_runs():
     """The run at the top passed the failure displacement (step 5): the runs below it start at once (one
     beside it on two workers)."""

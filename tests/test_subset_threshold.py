@@ -30,13 +30,13 @@ def _study_text(seed: int) -> str:
     return re.sub(r'(?m)^compute = .*$', 'compute = "fos"', text, count=1)
 
 
-def _searched(stage, f_star: float, top_first: bool):
+def _searched(stage, f_star: float, top_first: bool, guard: float | None = None):
     """A concluded case (``cases.Concluded``) of the stage's search on a slope that fails above ``f_star``
     (5 mm growing gently below it, 2 m above), runs finished in start order, and its number of runs."""
     from workflows.cases import Concluded
 
     search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance, 1e-3, n_parallel=2,
-                       max_runs=stage.max_runs, top_first=top_first)
+                       max_runs=stage.max_runs, top_first=top_first, guard=guard)
     queue: list[float] = []
     while True:
         for srf in search.next_values():
@@ -74,12 +74,12 @@ def _levels(tmp_path, seed: int, per_level_verdict: bool):
             for case in cases:
                 i = case.position[0]
                 assert points.case_id(i) not in outcomes  # each point is searched once
-                stage, top_first = base, False
+                stage, top_first, guard = base, False, None
                 if per_level_verdict and case.top_first:  # its case as the study makes it
-                    stage, top_first = case.study.strength_reduction, True
+                    stage, top_first, guard = case.study.strength_reduction, True, case.guard
                     assert stage.srf_max == points.srf_max[i] and stage.srf_min == base.srf_min
                 f_star[i] = F_DET * float(points.values[i, 0]) / MEAN_CU_PA
-                outcomes[points.case_id(i)], runs[i] = _searched(stage, f_star[i], top_first)
+                outcomes[points.case_id(i)], runs[i] = _searched(stage, f_star[i], top_first, guard)
             kind.n_concluded += len(cases)
             cases = kind.more_cases(10**6)
         cases = kind.next_cases(outcomes, Progress())
@@ -109,7 +109,10 @@ def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(tmp_
         if study.level_of[i] > 0:
             level = study.levels[study.level_of[i] - 1]
             assert study.level_fos[i] < level["threshold"] <= threshold_srf(level["threshold"])
-            assert abs(study.level_fos[i] - f_star[i]) <= 0.002
+            if i in study.between:  # stable at its guard: known only to lie above it
+                assert study.level_fos[i] == study.guards[i] < f_star[i] + 0.002 and runs[i] == 2
+            else:
+                assert abs(study.level_fos[i] - f_star[i]) <= 0.002
     assert sum(runs.values()) < 0.8 * sum(reference_runs.values())
 
 
@@ -156,3 +159,47 @@ def test_level_0_searches_its_lowest_predicted_points_and_runs_the_others_top_fi
     assert stable and all(runs[i] == 1 for i in stable) and study.level0_verdicts == len(stable)
     assert all(math.isfinite(study.level_fos[i]) for i in lowest)  # the N p0 + 1 lowest: found, every one
     assert sum(runs[i] for i in range(n)) < 0.6 * sum(reference_runs[i] for i in range(n))
+
+
+@pytest.mark.parametrize("quantile", [None, 0.0])
+def test_a_candidate_between_its_guard_and_the_threshold_costs_two_runs_and_the_levels_stay(tmp_path, monkeypatch,
+                                                                                             quantile):
+    """A chain's candidate runs its level's threshold, then its guard (a quantile of the seeds' FOS, at least the factor):
+    stable at the guard, it is accepted after two runs, its FOS known only as above the guard (before: a whole
+    search below the threshold).  Where fewer than N p0 + 1 of a level's samples lie below its guard (forced here by
+    a guard at the lowest seed), those between are searched again below it as new points: the levels are the full
+    searches' either way."""
+    from workflows.probabilistic import subset
+
+    if quantile is not None:
+        monkeypatch.setattr(subset, "guard_quantile", lambda n_seeds, p0: quantile)
+    reference, reference_runs, _ = _levels(tmp_path / "full", 1, per_level_verdict=False)
+    study, runs, f_star = _levels(tmp_path / "guard", 1, per_level_verdict=True)
+    assert study.guard_verdicts > 0
+    # the copies take point numbers, so the candidates after them are other draws: compare up to their level
+    same = min([study.level_of[j] for j in study.copy_of] + [len(study.levels) - 1])
+    assert [level["threshold"] for level in study.levels[:same + 1]] == pytest.approx(
+        [level["threshold"] for level in reference.levels[:same + 1]], abs=0.002)
+    assert ({i for i in study.accepted if study.level_of[i] <= same}
+            == {i for i in reference.accepted if reference.level_of[i] <= same})
+    if quantile is None:
+        assert not study.copy_of and study.between and same == len(study.levels) - 1
+        assert study.levels[-1]["fraction"] == reference.levels[-1]["fraction"]
+        assert all(runs[i] == 2 for i in study.between)
+    else:  # every candidate between its guard and the threshold searched again: each copy's FOS is its candidate's
+        assert study.copy_of
+        assert all(study.level_fos[j] == study.level_fos[i] and abs(study.level_fos[i] - f_star[i]) <= 0.002
+                   for j, i in study.copy_of.items())
+
+
+def test_a_guard_quantile_keeps_p0_below_it_by_its_margin():
+    """q - z sqrt(q (1 - q) / n) >= p0 at the least such q: 0.5 for 10 seeds (N = 100, p0 = 0.1), lower with more
+    seeds, never below p0; 1 (no guard) where even q near 1 does not hold it."""
+    from workflows.probabilistic.subset import GUARD_MARGIN_Z, guard_quantile
+
+    for n in (10, 68, 200):
+        q = guard_quantile(n, 0.1)
+        assert q - GUARD_MARGIN_Z * math.sqrt(q * (1 - q) / n) >= 0.1
+        assert (q - 0.01) - GUARD_MARGIN_Z * math.sqrt((q - 0.01) * (1 - q + 0.01) / n) < 0.1
+    assert guard_quantile(10, 0.1) == 0.5 and 0.1 < guard_quantile(200, 0.1) < guard_quantile(68, 0.1) < 0.5
+    assert guard_quantile(1, 0.8) == 1.0

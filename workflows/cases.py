@@ -51,6 +51,7 @@ class Case:
     runs: RunPolicy | None = None  # what its SRF runs keep and when they end (default: every run kept whole)
     window: tuple[float, float, float] | None = None  # (low, high, step) its FOS search starts in (fos.prediction)
     top_first: bool = False  # its search runs srf_max first, alone: stable there ends it (``fos.search``, step 6)
+    guard: float | None = None  # with top_first: the SRF run next where srf_max failed; stable there ends it (step 6)
     flow: object = None  # the flow its water comes from, when its type has it (``scene.water_flow``): not solved again
 
 
@@ -169,7 +170,7 @@ def _fos_cases(cases, placement: Placement, options: RunOptions, progress: Progr
         searches = [CaseSearch(made + k, case.study, case.out_dir, label=case.case_id,
                                gravity_here=placement.gravity_in_process, gravity_dir=case.gravity_dir or case.out_dir,
                                write_gravity=case.write_gravity, policy=case.runs or RunPolicy(),
-                               window=case.window, top_first=case.top_first, flow=case.flow)
+                               window=case.window, top_first=case.top_first, guard=case.guard, flow=case.flow)
                     for k, case in enumerate(more)]
         made += len(more)
         return searches

@@ -54,6 +54,7 @@ class CaseSearch:
     planned_parallel: int = 0  # the search's n_parallel when it was last asked
     window: tuple[float, float, float] | None = None  # (low, high, step) its search starts in (fos.prediction)
     top_first: bool = False  # its search runs srf_max first, alone (``fos.search``, step 6)
+    guard: float | None = None  # with top_first: the SRF run next where srf_max failed (``fos.search``, step 6)
 
     def __post_init__(self):
         if self.gravity_dir is None:

@@ -227,7 +227,7 @@ class Engine:
         case.search = SrfSearch(stage.srf_min, stage.srf_max, stage.srf_step, stage.fos_tolerance,
                                 displacement_floor_m(case.study), n_parallel=self.n_workers, max_runs=stage.max_runs,
                                 failure_m=failure_displacement_m(case.study), window=case.window,
-                                top_first=case.top_first)
+                                top_first=case.top_first, guard=case.guard)
 
     def _replay(self, case: CaseSearch) -> bool:
         """The case concluded from its runs on disk alone (``Planner.replay``), no gravity needed."""

@@ -23,7 +23,8 @@ failure, so a value above the FOS costs nothing and each one below it a run: one
 its third run when the prediction holds (the run below F_i, the one at it, the first above).  A case whose
 search runs its ``srf_max`` first (``fos.search``, step 6: a chain candidate of subset simulation) searches
 on only once that run has failed, so its FOS lies below ``srf_max``: a prediction above it is taken as
-``srf_max``, and its window is moved down to end there.  A window that misses grows (``SrfSearch``: a near miss by one value at twice its step), so a poor
+``srf_max``, and its window is moved down to end there (at its guard, with one: the search goes on only
+below a failed guard).  A window that misses grows (``SrfSearch``: a near miss by one value at twice its step), so a poor
 prediction costs runs, never the answer: the knee and the bracket are found as without a window.
 """
 
@@ -196,14 +197,18 @@ class WindowPredictor:
         self.pending[case.case_id] = (np.asarray(features, dtype=float).ravel(), estimate)
         prediction = self.predictor.predict(features, estimate)
         stage = case.study.strength_reduction
-        if prediction is not None and getattr(case, "top_first", False) and prediction.fos > stage.srf_max:
-            prediction = dataclasses.replace(prediction, fos=stage.srf_max, basis=prediction.basis + ", below srf_max")
+        top_first = getattr(case, "top_first", False)
+        ceiling = stage.srf_max  # a top-first search goes on below its failed top, or its failed guard
+        if top_first and getattr(case, "guard", None) is not None and stage.srf_min <= case.guard < stage.srf_max:
+            ceiling = case.guard
+        if prediction is not None and top_first and prediction.fos > ceiling:
+            prediction = dataclasses.replace(prediction, fos=ceiling, basis=prediction.basis + ", below srf_max")
         if prediction is None or not stage.srf_min <= prediction.fos <= stage.srf_max:
             return None  # the full search of the stage's range (a FOS outside it is found as without a window)
         window = search_window(prediction, stage.fos_tolerance)
-        if getattr(case, "top_first", False) and window[1] > stage.srf_max:  # (its srf_max has failed)
-            shift = window[1] - stage.srf_max
-            window = (max(round(window[0] - shift, 4), 0.01), stage.srf_max, window[2])
+        if top_first and window[1] > ceiling:  # (its srf_max, or its guard, has failed)
+            shift = window[1] - ceiling
+            window = (max(round(window[0] - shift, 4), 0.01), ceiling, window[2])
         self.windows[case.case_id] = (prediction, window)
         return window
 

@@ -43,7 +43,10 @@ maximum displacement and verdict, and says which SRF values to start next.
    (status above ``srf_max``: one run, the FOS above the threshold); failed (or known to fail, step 5)
    or diverged, the search goes on below it as above, the top one of its sweep values (as the full
    sweep's ``srf_max`` always is), so its FOS lies below the failed top.  The verdict at the top is the
-   verdict that brackets every search (the lowest failed run is the top of the FOS bracket).
+   verdict that brackets every search (the lowest failed run is the top of the FOS bracket).  With a
+   ``guard`` below the top (subset simulation: a value below which the candidate's FOS matters), the
+   guard is run next, alone, once the top has failed: stable there, the search ends with no FOS (the
+   FOS lies between the guard and the top, the verdicts' bracket); failed, it goes on below the guard.
 """
 
 from __future__ import annotations
@@ -60,6 +63,8 @@ CANCELLED_ABOVE_FAILURE = "cancelled: above the failed SRF {:g}, cannot move the
 """Why a started run was stopped once a run below it had failed."""
 
 STABLE_AT_TOP = "stable at srf_max {:g}, run first: the FOS lies above it"
+STABLE_AT_GUARD = "stable at SRF {:g} and failed at srf_max {:g}, run first: the FOS lies between them"
+"""Why a search with a guard ended after its top and its guard (module doc, step 6)."""
 """Why a search whose top was run first (module doc, step 6) ended after it."""
 
 MIN_KNEE_RUNS = 3
@@ -93,7 +98,8 @@ class SrfSearch:
     """The sweep-then-refine plan (module doc)."""
 
     def __init__(self, srf_min, srf_max, srf_step, tolerance, floor_m, n_parallel=2, max_runs=40,
-                 failure_m=math.inf, window: tuple[float, float, float] | None = None, top_first: bool = False):
+                 failure_m=math.inf, window: tuple[float, float, float] | None = None, top_first: bool = False,
+                 guard: float | None = None):
         self.range = (round(float(srf_min), 4), round(float(srf_max), 4))
         self.full_step = round(float(srf_step), 4)
         self.grown = 0  # how far the window has grown: 1 by its neighbour, 2 by the full sweep (module doc, step 1)
@@ -110,8 +116,10 @@ class SrfSearch:
         else:
             self.sweep = sweep_values(srf_min, srf_max, srf_step)
         self.top_first = top_first  # module doc, step 6
+        self.guard = (round(float(guard), 4) if top_first and guard is not None and self.range[0] <= guard < self.range[1]
+                      else None)
         if top_first:
-            self.sweep = sorted(set(self.sweep) | {self.range[1]})
+            self.sweep = sorted(set(self.sweep) | {self.range[1]} | ({self.guard} if self.guard is not None else set()))
         self.sweep_set = set(self.sweep)
         self.tolerance = float(tolerance)
         self.floor_m = float(floor_m)
@@ -200,9 +208,18 @@ class SrfSearch:
                 return srf
         return math.inf
 
+    @property
+    def between_top_and_guard(self) -> bool:
+        """Stable at the guard, its top run first (step 6): the FOS lies between them, no FOS sought."""
+        guard = self.outcomes.get(self.guard) if self.guard is not None else None
+        return guard is not None and guard.status == STABLE
+
     def knee(self) -> FosPick:
         """The FOS from the runs made so far (diverged runs left out): the knee of the sweep
-        runs, then the largest rise after it among all runs."""
+        runs, then the largest rise after it among all runs; none between the guard and the top (step 6)."""
+        if self.between_top_and_guard:
+            return FosPick(math.nan, self.guard, self.range[1], math.nan,
+                           STABLE_AT_GUARD.format(self.guard, self.range[1]))
         usable = sorted((o for o in self.outcomes.values() if o.status != DIVERGED), key=lambda o: o.srf)
         # the sweep up to its first failure: runs above it (started before that failure was known)
         # depend on timing and must not change the answer
@@ -226,6 +243,15 @@ class SrfSearch:
                 return [top]
             if self.outcomes[top].status == STABLE:
                 self.stop_reason = STABLE_AT_TOP.format(top)
+                return []
+        guard = self.guard
+        if guard is not None and guard not in self.failing:  # step 6: the top has failed (or will): the guard alone
+            if guard in self.pending:
+                return []
+            if guard not in self.outcomes:
+                return [guard]
+            if self.between_top_and_guard:
+                self.stop_reason = STABLE_AT_GUARD.format(guard, top)
                 return []
         if len(self.outcomes) + len(self.pending) >= self.max_runs:
             if not self.pending and not self.stop_reason:

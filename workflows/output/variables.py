@@ -351,12 +351,14 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "iteration's beta at the mean (FOSM), the iterations, 1 if beta changed by at most form_tolerance, why "
               "it stopped otherwise"),
     Attribute("pf_cov, p0, samples_per_level, subset_levels, subset_accepted_share, subset_threshold_verdicts, "
-              "subset_level0_searched, subset_level0_verdicts, subset_stop_reason",
+              "subset_level0_searched, subset_level0_verdicts, subset_guard_verdicts, subset_guard_copies, subset_stop_reason",
               "subset_simulation: pf (in pf; pf_low and pf_high an approximate 95% interval from pf_cov, lognormal about "
               "pf) and its coefficient of variation (Au & Beck, with the chains' correlation), the levels, the share "
               "of the chains' candidates accepted, how many candidates were rejected by their one run at their "
               "level's threshold (stable there: status above_srf_max, n_runs 1), level 0's points searched in full (those "
-              "of lowest predicted FOS) and those stable at the top the others ran first (n_runs 1), why it stopped "
+              "of lowest predicted FOS) and those stable at the top the others ran first (n_runs 1), the candidates accepted "
+              "after two runs (stable at their guard: status no_knee, fos_low the guard) and those searched again as "
+              "new points (fewer than N p0 + 1 of their level below its guard), why it stopped "
               "early if it did; fos_mean, fos_std and the reliability indices are those of level 0 where it searched "
               "every point, NaN otherwise (its FOS known only below that top)"),
     Attribute("pf_discretisation_excess, pf_at_zero_spacing, form_discretisation_excess, "

@@ -60,6 +60,23 @@ def moved_terms(terms: tuple, own: int, rho: float = PROPOSAL_CORRELATION) -> tu
     return tuple((realisation, rho * weight) for realisation, weight in terms) + ((own, math.sqrt(1.0 - rho * rho)),)
 
 
+GUARD_MARGIN_Z = 2.5
+"""How many standard errors of the seeds' quantile a guard keeps above p0 (:func:`guard_quantile`): one level in
+about 160 finds fewer than ``N p0 + 1`` samples below its guard, and searches those above it again."""
+
+
+def guard_quantile(n_seeds: int, p0: float, z: float = GUARD_MARGIN_Z) -> float:
+    """The quantile q of a level's ``n_seeds`` seeds' FOS at which its candidates' guard lies: the least q (on a
+    0.01 grid) with ``q - z sqrt(q (1 - q) / n_seeds) >= p0``.  The seeds sample the level's FOS law (below the
+    last threshold), so about a share q of the level lies below the guard, the standard error of that share about
+    ``sqrt(q (1 - q) / n_seeds)``; the next threshold, the level's p0-quantile, then lies below it (1 at most: no
+    guard)."""
+    for q in np.arange(p0, 1.0, 0.01):
+        if q - z * math.sqrt(q * (1.0 - q) / max(n_seeds, 1)) >= p0:
+            return float(round(q, 2))
+    return 1.0
+
+
 def chain_gamma(indicator: np.ndarray) -> float:
     """gamma of a level from its chains' indicators (chains, states): Au & Beck's eq. 27-29 (module doc)."""
     indicator = np.asarray(indicator, float)
@@ -94,14 +111,14 @@ def interval(pf: float, cov: float, z: float = 1.96) -> tuple[float, float]:
     return pf * math.exp(-z * s), pf * math.exp(z * s)
 
 
-def pf_below(p0: float, level_fos: list, thresholds: list, value: float, level0_known_below: float = math.inf) -> float:
+def pf_below(p0: float, level_fos: list, thresholds: list, value: float, known_below: list | None = None) -> float:
     """P(FOS < value) from the deepest level whose samples hold it: level k's samples are conditional on
     FOS < b_k-1 (level 0's on nothing), so for value <= b_k-1, P = p0^k #(F_k < value) / N (``level_fos``:
-    each level's samples' FOS; ``thresholds``: b_0, b_1, ... of the levels but the last); NaN for a value above
-    ``level0_known_below`` that only level 0 holds (its FOS above that are known only to lie above it)."""
+    each level's samples' FOS; ``thresholds``: b_0, b_1, ... of the levels but the last); a level holds only
+    values up to its ``known_below`` (its FOS above that are known only to lie above it), NaN where none does."""
     for k in range(len(level_fos) - 1, -1, -1):
-        if k == 0 and value > level0_known_below:
-            return math.nan
+        if known_below is not None and value > known_below[k]:
+            continue
         if k == 0 or value <= thresholds[k - 1]:
             return p0**k * float(np.mean(np.asarray(level_fos[k], float) < value))
     return math.nan

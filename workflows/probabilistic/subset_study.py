@@ -23,6 +23,17 @@ that makes the lowest failed run the top of every search's bracket, so a candida
 when its full search would have bracketed its FOS above b_k, but for a FOS within the search's
 tolerance of b_k (the knee's bracket and the verdicts' agree within it).
 
+An accepted candidate's FOS matters only if it is among its level's ``N p0 + 1`` lowest (the next
+threshold, the seeds) or below ``factor (1 + e)`` (pf and its discretisation estimate).  So a level's
+candidates have a guard g below b_k, on the grid, rounded up: the seeds' FOS at the quantile q of
+:func:`workflows.probabilistic.subset.guard_quantile` (about a share q of the level lies below it, q kept
+above p0 by 2.5 standard errors of that share), at least ``factor (1 + e)``.  A candidate failed at b_k
+runs g next, alone (``fos.search``, step 6): stable there, it is accepted after two runs, its FOS known
+only to lie between g and b_k; failed, it is searched below g.  Should fewer than ``N p0 + 1`` of a level's
+samples lie below its guard (its FOS law's quantile missed), the candidates between are made again as new
+points (the same standard normals and fields) and searched below their b_k: the next threshold is then
+the full searches' again.
+
 Level 0 needs the same only: its ``N p0 + 1`` lowest FOS exactly (the threshold, the seeds), every other
 point only as above them.  It is two rounds.  The first searches in full the ``M = LEVEL0_FIRST_SHARE
 (N p0 + 1)`` points of lowest predicted FOS (each one's limit-equilibrium estimate, ``fos.prediction``:
@@ -52,7 +63,7 @@ from workflows.probabilistic.design_points import DesignPointOutcome, DesignPoin
 from workflows.probabilistic.reliability import reliability_index
 from workflows.probabilistic.study_type import FIRST_REALISATIONS
 from workflows.study import Study
-from workflows.sweep.results import ABOVE, BELOW, case_result, diverged_result
+from workflows.sweep.results import ABOVE, BELOW, NO_KNEE, case_result, diverged_result
 
 MAX_LEVELS = 12
 """Levels at most (p0^12 = 1e-12 at p0 = 0.1)."""
@@ -80,6 +91,8 @@ class SubsetOutcome(DesignPointOutcome):
     threshold_verdicts: int = 0  # candidates rejected by their one run at their level's threshold (module doc)
     level0_verdicts: int = 0  # level 0's points of its second round stable at its top, after one run (module doc)
     level0_searched: int = 0  # level 0's points searched in full (its first round)
+    guard_verdicts: int = 0  # candidates accepted after two runs, stable at their guard (module doc)
+    guard_copies: int = 0  # candidates between their guard and the threshold searched again as new points
 
     @property
     def verdict(self) -> str:
@@ -109,6 +122,11 @@ class SubsetStudy(DesignPointStudy):
         self.level0_top = math.inf  # its second round's srf_max: level 0's FOS are known exactly below it
         self.level0_verdicts = 0  # its second round's points stable at level0_top
         self.round_points: list[int] = []  # the points of the round under way
+        self.guard = math.inf  # the current level's candidates' guard (module doc; inf: none)
+        self.guards: dict[int, float] = {}  # candidate -> its guard
+        self.between: set[int] = set()  # candidates stable at their guard: FOS between it and the threshold
+        self.copy_of: dict[int, int] = {}  # a point searched again below its guard -> the candidate it copies
+        self.guard_verdicts = 0  # candidates accepted after two runs, stable at their guard
 
     def make_realisations(self) -> DesignPoints:
         points = DesignPoints(self.study)
@@ -155,6 +173,10 @@ class SubsetStudy(DesignPointStudy):
                 self.level_fos[i] = result.fos
             elif result.status == BELOW and math.isfinite(result.fos_high):
                 self.level_fos[i] = result.fos_high
+            elif i in self.guards and result.status == NO_KNEE and result.fos_low >= self.guards[i]:
+                self.level_fos[i] = self.guards[i]  # stable at its guard, failed at its top: only above the guard
+                self.between.add(i)
+                self.guard_verdicts += 1
             else:  # above srf_max (a candidate stable at its threshold), or no verdict: never below a threshold
                 self.level_fos[i] = math.inf
             if i in points.srf_max and result.status == ABOVE:
@@ -170,7 +192,12 @@ class SubsetStudy(DesignPointStudy):
             return []
         table = self.study.probabilistic
         self._read_round(outcomes)
-        if self.chains:  # a round of candidates: each chain moves or stays
+        if self.copy_of and self.round_points and self.round_points[0] in self.copy_of:  # copies below the guard
+            for j in self.round_points:
+                self.level_fos[self.copy_of[j]] = self.level_fos[j]
+                self.between.discard(self.copy_of[j])
+            samples = [state for chain in self.chains for state in chain]
+        elif self.chains:  # a round of candidates: each chain moves or stays
             start = self.round_start
             for k, chain in enumerate(self.chains):
                 candidate = start + k
@@ -182,12 +209,46 @@ class SubsetStudy(DesignPointStudy):
             if len(self.chains[0]) < round(1.0 / table.p0):
                 return self._round(progress)
             samples = [state for chain in self.chains for state in chain]
+            unresolved = self._between_needed(samples)
+            if unresolved:
+                return self._copies(unresolved, progress)
         elif self.batch_end < table.samples_per_level:  # level 0's first round: its second (module doc)
             return self._level0_second_round(progress)
         else:
             samples = list(range(table.samples_per_level))
         self._finish_level(samples, progress)
         return [] if self.finished else self._round(progress)
+
+    def _between_needed(self, samples: list[int]) -> list[int]:
+        """The level's candidates known only to lie between their guard and the threshold, when fewer than N p0 + 1
+        of its samples lie below the guard (their FOS then decides the next threshold); [] otherwise."""
+        table = self.study.probabilistic
+        fos = sorted(self.level_fos[i] for i in samples)
+        if fos[round(table.p0 * len(samples))] < self.guard:
+            return []
+        return sorted({i for i in samples if i in self.between})
+
+    def _copies(self, originals: list[int], progress) -> list:
+        """Each candidate of ``originals`` made again as a new point (the same standard normals and fields) whose
+        search runs its top first, as the candidate's, and goes on below it with no guard: its FOS (module doc)."""
+        points = self.realisations
+        if points.count + len(originals) > points.budget:
+            self.stop_reason = f"the budget of {points.budget} FOS searches (realisations) is spent"
+            self.finished = True
+            return []
+        progress.message(f"subset level {len(self.levels)}: fewer than N p0 + 1 points below the guard "
+                         f"{self.guard:.4f}: the {len(originals)} above it searched again")
+        start = points.count
+        for k, i in enumerate(originals):
+            j = start + k
+            self.copy_of[j], self.level_of[j] = i, self.level_of[i]
+            points.srf_max[j] = points.srf_max[i]  # (its top: failed; no guard: its FOS, above the candidate's guard)
+            if self.study.random_field is not None:
+                points.field_terms[j] = points.field_terms.get(i, ((i, 1.0),))
+        self.round_points = list(range(start, start + len(originals)))
+        points.add_u(points.u[originals])
+        self.batch_end = points.count
+        return self.more_cases(FIRST_REALISATIONS)
 
     def _level0_second_round(self, progress) -> list:
         """Level 0's points not yet searched, each with its ``srf_max`` at ``max(c, factor (1 + e))`` run first
@@ -221,7 +282,7 @@ class SubsetStudy(DesignPointStudy):
             states = len(self.chains[0])
             gamma = subset.chain_gamma((fos < threshold).reshape(len(self.chains), states))
         self.levels.append({"samples": samples, "threshold": threshold, "fraction": fraction, "gamma": gamma,
-                            "last": last})
+                            "last": last, "known_below": self.guard if self.chains else self.level0_top})
         if last:
             self.finished = True
             return
@@ -238,6 +299,20 @@ class SubsetStudy(DesignPointStudy):
         progress.message(f"subset level {len(self.levels) - 1}: threshold FOS {threshold:.4f} (p0 = {table.p0:g})")
         self.threshold = threshold
         self.chains = [[samples[j]] for j in order]
+        self.guard = self._guard([self.level_fos[samples[j]] for j in order])
+
+    def _guard(self, seeds_fos: list) -> float:
+        """The next level's candidates' guard on the SRF grid (module doc): the seeds' FOS at their
+        ``subset.guard_quantile``, at least factor (1 + e); inf (none) where it reaches the threshold."""
+        from workflows.fos.discretisation import expected_excess
+
+        expected = expected_excess(self.study)
+        factor_top = self.study.probabilistic.factor * (1.0 + (0.0 if expected is None else max(expected[1], 0.0)))
+        quantile = subset.guard_quantile(len(seeds_fos), self.study.probabilistic.p0)
+        if quantile >= 1.0:
+            return math.inf
+        guard = threshold_srf(max(float(np.quantile(seeds_fos, quantile)), factor_top))
+        return guard if guard < threshold_srf(self.threshold) else math.inf
 
     def _round(self, progress) -> list:
         """One candidate per chain, as new points (module doc); none when the budget is spent."""
@@ -255,6 +330,8 @@ class SubsetStudy(DesignPointStudy):
         for k, chain in enumerate(self.chains):
             self.level_of[start + k] = len(self.levels)
             points.srf_max[start + k] = threshold_srf(self.threshold)  # its search runs b_k first (module doc)
+            if math.isfinite(self.guard):
+                self.guards[start + k] = self.guard
             if self.study.random_field is not None:  # the fields' xi moves with u (module doc)
                 state = chain[-1]
                 points.field_terms[start + k] = subset.moved_terms(points.field_terms.get(state, ((state, 1.0),)),
@@ -269,7 +346,9 @@ class SubsetStudy(DesignPointStudy):
         """A point as any realisation (``ProbabilisticStudy._placed``); a chain's candidate runs its level's
         threshold, its ``srf_max``, first (module doc)."""
         case = super()._placed(case)
-        return dataclasses.replace(case, top_first=True) if case.position[0] in self.realisations.srf_max else case
+        i = case.position[0]
+        return (dataclasses.replace(case, top_first=True, guard=self.guards.get(i)) if i in self.realisations.srf_max
+                else case)
 
     def _discretisation(self, result: SubsetOutcome) -> tuple | None:
         """The expected excess of every point's FOS at the study's spacing (``fos.discretisation``: the measured
@@ -284,7 +363,8 @@ class SubsetStudy(DesignPointStudy):
         low, high, _ = expected
         level_fos = [[self.level_fos[i] for i in level["samples"]] for level in self.levels]
         thresholds = [level["threshold"] for level in self.levels[:-1]]
-        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e), self.level0_top)
+        known = [level["known_below"] for level in self.levels]
+        return low, high, *(subset.pf_below(table.p0, level_fos, thresholds, table.factor * (1.0 + e), known)
                             for e in (low, high))
 
     def _method_results(self, result: SubsetOutcome, ds, attrs: dict):  # type: ignore[override]
@@ -302,10 +382,11 @@ class SubsetStudy(DesignPointStudy):
             result.level_covs = covs
             result.discretised = self._discretisation(result)
         result.thresholds = [level["threshold"] for level in levels if not level["last"]]
-        chained = [i for i in self.level_of if self.level_of[i] > 0]
+        chained = [i for i in self.level_of if self.level_of[i] > 0 and i not in self.copy_of]
         result.accepted_share = (sum(i in self.accepted for i in chained) / len(chained)) if chained else math.nan
         result.threshold_verdicts = self.threshold_verdicts
         result.level0_verdicts, result.level0_searched = self.level0_verdicts, min(self.level0_first, len(self.level_fos))
+        result.guard_verdicts, result.guard_copies = self.guard_verdicts, len(self.copy_of)
         first = np.array([self.level_fos[i] for i in range(n) if i in self.level_fos and math.isfinite(self.level_fos[i])])
         if first.size >= 3 and not math.isfinite(self.level0_top):  # every FOS of level 0 known: its moment indices
             result.fos_mean, result.fos_std = float(first.mean()), float(first.std(ddof=1))
@@ -334,6 +415,7 @@ class SubsetStudy(DesignPointStudy):
                      p0=table.p0, samples_per_level=n, subset_levels=len(levels),
                      subset_accepted_share=result.accepted_share, subset_threshold_verdicts=result.threshold_verdicts,
                      subset_level0_searched=result.level0_searched, subset_level0_verdicts=result.level0_verdicts,
+                     subset_guard_verdicts=result.guard_verdicts, subset_guard_copies=result.guard_copies,
                      subset_stop_reason=result.stop_reason)
         return ds
 
@@ -359,7 +441,9 @@ class SubsetStudy(DesignPointStudy):
             f"variation, (1 - pf) / (pf cov^2); subset simulation made {outcome.n_searches} FOS searches: level 0 "
             f"searched {outcome.level0_searched} of its points of lowest predicted FOS in full and ran the others' "
             f"top first ({outcome.level0_verdicts} stable there after one run); {outcome.threshold_verdicts} chains' "
-            "candidates rejected by their one run at their level's threshold"]
+            f"candidates rejected by their one run at their level's threshold, {outcome.guard_verdicts} accepted after "
+            f"two (stable at their guard)" + (f", {outcome.guard_copies} searched again below their threshold (fewer "
+                                              "than N p0 + 1 below a guard)" if outcome.guard_copies else "")]
         return report
 
 
