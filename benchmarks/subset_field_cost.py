@@ -52,11 +52,13 @@ def level_lines(result_path: Path, level_covs: list) -> str:
     ds = xr.load_dataset(result_path)
     level, runs = ds["subset_level"].values, ds["n_runs"].values
     one_run = (ds["status"].values == "above_srf_max") & (level > 0)
+    two_runs = (ds["status"].values == "no_knee") & (level > 0) & (runs == 2)
     lines = []
     for k in range(int(level.max()) + 1):
         at = level == k
         lines.append(f"level {k}: {int(at.sum())} points, {int(runs[at].sum())} SRF runs ({runs[at].mean():.2f} a point), "
                      f"{int(one_run[at].sum())} rejected by their one run at the threshold, "
+                     f"{int(two_runs[at].sum())} accepted after two (stable at the guard), "
                      f"{int(np.sum(at & (ds['subset_accepted'].values == 1)))} accepted"
                      + (f", level cov {level_covs[k]:.3g}" if k < len(level_covs) else ""))
     return "\n".join(lines)
