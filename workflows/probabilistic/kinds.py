@@ -103,11 +103,15 @@ class Form(Method):
     placed = True
 
     def check_budget(self, table, n_variables):
-        """Two iterations of n + 1 points."""
+        """Two iterations of n + 1 points (and SORM's round, ``sorm``)."""
+        from workflows.probabilistic.sorm import point_count
+
         needed = 2 * (n_variables + 1)
-        if table.realisations < needed:
-            raise StudyError("realisations", f"{self.name} with {n_variables} variables needs at least {needed} FOS "
-                             f"searches (two iterations of n + 1), got {table.realisations}")
+        sorm = point_count(n_variables) if table.sorm else 0
+        if table.realisations < needed + sorm:
+            raise StudyError("realisations", f"{self.name} with {n_variables} variables needs at least {needed + sorm} "
+                             f"FOS searches (two iterations of n + 1{f', and SORM {sorm}' if sorm else ''}), got "
+                             f"{table.realisations}")
 
 
 class PointEstimate(Method):
