@@ -240,3 +240,63 @@ def test_sorm_without_an_asymptote_or_room_keeps_forms_answer_labelled(tmp_path)
                            realisations=max(11, plain.realisations.count + 4))  # FORM's points, not SORM's 5 more
     assert tight.second_order is not None and "budget" in tight.second_order.status
     assert "budget" in tight.second_order.line(2.5)
+
+
+@pytest.mark.slow
+def test_a_form_study_with_sorm_writes_beta_sorm_and_resumes_without_a_run(tmp_path):
+    """The c-phi slope (lognormal c, truncated normal phi, correlated -0.5) at h = 1 m, FORM then SORM's round of 5
+    points: probabilistic.nc holds beta_SORM and pf_SORM (Breitung's and Hohenbichler-Rackwitz's, the curvature, its
+    noise and the round's searches), its points marked -1; the report states it; run again, every point read
+    back (no run) and the same numbers."""
+    import xarray as xr
+
+    from workflows.cases import RunOptions
+    from workflows.study_types import run_study, study_type
+
+    study = parse_study(_form_text("\nsorm = true"))
+    first = run_study(study, tmp_path, RunOptions(workers=2))
+    second = first.second_order
+    assert first.converged and second is not None and second.searches == 5, second
+    ds = xr.load_dataset(tmp_path / "probabilistic.nc")
+    assert (ds["form_iteration"].values == -1).sum() == 5 and ds.attrs["sorm_searches"] == 5
+    assert ds.attrs["n_fos_searches"] == first.n_searches == 3 * first.iterations + 5
+    if second.pf_breitung is None:  # (the slope's curvature decides; either way labelled, never a NaN)
+        assert "reliability_index_sorm" not in ds.attrs and ds.attrs["sorm_status"]
+    else:
+        assert ds.attrs["pf_sorm"] == pytest.approx(second.pf_breitung)
+        assert ds.attrs["reliability_index_sorm"] == pytest.approx(-stats.norm.ppf(second.pf_breitung))
+        assert ds.attrs["pf_sorm_hr"] == pytest.approx(second.pf_hr)
+        assert float(ds.attrs["sorm_curvatures"]) == pytest.approx(second.kappas[0], rel=1e-5)
+    lines = study_type(study, tmp_path).report(first, False, None).lines
+    assert any(line.startswith("SORM") for line in lines) and "nan" not in " ".join(lines).lower()
+    again = run_study(study, tmp_path, RunOptions(workers=2))
+    assert again.runs_made == 0 and again.second_order == second
+
+
+def test_one_variable_has_no_tangent_plane_and_sorm_is_form_without_a_search(tmp_path):
+    """One normal cohesion, FOS = c / 7 kPa (the undrained closed form's shape: a monotone g of one u): the limit
+    state is a point, pf_SORM = pf_FORM = Phi(-beta) exactly and SORM spends no search."""
+    from workflows.cases import RunOptions
+    from workflows.progress import Progress
+    from workflows.study_types import study_type
+
+    text = C_PHI[: C_PHI.index("[probabilistic]")] + (
+        '[probabilistic]\nmethod = "form"\nrealisations = 40\ncompute = "fos"\nfactor = 1.0\nsorm = true\n\n'
+        '[[probabilistic.variables]]\npath = "materials.soil.cohesion_pa"\ndistribution = "normal"\nstd = 1000.0\n')
+    from tests.test_form import _fake_outcome
+
+    kind = study_type(parse_study(text), tmp_path)
+    kind.check(RunOptions(workers=1))
+    kind.cases()
+    points, outcomes = kind.realisations, {}
+    while True:
+        for i in range(len(outcomes), points.count):
+            outcomes[points.case_id(i)] = _fake_outcome(points.values[i, 0] / 7e3)
+        if not kind.next_cases(outcomes, Progress()) and kind.finished:
+            break
+    beta = kind.iterations[-1].beta
+    assert beta == pytest.approx(3.0, abs=1e-3)
+    second = kind.second_order
+    assert second is not None and second.searches == 0 and points.count == 2 * len(kind.iterations)
+    assert second.pf_breitung == second.pf_hr == form.failure_probability(beta)
+    assert "no tangent plane" in second.line(beta)
