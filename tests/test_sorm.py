@@ -11,6 +11,7 @@ import pytest
 from scipy import integrate, stats
 
 from workflows.probabilistic import form, sorm
+from workflows.probabilistic.kinds import sorm_searches
 from workflows.study import StudyError, parse_study
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,8 +44,8 @@ def test_the_rotation_is_orthogonal_with_the_design_point_on_its_last_axis():
         rotation = sorm.rotation(design_u)
         assert rotation @ rotation.T == pytest.approx(np.eye(design_u.size), abs=1e-12)
         assert rotation @ design_u == pytest.approx(np.r_[np.zeros(design_u.size - 1), np.linalg.norm(design_u)])
-    assert sorm.point_count(4) == len(sorm.curvature_points(np.array([1.0, 1.0, 1.0, 1.0]), 0.5)) == 21
-    assert sorm.point_count(2) == 5 and sorm.point_count(1) == 0
+    assert sorm_searches(4) == len(sorm.curvature_points(np.array([1.0, 1.0, 1.0, 1.0]), 0.5)) == 21
+    assert sorm_searches(2) == len(sorm.curvature_points(np.array([1.0, 2.0]), 0.5)) == 5 and sorm_searches(1) == 0
 
 
 def test_breitung_is_the_asymptote_of_the_exact_pf_of_a_paraboloid():

@@ -21,6 +21,7 @@ import numpy as np
 
 from workflows.probabilistic import form, sorm
 from workflows.probabilistic.design_points import NOISE_BRACKETS, DesignPointOutcome, DesignPoints, DesignPointStudy
+from workflows.probabilistic.kinds import sorm_searches
 from workflows.probabilistic.study_type import FIRST_REALISATIONS
 from workflows.study import Study
 
@@ -171,7 +172,7 @@ class FormStudy(DesignPointStudy):
             pf = form.failure_probability(last.beta)
             self.second_order = SecondOrder(pf_breitung=pf, pf_hr=pf, pf_range=(pf, pf), step=step)
             return False
-        count = sorm.point_count(n)
+        count = sorm_searches(n)
         if points.count + count > points.budget:
             self.second_order = SecondOrder(status=f"its {count} FOS searches do not fit the budget of {points.budget} "
                                             f"(realisations) after FORM's {points.count}", step=step)

@@ -65,13 +65,9 @@ def _offsets(n: int) -> np.ndarray:
     return np.array(rows)
 
 
-def point_count(n: int) -> int:
-    """The evaluations of g the curvatures of ``n`` variables cost: 1 + 2(n-1)^2 + 2 (none for one)."""
-    return 0 if n < 2 else 1 + 2 * (n - 1) ** 2 + 2
-
-
 def curvature_points(design_u: np.ndarray, step: float) -> np.ndarray:
-    """(point_count(n), n): where to evaluate g, in ``u`` (module doc)."""
+    """(1 + 2(n-1)^2 + 2, n): where to evaluate g, in ``u`` (module doc; ``kinds.sorm_searches`` counts them for
+    the study's budget)."""
     design_u = np.asarray(design_u, float)
     return design_u + step * _offsets(design_u.size) @ rotation(design_u)
 
