@@ -134,6 +134,13 @@ def test_a_limit_state_curved_toward_the_origin_past_the_sphere_has_no_breitung_
     assert sorm.hohenbichler_rackwitz(3.0, np.array([-0.5])) is None
     low, high = sorm.range_from_noise(3.0, np.array([-0.3]), 0.05)
     assert low is not None and high is None
+    breitung = sorm.breitung(3.0, np.array([-0.32]))  # 1 + 3 kappa = 0.04, 1 + psi(3) kappa = -0.05
+    assert breitung is not None and sorm.hohenbichler_rackwitz(3.0, np.array([-0.32])) is None
+    from workflows.probabilistic.form_study import SecondOrder
+
+    line = SecondOrder(pf_breitung=breitung, kappas=(-0.32,), noise=0.01, pf_range=(breitung, None), searches=5,
+                       step=1.0, gradient_angle_deg=1.0, fos_at_design_point=1.0).line(3.0)
+    assert "Hohenbichler-Rackwitz none" in line and "unbounded below" in line and "nan" not in line
 
 
 def test_the_noise_bound_holds_every_error_of_values_known_within_their_brackets():

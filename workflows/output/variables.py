@@ -353,9 +353,9 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "it stopped otherwise"),
     Attribute("reliability_index_sorm, pf_sorm, reliability_index_sorm_hr, pf_sorm_hr, sorm_status, sorm_searches, "
               "sorm_step, sorm_curvatures, sorm_curvature_noise, sorm_gradient_angle_deg",
-              "form with sorm: beta and pf by Breitung's SORM and by Hohenbichler-Rackwitz's (absent where there is no "
-              "second-order estimate: sorm_status says why, and reliability_index_form stands; with one variable "
-              "FORM's), the FOS searches of SORM's round and its step, the principal curvatures (per standard "
+              "form with sorm: beta and pf by Breitung's SORM and by Hohenbichler-Rackwitz's (each absent where it has no "
+              "estimate: some 1 + beta kappa <= 0, resp. with psi; Breitung's absent, sorm_status says why and "
+              "reliability_index_form stands; with one variable FORM's), the FOS searches of SORM's round and its step, the principal curvatures (per standard "
               "deviation, in one text) and the bound of their error from the searches' brackets, the angle between "
               "the gradient at the design point and its normal (0 at a true design point); absent without sorm"),
     Attribute("pf_cov, p0, samples_per_level, subset_levels, subset_accepted_share, subset_threshold_verdicts, "

@@ -38,6 +38,7 @@ class SecondOrder:
     noise: float = math.nan
     pf_range: tuple = (None, None)  # Breitung's pf with the curvatures raised, lowered by their noise
     gradient_angle_deg: float = math.nan  # between the gradient at u* and the normal: 0 at the design point
+    fos_at_design_point: float = math.nan  # the FOS at FORM's u* (the last plane's point nearest the origin)
     searches: int = 0
     step: float = math.nan
 
@@ -64,12 +65,14 @@ class SecondOrder:
         low, high = self.pf_range
         spread = (f"beta_SORM {sorm.index(high):.3f} to {sorm.index(low):.3f}" if high is not None and low is not None
                   else "the lowered curvatures break 1 + beta kappa > 0: beta_SORM unbounded below")
+        hr = (f"beta = {self.beta_hr:.3f}, pf {self.pf_hr:.3g}" if self.pf_hr is not None
+              else "none (1 + psi kappa <= 0)")
         line = (f"SORM (Breitung 1984) beta = {self.beta_breitung:.3f}, pf_SORM = {self.pf_breitung:.3g}; "
-                f"Hohenbichler-Rackwitz beta = {self.beta_hr:.3f}, pf {self.pf_hr:.3g} (FORM's {beta_form:.3f}); "
+                f"Hohenbichler-Rackwitz {hr} (FORM's {beta_form:.3f}); "
                 f"principal curvatures {', '.join(f'{kappa:+.4f}' for kappa in self.kappas)} per standard "
                 f"deviation, each +- {self.noise:.4f} from the brackets ({spread}); gradient at u* "
-                f"{self.gradient_angle_deg:.1f} deg off the normal; {self.searches} FOS searches at sorm_step "
-                f"{self.step:g}")
+                f"{self.gradient_angle_deg:.1f} deg off the normal, FOS there {self.fos_at_design_point:.4f}; "
+                f"{self.searches} FOS searches at sorm_step {self.step:g}")
         if self.within_noise:
             line += ("; every curvature within its noise: the second-order correction is not resolved (a larger "
                      "sorm_step or a smaller fos_tolerance), FORM's beta as good")
@@ -197,11 +200,12 @@ class FormStudy(DesignPointStudy):
         angle = math.degrees(math.acos(min(1.0, abs(shape.gradient[-1]) / shape.gradient_norm)))
         if not shape.outward:
             return SecondOrder(status="the FOS does not fall outward through the design point: no limit state to "
-                               "curve", searches=count, step=step, gradient_angle_deg=angle)
+                               "curve", searches=count, step=step, gradient_angle_deg=angle,
+                               fos_at_design_point=float(fos[0]))
         kappas = shape.kappas
         breitung = sorm.breitung(last.beta, kappas)
         found = SecondOrder(kappas=tuple(map(float, kappas)), noise=shape.noise, searches=count, step=step,
-                            gradient_angle_deg=angle)
+                            gradient_angle_deg=angle, fos_at_design_point=float(fos[0]))
         if breitung is None:
             worst = float(kappas.min())
             return dataclasses.replace(found, status=(
@@ -238,9 +242,10 @@ class FormStudy(DesignPointStudy):
             if second.kappas:
                 attrs.update(sorm_curvatures=" ".join(f"{kappa:.6g}" for kappa in second.kappas),
                              sorm_curvature_noise=second.noise, sorm_gradient_angle_deg=second.gradient_angle_deg)
-            if second.pf_breitung is not None and second.pf_hr is not None:
-                attrs.update(reliability_index_sorm=second.beta_breitung, pf_sorm=second.pf_breitung,
-                             reliability_index_sorm_hr=second.beta_hr, pf_sorm_hr=second.pf_hr)
+            if second.pf_breitung is not None:
+                attrs.update(reliability_index_sorm=second.beta_breitung, pf_sorm=second.pf_breitung)
+            if second.pf_hr is not None:
+                attrs.update(reliability_index_sorm_hr=second.beta_hr, pf_sorm_hr=second.pf_hr)
         return ds
 
     def _form_result(self, result: FormOutcome) -> None:
