@@ -282,6 +282,7 @@ class FormStudy(DesignPointStudy):
             return lines
         if self.study.probabilistic.sorm:
             lines.append(outcome.second_order.line(outcome.beta) if outcome.second_order is not None else
+                         "SORM: its round did not finish" if self.sorm_start is not None else
                          "SORM: not run (FORM did not converge)")
         lines.append("design point: " + ", ".join(f"{k} {v:.5g}" for k, v in outcome.design_point.items())
                      + "; sensitivity alpha: " + ", ".join(f"{k} {v:+.3f}" for k, v in outcome.alpha.items()))
