@@ -5,6 +5,7 @@ normal random variables (c', phi', unit weight, ru), every FOS at one spacing.
     python -m verification.form_c_phi --spacing 0.5 --realisations 2000
     python -m verification.form_c_phi --sorm --form-only     # FORM then SORM's round, no PEM or Monte Carlo
     python -m verification.form_c_phi --sorm --form-only --sorm-step 2 --fos-tolerance 0.0005
+    python -m verification.form_c_phi --form-only --subset-seeds 1 2 3   # and subset simulation, FORM's event
 
 The slope is Li & Lumb's (1987) 45 deg slope at ru = 0.2 on its 5 m foundation
 (``verification.fos_accuracy``: c' 18 kPa, phi' 30 deg, gamma 18 kN/m3), with c' normal of COV 0.2,
@@ -14,7 +15,10 @@ point estimate method search each point's FOS (``[probabilistic] method = "form"
 mode), pf with its exact interval and beta = -Phi^-1(pf).  Printed: each method's beta, pf, the FOS
 searches and SRF runs it cost, and its wall time.  With ``--sorm`` the FORM study runs SORM's round on its
 design point (``sorm = true``) and a row each for Breitung's and Hohenbichler-Rackwitz's beta (the searches
-and runs: the round's alone; its wall is the FORM row's, which then holds both).
+and runs: the round's alone; its wall is the FORM row's, which then holds both).  ``--subset-seeds`` adds a
+subset simulation per seed (``samples_per_level`` 200, p0 0.1, compute = "fos": FORM's event, FOS < 1, where
+Monte Carlo's is the verdict of the run at F = 1), pf with its approximate 95% interval from its coefficient
+of variation.
 """
 
 from __future__ import annotations
@@ -89,6 +93,8 @@ def main(argv=None) -> int:
     parser.add_argument("--form-only", action="store_true", help="FORM (and SORM) only: no PEM, no Monte Carlo")
     parser.add_argument("--sorm-step", type=float, default=1.0, help="SORM's step (sorm_step)")
     parser.add_argument("--fos-tolerance", type=float, default=0.002, help="FORM's and SORM's searches' bracket")
+    parser.add_argument("--subset-seeds", type=int, nargs="*", default=[], help="a subset simulation per seed")
+    parser.add_argument("--samples-per-level", type=int, default=200, help="the subset simulations' level size")
     args = parser.parse_args(argv)
     options = RunOptions(workers=args.workers)
     print("| method | beta | pf | FOS searches | SRF runs | wall (s) |")
@@ -111,6 +117,14 @@ def main(argv=None) -> int:
             _sorm_rows(out)
             if out.second_order is not None:
                 print(out.second_order.line(out.beta), file=sys.stderr)
+        for seed in args.subset_seeds:
+            text = study_text(args.spacing, "subset_simulation", 3000, "fos",
+                              f"samples_per_level = {args.samples_per_level}\n").replace("seed = 1", f"seed = {seed}")
+            out = run_study(parse_study(text), Path(scratch) / f"subset_{seed}", options)
+            beta = [-stats.norm.ppf(p) for p in (out.pf, out.pf_high, out.pf_low)]
+            print(f"| subset simulation (FOS < 1, seed {seed}, {len(out.thresholds) + 1} levels, cov {out.cov:.2f}) | "
+                  f"{beta[0]:.3f} [{beta[1]:.3f}, {beta[2]:.3f}] | {out.pf:.3g} [{out.pf_low:.3g}, {out.pf_high:.3g}] | "
+                  f"{out.n_searches} | {out.runs_made} | {out.timings_s['total']:.0f} |", flush=True)
         if args.form_only:
             return 0
         out = run_study(parse_study(study_text(args.spacing, "point_estimate", 16, "fos")), Path(scratch) / "pem",
