@@ -309,7 +309,8 @@ PROBABILISTIC_FILE = _table(
     Variable("fos_rank_correlation", ("random_variable",), "1",
              "Spearman rank correlation of each random variable with the FOS (fos mode): the sensitivity"),
     Variable("form_iteration", ("realisation",), "1",
-             "form: the iteration whose point it is (its centre, then a step along each variable)"),
+             "form: the iteration whose point it is (its centre, then a step along each variable); -1: a point of "
+             "SORM's round"),
     Variable("design_point", ("random_variable",), "<the field's unit>",
              "form: each variable's value at the design point, u* = -beta alpha through the Nataf transform"),
     Variable("sensitivity_alpha", ("random_variable",), "1",
@@ -350,6 +351,13 @@ PROBABILISTIC_FILE_ATTRIBUTES = (
               "form_stop_reason", "form: beta (Hasofer-Lind, by HL-RF on FOS - factor), Phi(-beta), the first "
               "iteration's beta at the mean (FOSM), the iterations, 1 if beta changed by at most form_tolerance, why "
               "it stopped otherwise"),
+    Attribute("reliability_index_sorm, pf_sorm, reliability_index_sorm_hr, pf_sorm_hr, sorm_status, sorm_searches, "
+              "sorm_step, sorm_curvatures, sorm_curvature_noise, sorm_gradient_angle_deg",
+              "form with sorm: beta and pf by Breitung's SORM and by Hohenbichler-Rackwitz's (each absent where it has no "
+              "estimate: some 1 + beta kappa <= 0, resp. with psi; Breitung's absent, sorm_status says why and "
+              "reliability_index_form stands; with one variable FORM's), the FOS searches of SORM's round and its step, the principal curvatures (per standard "
+              "deviation, in one text) and the bound of their error from the searches' brackets, the angle between "
+              "the gradient at the design point and its normal (0 at a true design point); absent without sorm"),
     Attribute("pf_cov, p0, samples_per_level, subset_levels, subset_accepted_share, subset_threshold_verdicts, "
               "subset_level0_searched, subset_level0_verdicts, subset_guard_verdicts, subset_guard_copies, subset_stop_reason",
               "subset_simulation: pf (in pf; pf_low and pf_high an approximate 95% interval from pf_cov, lognormal about "

@@ -2,8 +2,8 @@
 ``probabilistic.nc`` (PNG, matplotlib without a display):
 
 - ``form.png``: the FOS at each iteration's centre against the iteration, with the factor, and the
-  sensitivity factors alpha as bars (alpha^2 the variable's share), beta, the FOSM index and the design
-  point in the titles;
+  sensitivity factors alpha as bars (alpha^2 the variable's share), beta, the FOSM index (and SORM's beta)
+  and the design point in the titles;
 - ``subset_simulation.png``: P(FOS < threshold) at each level's threshold down to pf at the factor (the
   curve of pf against the threshold), and the FOS of every level's samples, the last level's failures marked;
 - ``point_estimate.png``: the FOS at the 2^n points (their weights as the markers' areas) with the mean
@@ -26,11 +26,13 @@ def draw_form(out_dir: Path, ds: xr.Dataset, factor: float) -> Path:
     path = out_dir / "form.png"
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4))
     iteration = ds["form_iteration"].values
-    centres = np.array([np.flatnonzero(iteration == k)[0] for k in np.unique(iteration)])
-    left.plot(np.unique(iteration), ds["fos"].values[centres], "o-", color="tab:blue", label="FOS at the centre")
+    iterations = np.unique(iteration[iteration >= 0])  # (-1: SORM's points)
+    centres = np.array([np.flatnonzero(iteration == k)[0] for k in iterations])
+    left.plot(iterations, ds["fos"].values[centres], "o-", color="tab:blue", label="FOS at the centre")
     left.axhline(factor, color="tab:red", lw=1, label=f"factor {factor:g}")
+    sorm = (f"; SORM {ds.attrs['reliability_index_sorm']:.3f}" if "reliability_index_sorm" in ds.attrs else "")
     left.set(xlabel="iteration", ylabel="FOS", title=f"beta = {ds.attrs['reliability_index_form']:.3f} "
-             f"(FOSM {ds.attrs['reliability_index_fosm']:.3f}), pf_FORM {ds.attrs['pf_form']:.3g}")
+             f"(FOSM {ds.attrs['reliability_index_fosm']:.3f}{sorm}), pf_FORM {ds.attrs['pf_form']:.3g}")
     left.legend()
     labels = [str(label) for label in ds["random_variable"].values]
     right.barh(labels, ds["sensitivity_alpha"].values, color="tab:gray")

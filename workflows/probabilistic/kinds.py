@@ -97,17 +97,26 @@ class LatinHypercube(MonteCarlo):
         return sampler.latin_hypercube(seed, count)
 
 
+def sorm_searches(n_variables: int) -> int:
+    """The FOS searches of SORM's round (``workflows.probabilistic.sorm``): the design point, +- the step along
+    each of the n - 1 tangent axes, the four corners of each pair of them, +- the step along the normal:
+    1 + 2(n-1)^2 + 2; none for one variable (no tangent plane)."""
+    return 0 if n_variables < 2 else 1 + 2 * (n_variables - 1) ** 2 + 2
+
+
 class Form(Method):
     name = "form"
     description = "`form` (the reliability index by FORM on the FOS: random variables, compute = \"fos\")"
     placed = True
 
     def check_budget(self, table, n_variables):
-        """Two iterations of n + 1 points."""
+        """Two iterations of n + 1 points (and SORM's round, ``sorm``)."""
         needed = 2 * (n_variables + 1)
-        if table.realisations < needed:
-            raise StudyError("realisations", f"{self.name} with {n_variables} variables needs at least {needed} FOS "
-                             f"searches (two iterations of n + 1), got {table.realisations}")
+        sorm = sorm_searches(n_variables) if table.sorm else 0
+        if table.realisations < needed + sorm:
+            raise StudyError("realisations", f"{self.name} with {n_variables} variables needs at least {needed + sorm} "
+                             f"FOS searches (two iterations of n + 1{f', and SORM {sorm}' if sorm else ''}), got "
+                             f"{table.realisations}")
 
 
 class PointEstimate(Method):

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 
 from workflows.distributions import DISTRIBUTIONS, Distribution, listed
-from workflows.fields import Record, StudyError, any_values, integer, number, tables, text
+from workflows.fields import Record, StudyError, any_values, boolean, integer, number, tables, text
 from workflows.probabilistic.kinds import COMPUTATIONS, METHODS, Computation, Method, methods_text
 from workflows.random_field.table import spread_problem
 
@@ -102,6 +102,14 @@ class Probabilistic(Record):
         default=0.5, gt=0.0, le=3.0)
     form_tolerance: float = number("1", "*form:* stop once beta changes by at most this between iterations",
                                    default=0.02, gt=0.0, lt=1.0)
+    sorm: bool = boolean("*form:* once FORM has converged, correct its pf by the limit state's curvatures at the design "
+                         "point (SORM: Breitung, and Hohenbichler-Rackwitz): one more round of 1 + 2(n-1)^2 + 2 FOS "
+                         "searches for n variables (21 for 4; none for one variable, where SORM is FORM)",
+                         default=False)
+    sorm_step: float = number(
+        "1", "*form with sorm:* the central differences' step about the design point, in standard deviations of the "
+        "standard normal variables; a second difference must stand above the brackets (the report bounds the "
+        "curvatures' noise)", default=1.0, gt=0.0, le=3.0)
     samples_per_level: int = integer("*subset_simulation:* the FOS searches of each level (its first a Monte Carlo "
                                      "sample); samples_per_level * p0 Markov chains make each next level",
                                      default=500, ge=10, le=MAX_REALISATIONS)
@@ -131,6 +139,8 @@ class Probabilistic(Record):
 
     def check(self):
         n = len(self.variables)
+        if self.sorm and self.method != "form":
+            raise StudyError("sorm", f'applies to method = "form" only, not {self.method}')
         self.method_kind.check(self, n)
         if self.correlation is not None:
             rows = self.correlation
