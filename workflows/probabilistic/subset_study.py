@@ -192,7 +192,7 @@ class SubsetStudy(DesignPointStudy):
             return []
         table = self.study.probabilistic
         self._read_round(outcomes)
-        if self.copy_of and self.round_points and self.round_points[0] in self.copy_of:  # copies below the guard
+        if self.copy_of and self.round_points and self.round_points[0] in self.copy_of:  # copies: their candidates' FOS
             for j in self.round_points:
                 self.level_fos[self.copy_of[j]] = self.level_fos[j]
                 self.between.discard(self.copy_of[j])
