@@ -90,7 +90,10 @@ class DaskRuns:
         """``value`` as a task's result replicated to every worker (``fos.task.held``)."""
         future = self.client.submit(held, value, pure=False, priority=2_000_000, key=f"{name}-{self.token}")
         wait([future])
-        self.client.replicate([future])  # on every worker now: runs go wherever a worker is free
+        try:
+            self.client.replicate([future])  # on every worker now: runs go wherever a worker is free
+        except ValueError:  # no worker running at this moment (one lost, the others restarting): runs fetch it
+            pass  # from the worker that holds it, or dask makes it again from its task, when they start
         return future
 
     def stop(self, ticket: Ticket) -> None:
