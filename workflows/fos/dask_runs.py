@@ -124,11 +124,19 @@ class DaskRuns:
                 self.session.check_workers()
 
     def result(self, ticket: Ticket):
-        """The finished task's result (its exception raised), and the ticket forgotten."""
+        """The finished task's result (its exception raised), and the ticket forgotten.  A result lost with its
+        worker before it was fetched is made again by dask on a worker left; with none left the study ends
+        (``DaskSession.check_workers``), as in :meth:`wait`: dask would wait for one forever."""
         future = self.future_of.pop(ticket)
         del self.futures[future]
         self.events.pop(ticket, None)
-        return future.result()
+        while True:
+            try:
+                return future.result(timeout=SIGNAL_POLL_S)
+            except TimeoutError:
+                if future.status == "error":  # (the task's own TimeoutError)
+                    raise
+                self.session.check_workers()
 
     def forget(self, case, gravity: bool, flow: bool) -> None:
         """A case handed back: its runs' shared values no longer kept for it; its gravity state and flow
