@@ -253,13 +253,10 @@ class SubsetStudy(DesignPointStudy):
     def _level0_second_round(self, progress) -> list:
         """Level 0's points not yet searched, each with its ``srf_max`` at ``max(c, factor (1 + e))`` run first
         (module doc); c infinite (fewer than N p0 + 1 FOS found below srf_max): full searches."""
-        from workflows.fos.discretisation import expected_excess
-
         table = self.study.probabilistic
         first = sorted(self.level_fos[i] for i in self.round_points)
         c = first[round(table.p0 * table.samples_per_level)]
-        expected = expected_excess(self.study)
-        self.level0_top = max(c, table.factor * (1.0 + (0.0 if expected is None else max(expected[1], 0.0))))
+        self.level0_top = max(c, self._factor_top())
         self.round_points = self.level0_order[self.level0_first:]
         if math.isfinite(self.level0_top):
             for i in self.round_points:
@@ -304,15 +301,19 @@ class SubsetStudy(DesignPointStudy):
     def _guard(self, seeds_fos: list) -> float:
         """The next level's candidates' guard on the SRF grid (module doc): the seeds' FOS at their
         ``subset.guard_quantile``, at least factor (1 + e); inf (none) where it reaches the threshold."""
-        from workflows.fos.discretisation import expected_excess
-
-        expected = expected_excess(self.study)
-        factor_top = self.study.probabilistic.factor * (1.0 + (0.0 if expected is None else max(expected[1], 0.0)))
         quantile = subset.guard_quantile(len(seeds_fos), self.study.probabilistic.p0)
         if quantile >= 1.0:
             return math.inf
-        guard = threshold_srf(max(float(np.quantile(seeds_fos, quantile)), factor_top))
+        guard = threshold_srf(max(float(np.quantile(seeds_fos, quantile)), self._factor_top()))
         return guard if guard < threshold_srf(self.threshold) else math.inf
+
+    def _factor_top(self) -> float:
+        """factor (1 + e), e the expected discretisation excess, high (0 where none is known): the highest FOS pf
+        and its discretisation estimate count a point below, so every point's FOS is known exactly below it."""
+        from workflows.fos.discretisation import expected_excess
+
+        expected = expected_excess(self.study)
+        return self.study.probabilistic.factor * (1.0 + (0.0 if expected is None else max(expected[1], 0.0)))
 
     def _round(self, progress) -> list:
         """One candidate per chain, as new points (module doc); none when the budget is spent."""
