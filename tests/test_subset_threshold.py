@@ -87,14 +87,27 @@ def _levels(tmp_path, seed: int, per_level_verdict: bool):
             return kind, runs, f_star
 
 
+@pytest.fixture(scope="module")
+def driven(tmp_path_factory):
+    """:func:`_levels` of (seed, per_level_verdict), each driven once for the tests that read it."""
+    done: dict = {}
+
+    def levels(seed: int, per_level_verdict: bool):
+        if (seed, per_level_verdict) not in done:
+            done[seed, per_level_verdict] = _levels(tmp_path_factory.mktemp("levels"), seed, per_level_verdict)
+        return done[seed, per_level_verdict]
+
+    return levels
+
+
 @pytest.mark.parametrize("seed", [1, 2])
-def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(tmp_path, seed):
+def test_the_per_level_verdict_gives_the_full_searches_levels_at_fewer_runs(driven, seed):
     """The same thresholds (within the search's tolerance), the same accepted candidates, the same pf; every
     rejected candidate cost one run (before: a whole search), and the study fewer runs."""
     from workflows.probabilistic.subset_study import threshold_srf
 
-    reference, reference_runs, _ = _levels(tmp_path / "full", seed, per_level_verdict=False)
-    study, runs, f_star = _levels(tmp_path / "verdict", seed, per_level_verdict=True)
+    reference, reference_runs, _ = driven(seed, False)
+    study, runs, f_star = driven(seed, True)
     assert study.realisations.count == reference.realisations.count
     thresholds = [level["threshold"] for level in study.levels]
     assert len(thresholds) == len(reference.levels) >= 3
@@ -138,14 +151,14 @@ def test_a_threshold_onto_the_srf_grid_rounds_up_and_an_infinite_one_stops_the_s
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_level_0_searches_its_lowest_predicted_points_and_runs_the_others_top_first(tmp_path, seed):
+def test_level_0_searches_its_lowest_predicted_points_and_runs_the_others_top_first(driven, seed):
     """Level 0 needs its N p0 + 1 lowest FOS exactly: the 2 (N p0 + 1) points of lowest predicted FOS are searched
     in full, every other one runs its top first (the N p0 + 1-th lowest FOS found, at least) and stops there when
     stable (one run; before: every point a whole search).  The same threshold and seeds as full searches."""
     from workflows.probabilistic.subset_study import threshold_srf
 
-    reference, reference_runs, _ = _levels(tmp_path / "full", seed, per_level_verdict=False)
-    study, runs, f_star = _levels(tmp_path / "verdict", seed, per_level_verdict=True)
+    reference, reference_runs, _ = driven(seed, False)
+    study, runs, f_star = driven(seed, True)
     n = 100
     first = study.level0_order[:study.level0_first]
     assert study.level0_first == 22 and sorted(study.level0_order) == list(range(n))
@@ -162,8 +175,8 @@ def test_level_0_searches_its_lowest_predicted_points_and_runs_the_others_top_fi
 
 
 @pytest.mark.parametrize("quantile", [None, 0.0])
-def test_a_candidate_between_its_guard_and_the_threshold_costs_two_runs_and_the_levels_stay(tmp_path, monkeypatch,
-                                                                                             quantile):
+def test_a_candidate_between_its_guard_and_the_threshold_costs_two_runs_and_the_levels_stay(driven, tmp_path,
+                                                                                             monkeypatch, quantile):
     """A chain's candidate runs its level's threshold, then its guard (a quantile of the seeds' FOS, at least the factor):
     stable at the guard, it is accepted after two runs, its FOS known only as above the guard (before: a whole
     search below the threshold).  Where fewer than N p0 + 1 of a level's samples lie below its guard (forced here by
@@ -171,10 +184,12 @@ def test_a_candidate_between_its_guard_and_the_threshold_costs_two_runs_and_the_
     searches' either way."""
     from workflows.probabilistic import subset
 
-    if quantile is not None:
+    reference, reference_runs, _ = driven(1, False)  # (full searches: no guard run, none between)
+    if quantile is None:
+        study, runs, f_star = driven(1, True)
+    else:
         monkeypatch.setattr(subset, "guard_quantile", lambda n_seeds, p0: quantile)
-    reference, reference_runs, _ = _levels(tmp_path / "full", 1, per_level_verdict=False)
-    study, runs, f_star = _levels(tmp_path / "guard", 1, per_level_verdict=True)
+        study, runs, f_star = _levels(tmp_path / "guard", 1, per_level_verdict=True)
     assert study.guard_verdicts > 0
     # the copies take point numbers, so the candidates after them are other draws: compare up to their level
     same = min([study.level_of[j] for j in study.copy_of] + [len(study.levels) - 1])
